@@ -1,0 +1,95 @@
+#include "polyfit/patch/orientation_refinement.h"
+
+#include <cmath>
+
+#include <Eigen/LU>
+#include <gtest/gtest.h>
+
+#include "polyfit/eval/metrics.h"
+#include "polyfit/synthetic/patch_families.h"
+
+namespace polyfit {
+namespace {
+
+TEST(RotationFromZAxis, IsARotationTakingZToN) {
+  const double n[3] = {0.3, -0.5, std::sqrt(1 - 0.09 - 0.25)};
+  const Eigen::Matrix3d r = RotationFromZAxis(n);
+  EXPECT_LT((r.transpose() * r - Eigen::Matrix3d::Identity()).norm(), 1e-14);
+  EXPECT_NEAR(r.determinant(), 1.0, 1e-14);
+  EXPECT_LT((r.col(2) - Eigen::Vector3d(n[0], n[1], n[2])).norm(), 1e-14);
+}
+
+SurfaceErrorAccumulator FitAndScore(const JetFitOptions& options, const SyntheticPatchSet& set,
+                                    double* rms_residual = nullptr) {
+  std::vector<JetPatch> patches;
+  const JetFitSummary summary =
+      FitJetPatches(options, set.points_in_world, set.offsets, nullptr, &patches);
+  if (rms_residual) *rms_residual = summary.rms_residual;
+  SurfaceErrorAccumulator acc;
+  for (size_t p = 0; p < patches.size(); ++p) {
+    acc.Add(EvaluatePatchAgainstSurface(patches[p], set.patches[p].surface_points_in_world,
+                                        set.patches[p].surface_normals_in_world));
+  }
+  return acc;
+}
+
+// The measured claim: on the summed family with noise the refinement lowers
+// the height RMSE against the true surface by about a quarter (-25% on
+// 20,000 patches, see docs/benchmarks.md; this smaller set gives -24.7%).
+TEST(OrientationRefinement, LowersErrorOnSummedFamily) {
+  SyntheticPatchOptions sopt;
+  sopt.num_points = 64;
+  sopt.noise_sigma = 0.01;
+  const SyntheticPatchSet set = GenerateSyntheticPatchSet(sopt, 400, 21);
+  JetFitOptions options;
+  double plain_residual, refined_residual;
+  const SurfaceErrorAccumulator plain = FitAndScore(options, set, &plain_residual);
+  options.refine_orientation = true;
+  const SurfaceErrorAccumulator refined = FitAndScore(options, set, &refined_residual);
+  EXPECT_LT(refined_residual, plain_residual);
+  EXPECT_LT(refined.height_rmse(), 0.78 * plain.height_rmse())
+      << plain.height_rmse() << " -> " << refined.height_rmse();
+  EXPECT_LT(refined.normal_error_deg(), plain.normal_error_deg());
+}
+
+TEST(OrientationRefinement, CeresSolverReachesTheSameMinimum) {
+  SyntheticPatchOptions sopt;
+  sopt.num_points = 64;
+  sopt.noise_sigma = 0.01;
+  const SyntheticPatchSet set = GenerateSyntheticPatchSet(sopt, 60, 22);
+  JetFitOptions options;
+  options.refine_orientation = true;
+  options.refinement.max_iterations = 50;
+  options.refinement.function_tolerance = 1e-10;
+  std::vector<JetPatch> lm, ceres;
+  FitJetPatches(options, set.points_in_world, set.offsets, nullptr, &lm);
+  options.refinement.solver = OrientationSolver::kCeres;
+  FitJetPatches(options, set.points_in_world, set.offsets, nullptr, &ceres);
+  int close = 0;
+  for (size_t p = 0; p < lm.size(); ++p) {
+    EXPECT_TRUE(std::isfinite(ceres[p].rms_residual));
+    // Both descend from the PCA frame; a non-convex cost may still part them.
+    if (std::abs(ceres[p].rms_residual - lm[p].rms_residual) < 1e-4 * lm[p].rms_residual) ++close;
+    EXPECT_GT(ceres[p].refinement_iterations, 0);
+  }
+  EXPECT_GE(close, 0.9 * lm.size());
+}
+
+TEST(OrientationRefinement, NeverIncreasesTheResidual) {
+  SyntheticPatchOptions sopt;
+  sopt.num_points = 32;
+  sopt.noise_sigma = 0.05;
+  const SyntheticPatchSet set = GenerateSyntheticPatchSet(sopt, 200, 23);
+  JetFitOptions options;
+  std::vector<JetPatch> plain, refined;
+  FitJetPatches(options, set.points_in_world, set.offsets, nullptr, &plain);
+  options.refine_orientation = true;
+  FitJetPatches(options, set.points_in_world, set.offsets, nullptr, &refined);
+  for (size_t p = 0; p < plain.size(); ++p) {
+    EXPECT_LE(refined[p].rms_residual, plain[p].rms_residual * (1 + 1e-12)) << p;
+    EXPECT_NEAR(refined[p].frame.rotation.determinant(), 1.0, 1e-12);
+  }
+}
+
+}  // namespace
+}  // namespace polyfit
