@@ -25,96 +25,96 @@
 namespace polyfit {
 namespace internal {
 
+// Points are processed in blocks of kBlock: every monomial of a block is
+// one Eigen packet, so the recurrence and the moment sums vectorise.
+constexpr int kBlock = 8;
+
 template <int K>
 class LocalJetSolver {
  public:
   using MatrixK = Eigen::Matrix<double, K, K>;
   using VectorK = Eigen::Matrix<double, K, 1>;
-  // Column-major: each monomial over all points is contiguous, so columns
-  // are built by vectorised recurrence and A^T A is K(K+1)/2 dot products.
+  // Column-major with the leading dimension padded to whole blocks.
   using Design = Eigen::Matrix<double, Eigen::Dynamic, K>;
-  using DesignMap = Eigen::Map<Design>;
+  using DesignMap = Eigen::Map<Design, 0, Eigen::OuterStride<>>;
+  using ConstDesignMap = Eigen::Map<const Design, 0, Eigen::OuterStride<>>;
   using VectorMap = Eigen::Map<Eigen::VectorXd>;
 
   void Reserve(int max_points, int num_coefficients) {
-    const size_t m = static_cast<size_t>(std::max(max_points, 1));
+    const size_t m = Padded(std::max(max_points, 1));
     if (a_buffer_.size() < m * num_coefficients) a_buffer_.resize(m * num_coefficients);
     if (b_buffer_.size() < m) {
-      b_buffer_.resize(m);
-      r_buffer_.resize(m);
-      u_buffer_.resize(m);
-      v_buffer_.resize(m);
-    }
-    const size_t scratch = m * (2 * kMaxJetOrder + 1);
-    if (scratch_[0].size() < scratch) {
-      scratch_[0].resize(scratch);
-      scratch_[1].resize(scratch);
+      for (auto* b : {&b_buffer_, &r_buffer_, &u_buffer_, &v_buffer_, &w_buffer_}) b->resize(m);
     }
   }
 
   // local: 3 by >= m, rows u, v, z. sqrt_w: m square-root weights or null.
   // Returns kJetFitRankDeficient or 0.
   uint32_t Solve(int order, const Eigen::Matrix3Xd& local, int m, const double* sqrt_w) {
-    const int k = NumJetCoefficients(order);
+    // With K fixed the order is a compile-time constant and loops unroll.
+    constexpr int kOrder = K == Eigen::Dynamic ? 0 : OrderOf(K);
+    const int n = kOrder > 0 ? kOrder : order;
+    const int k = NumJetCoefficients(n);
+    const int mp = static_cast<int>(Padded(m));
     Reserve(m, k);
-    order_ = order;
+    order_ = n;
     m_ = m;
-    DesignMap a(a_buffer_.data(), m, k);
-    VectorMap b(b_buffer_.data(), m);
-    // Contiguous copies: the rows of a 3 by M matrix are strided.
-    VectorMap u(u_buffer_.data(), m), v(v_buffer_.data(), m);
-    u = local.row(0).head(m).transpose();
-    v = local.row(1).head(m).transpose();
-    if (sqrt_w) {
-      a.col(0) = Eigen::Map<const Eigen::VectorXd>(sqrt_w, m);
-    } else {
-      a.col(0).setOnes();
+    stride_ = mp;
+    // Contiguous, zero-weight-padded copies: the rows of a 3 by M matrix are
+    // strided. b = sqrt(w) z.
+    double* u = u_buffer_.data();
+    double* v = v_buffer_.data();
+    double* w = w_buffer_.data();
+    double* b = b_buffer_.data();
+    for (int i = 0; i < m; ++i) {
+      u[i] = local(0, i);
+      v[i] = local(1, i);
+      w[i] = sqrt_w ? sqrt_w[i] : 1.0;
+      b[i] = w[i] * local(2, i);
     }
-    b = a.col(0).cwiseProduct(local.row(2).head(m).transpose());
-    // Column (i, j) of degree d = i + j from degree d - 1: times u, or times v.
-    for (int d = 1, c = 1; d <= order; ++d) {
-      const int prev = (d - 1) * d / 2;
-      for (int j = 0; j <= d; ++j, ++c) {
-        if (j < d) {
-          a.col(c) = a.col(prev + j).cwiseProduct(u);
-        } else {
-          a.col(c) = a.col(prev + j - 1).cwiseProduct(v);
-        }
+    for (int i = m; i < mp; ++i) u[i] = v[i] = w[i] = b[i] = 0.0;
+
+    // A^T A depends only on the moments sum_m w_m u^p v^q, p + q <= 2n
+    // (45 at order 4, 153 at order 8), A^T b on sum_m w_m z_m u^a v^b.
+    using Packet = Eigen::Array<double, kBlock, 1>;
+    constexpr int kMaxMoments = NumJetCoefficients(2 * kMaxJetOrder);
+    const int num_moments = NumJetCoefficients(2 * n);
+    Packet moment_sums[kMaxMoments];
+    Packet atb_sums[kMaxJetCoefficients];
+    for (int c = 0; c < num_moments; ++c) moment_sums[c].setZero();
+    for (int c = 0; c < k; ++c) atb_sums[c].setZero();
+    double* a = a_buffer_.data();
+    for (int i = 0; i < mp; i += kBlock) {
+      const Packet pu = Packet::Map(u + i), pv = Packet::Map(v + i);
+      const Packet pw = Packet::Map(w + i), pb = Packet::Map(b + i);
+      Packet mono[kMaxMoments];  // sqrt(w) u^a v^b
+      mono[0] = pw;
+      for (int d = 1, c = 1; d <= 2 * n; ++d) {
+        const int prev = (d - 1) * d / 2;
+        for (int j = 0; j < d; ++j, ++c) mono[c] = mono[prev + j] * pu;
+        mono[c] = mono[prev + d - 1] * pv;
+        ++c;
+      }
+      for (int c = 0; c < num_moments; ++c) moment_sums[c] += mono[c] * pw;
+      for (int c = 0; c < k; ++c) {
+        Packet::Map(a + size_t(c) * mp + i) = mono[c];
+        atb_sums[c] += mono[c] * pb;
       }
     }
-    // A^T A depends only on the moments sum_m w_m u^p v^q, p + q <= 2n:
-    // (2n+1)(2n+2)/2 sums (45 for n = 4) instead of K(K+1)/2 dot products
-    // (120). Degrees <= n are A's columns; higher ones roll through scratch.
-    double moments[NumJetCoefficients(2 * kMaxJetOrder)];
-    // Columns carry sqrt(w); one more factor sqrt(w) = a.col(0) makes w.
-    const auto w0 = a.col(0);
-    for (int c = 0; c < k; ++c) moments[c] = a.col(c).dot(w0);
-    const double* prev_cols = a_buffer_.data();
-    int prev_offset = order * (order + 1) / 2;  // first column of degree n
-    for (int d = order + 1, c = k; d <= 2 * order; ++d) {
-      double* cols = d % 2 ? scratch_[0].data() : scratch_[1].data();
-      for (int j = 0; j <= d; ++j, ++c) {
-        Eigen::Map<Eigen::VectorXd> col(cols + size_t(j) * m, m);
-        const bool times_u = j < d;
-        col = Eigen::Map<const Eigen::VectorXd>(prev_cols + size_t(prev_offset + j - !times_u) * m, m)
-                  .cwiseProduct(times_u ? u : v);
-        moments[c] = col.dot(w0);
-      }
-      prev_cols = cols;
-      prev_offset = 0;
-    }
+    double moments[kMaxMoments];
+    for (int c = 0; c < num_moments; ++c) moments[c] = moment_sums[c].sum();
+    atb_.resize(k);
+    for (int c = 0; c < k; ++c) atb_[c] = atb_sums[c].sum();
     ata_.resize(k, k);
-    for (int dj = 0, j = 0; dj <= order; ++dj) {
+    for (int dj = 0, j = 0; dj <= n; ++dj) {
       for (int bj = 0; bj <= dj; ++bj, ++j) {
-        for (int dl = 0, l = 0; dl <= order; ++dl) {
+        for (int dl = 0, l = 0; dl <= n; ++dl) {
           for (int bl = 0; bl <= dl; ++bl, ++l) {
             ata_(j, l) = moments[JetCoefficientIndex(dj - bj + dl - bl, bj + bl)];
           }
         }
       }
     }
-    atb_.resize(k);
-    for (int j = 0; j < k; ++j) atb_[j] = a.col(j).dot(b);
 
     // Jacobi equilibration; an all-zero column (v == 0 everywhere) stays 0.
     scaling_.resize(k);
@@ -145,8 +145,9 @@ class LocalJetSolver {
     }
     alpha_ = scaling_.asDiagonal() * alpha_;
 
+    const ConstDesignMap design(a, m, k, Eigen::OuterStride<>(mp));
     VectorMap r(r_buffer_.data(), m);
-    r.noalias() = b - a * alpha_;
+    r.noalias() = VectorMap(b, m) - design * alpha_;
     ssr_ = r.squaredNorm();
     return flags;
   }
@@ -166,7 +167,7 @@ class LocalJetSolver {
   template <typename Derived>
   void ProjectOut(Eigen::MatrixBase<Derived>& j) const {
     const int k = NumJetCoefficients(order_);
-    Eigen::Map<const Design> a(a_buffer_.data(), m_, k);
+    const ConstDesignMap a(a_buffer_.data(), m_, k, Eigen::OuterStride<>(stride_));
     Eigen::Matrix<double, K, Derived::ColsAtCompileTime> atj =
         scaling_.asDiagonal() * (a.transpose() * j);
     atj = scaling_.asDiagonal() * llt_.solve(atj);
@@ -174,10 +175,17 @@ class LocalJetSolver {
   }
 
  private:
+  static size_t Padded(int m) { return (static_cast<size_t>(m) + kBlock - 1) / kBlock * kBlock; }
+  static constexpr int OrderOf(int k) {
+    int n = 0;
+    while (NumJetCoefficients(n) < k) ++n;
+    return n;
+  }
+
   int order_ = 0;
   int m_ = 0;
-  std::vector<double> a_buffer_, b_buffer_, r_buffer_, u_buffer_, v_buffer_;
-  std::vector<double> scratch_[2];  // monomial columns of degrees n+1..2n
+  int stride_ = 0;
+  std::vector<double> a_buffer_, b_buffer_, r_buffer_, u_buffer_, v_buffer_, w_buffer_;
   MatrixK ata_;
   VectorK atb_, alpha_, scaling_;
   Eigen::LLT<MatrixK> llt_;
