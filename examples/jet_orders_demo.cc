@@ -19,11 +19,7 @@ void Report(const char* label, const polyfit::JetFitOptions& options,
   std::vector<polyfit::JetPatch> patches;
   const polyfit::JetFitSummary summary =
       polyfit::FitJetPatches(options, set.points_in_world, set.offsets, nullptr, &patches);
-  polyfit::SurfaceErrorAccumulator error;
-  for (size_t p = 0; p < patches.size(); ++p) {
-    error.Add(polyfit::EvaluatePatchAgainstSurface(patches[p], set.patches[p].surface_points_in_world,
-                                                   set.patches[p].surface_normals_in_world));
-  }
+  const polyfit::SurfaceErrorAccumulator error = polyfit::EvaluatePatchSet(set, patches);
   std::printf("| %-15s | %9.2f | %9.4f | %11.4f | %9.2f |\n", label,
               summary.total_time_s / summary.num_patches * 1e6, summary.rms_residual,
               error.height_rmse(), error.normal_error_deg());

@@ -52,6 +52,19 @@ SurfaceErrorAccumulator EvaluatePatchAgainstSurface(const JetPatch& patch,
   return acc;
 }
 
+SurfaceErrorAccumulator EvaluatePatchSet(const SyntheticPatchSet& set,
+                                         const std::vector<JetPatch>& patches) {
+  if (patches.size() != set.patches.size()) {
+    throw std::invalid_argument("EvaluatePatchSet: one fitted patch per synthetic patch expected");
+  }
+  SurfaceErrorAccumulator acc;
+  for (size_t p = 0; p < patches.size(); ++p) {
+    acc.Add(EvaluatePatchAgainstSurface(patches[p], set.patches[p].surface_points_in_world,
+                                        set.patches[p].surface_normals_in_world));
+  }
+  return acc;
+}
+
 namespace {
 double MeanSquaredNearest(const Eigen::Matrix3Xd& from, const KdTree3& to) {
   const int n = static_cast<int>(from.cols());

@@ -4,10 +4,12 @@
 #define POLYFIT_EVAL_METRICS_H_
 
 #include <cmath>
+#include <vector>
 
 #include <Eigen/Core>
 
 #include "polyfit/patch/jet_patch.h"
+#include "polyfit/synthetic/patch_families.h"
 
 namespace polyfit {
 
@@ -35,6 +37,11 @@ struct SurfaceErrorAccumulator {
 SurfaceErrorAccumulator EvaluatePatchAgainstSurface(const JetPatch& patch,
                                                     const Eigen::Matrix3Xd& surface_points,
                                                     const Eigen::Matrix3Xd& surface_normals);
+
+// EvaluatePatchAgainstSurface over a synthetic set, patches[p] fitted to
+// set.patches[p].
+SurfaceErrorAccumulator EvaluatePatchSet(const SyntheticPatchSet& set,
+                                         const std::vector<JetPatch>& patches);
 
 struct ChamferDistance {
   double a_to_b = 0.0;  // mean over a of the squared distance to the nearest b

@@ -102,16 +102,6 @@ struct Row {
   double us_per_patch = 0, patches_per_s_2t = 0, height_rmse = 0, normal_deg = 0;
 };
 
-polyfit::SurfaceErrorAccumulator Score(const polyfit::SyntheticPatchSet& set,
-                                       const std::vector<polyfit::JetPatch>& patches) {
-  polyfit::SurfaceErrorAccumulator acc;
-  for (size_t p = 0; p < patches.size(); ++p) {
-    acc.Add(polyfit::EvaluatePatchAgainstSurface(patches[p], set.patches[p].surface_points_in_world,
-                                                 set.patches[p].surface_normals_in_world));
-  }
-  return acc;
-}
-
 double internal_rmse_ = 0, internal_normal_ = 0;
 
 Row RunCgal(const polyfit::SyntheticPatchSet& set, int repeats) {
@@ -123,7 +113,7 @@ Row RunCgal(const polyfit::SyntheticPatchSet& set, int repeats) {
   }
   std::vector<polyfit::JetPatch> patches(n), internal(n);
   for (int p = 0; p < n; ++p) internal[p] = CgalInternalJet().Fit(inputs[p].begin(), inputs[p].end(), 4);
-  const auto internal_acc = Score(set, internal);
+  const auto internal_acc = polyfit::EvaluatePatchSet(set, internal);
   internal_rmse_ = internal_acc.height_rmse();
   internal_normal_ = internal_acc.normal_error_deg();
   double best = 1e30;
@@ -136,7 +126,7 @@ Row RunCgal(const polyfit::SyntheticPatchSet& set, int repeats) {
     }
     best = std::min(best, Seconds(start));
   }
-  const auto acc = Score(set, patches);
+  const auto acc = polyfit::EvaluatePatchSet(set, patches);
   return {"CGAL Monge_via_jet_fitting (4,4)", best / n * 1e6, 0.0, acc.height_rmse(), acc.normal_error_deg()};
 }
 
@@ -153,7 +143,7 @@ Row RunPolyFit(const std::string& name, polyfit::JetFitOptions options,
     options.num_threads = 2;
     best2 = std::min(best2, polyfit::FitJetPatches(options, set.points_in_world, set.offsets, nullptr, &patches).total_time_s);
   }
-  const auto acc = Score(set, patches);
+  const auto acc = polyfit::EvaluatePatchSet(set, patches);
   row.us_per_patch = best1 / n * 1e6;
   row.patches_per_s_2t = n / best2;
   row.height_rmse = acc.height_rmse();

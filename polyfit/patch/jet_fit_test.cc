@@ -243,11 +243,7 @@ TEST(JetFitter, ErrorFallsWithOrderOnASmoothSurface) {
     options.order = order;
     std::vector<JetPatch> patches;
     FitJetPatches(options, set.points_in_world, set.offsets, nullptr, &patches);
-    SurfaceErrorAccumulator acc;
-    for (size_t p = 0; p < patches.size(); ++p) {
-      acc.Add(EvaluatePatchAgainstSurface(patches[p], set.patches[p].surface_points_in_world,
-                                          set.patches[p].surface_normals_in_world));
-    }
+    const SurfaceErrorAccumulator acc = EvaluatePatchSet(set, patches);
     EXPECT_LT(acc.height_rmse(), previous) << "order " << order;
     previous = acc.height_rmse();
   }

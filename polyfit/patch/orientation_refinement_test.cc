@@ -25,11 +25,7 @@ SurfaceErrorAccumulator FitAndScore(const JetFitOptions& options, const Syntheti
   const JetFitSummary summary =
       FitJetPatches(options, set.points_in_world, set.offsets, nullptr, &patches);
   if (rms_residual) *rms_residual = summary.rms_residual;
-  SurfaceErrorAccumulator acc;
-  for (size_t p = 0; p < patches.size(); ++p) {
-    acc.Add(EvaluatePatchAgainstSurface(patches[p], set.patches[p].surface_points_in_world,
-                                        set.patches[p].surface_normals_in_world));
-  }
+  const SurfaceErrorAccumulator acc = EvaluatePatchSet(set, patches);
   return acc;
 }
 
