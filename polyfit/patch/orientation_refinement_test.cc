@@ -5,7 +5,10 @@
 #include <Eigen/LU>
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
+
 #include "polyfit/eval/metrics.h"
+#include "polyfit/patch/local_jet_solver.h"
 #include "polyfit/synthetic/patch_families.h"
 
 namespace polyfit {
@@ -17,6 +20,44 @@ TEST(RotationFromZAxis, IsARotationTakingZToN) {
   EXPECT_LT((r.transpose() * r - Eigen::Matrix3d::Identity()).norm(), 1e-14);
   EXPECT_NEAR(r.determinant(), 1.0, 1e-14);
   EXPECT_LT((r.col(2) - Eigen::Vector3d(n[0], n[1], n[2])).norm(), 1e-14);
+}
+
+// The var-pro gradient J^T r, J = (I - P) dr/dtilt at fixed alpha (the
+// Jacobian the LM uses), equals the finite-difference gradient of
+// f(tilt) = 1/2 ||(I - P) z||^2.
+TEST(OrientationRefinement, KaufmanGradientMatchesFiniteDifferences) {
+  SyntheticPatchOptions sopt;
+  sopt.num_points = 64;
+  sopt.noise_sigma = 0.01;
+  sopt.rigid_motion = false;
+  std::mt19937_64 rng(31);
+  const SyntheticPatch sp = GenerateSyntheticPatch(sopt, rng);
+  Eigen::Matrix3Xd x0 = sp.points_in_world.colwise() - sp.points_in_world.rowwise().mean();
+  x0 /= x0.topRows(2).cwiseAbs().maxCoeff();
+  internal::LocalJetSolver<15> solver;
+  auto cost = [&](double t0, double t1) {
+    const double angle = std::hypot(t0, t1);
+    const Eigen::Matrix3d r =
+        angle > 0 ? Eigen::AngleAxisd(angle, Eigen::Vector3d(t0 / angle, t1 / angle, 0)).toRotationMatrix()
+                  : Eigen::Matrix3d::Identity();
+    const Eigen::Matrix3Xd x = r.transpose() * x0;
+    solver.Solve(4, x, 64, nullptr);
+    return 0.5 * solver.ssr();
+  };
+  const double h = 1e-6;
+  const double g0 = (cost(h, 0) - cost(-h, 0)) / (2 * h);
+  const double g1 = (cost(0, h) - cost(0, -h)) / (2 * h);
+  cost(0, 0);
+  Eigen::Matrix<double, Eigen::Dynamic, 2> j(64, 2);
+  for (int i = 0; i < 64; ++i) {
+    const auto d = EvaluateJetDerivatives(4, solver.alpha().data(), x0(0, i), x0(1, i));
+    j(i, 0) = -x0(1, i) - d.z_v * x0(2, i);
+    j(i, 1) = x0(0, i) + d.z_u * x0(2, i);
+  }
+  solver.ProjectOut(j);
+  const Eigen::Vector2d g = j.transpose() * solver.residual();
+  EXPECT_NEAR(g[0], g0, 1e-6 * (1 + std::abs(g0)));
+  EXPECT_NEAR(g[1], g1, 1e-6 * (1 + std::abs(g1)));
 }
 
 SurfaceErrorAccumulator FitAndScore(const JetFitOptions& options, const SyntheticPatchSet& set,
