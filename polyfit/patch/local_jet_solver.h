@@ -36,7 +36,6 @@ class LocalJetSolver {
   using VectorK = Eigen::Matrix<double, K, 1>;
   // Column-major with the leading dimension padded to whole blocks.
   using Design = Eigen::Matrix<double, Eigen::Dynamic, K>;
-  using DesignMap = Eigen::Map<Design, 0, Eigen::OuterStride<>>;
   using ConstDesignMap = Eigen::Map<const Design, 0, Eigen::OuterStride<>>;
   using VectorMap = Eigen::Map<Eigen::VectorXd>;
 
@@ -49,6 +48,7 @@ class LocalJetSolver {
   }
 
   // local: 3 by >= m, rows u, v, z. sqrt_w: m square-root weights or null.
+  // order must match K when K is fixed.
   // Returns kJetFitRankDeficient or 0.
   uint32_t Solve(int order, const Eigen::Matrix3Xd& local, int m, const double* sqrt_w) {
     // With K fixed the order is a compile-time constant and loops unroll.
@@ -59,7 +59,6 @@ class LocalJetSolver {
     Reserve(m, k);
     order_ = n;
     m_ = m;
-    stride_ = mp;
     // Contiguous, zero-weight-padded copies: the rows of a 3 by M matrix are
     // strided. b = sqrt(w) z.
     double* u = u_buffer_.data();
@@ -167,7 +166,7 @@ class LocalJetSolver {
   template <typename Derived>
   void ProjectOut(Eigen::MatrixBase<Derived>& j) const {
     const int k = NumJetCoefficients(order_);
-    const ConstDesignMap a(a_buffer_.data(), m_, k, Eigen::OuterStride<>(stride_));
+    const ConstDesignMap a(a_buffer_.data(), m_, k, Eigen::OuterStride<>(Padded(m_)));
     Eigen::Matrix<double, K, Derived::ColsAtCompileTime> atj =
         scaling_.asDiagonal() * (a.transpose() * j);
     atj = scaling_.asDiagonal() * llt_.solve(atj);
@@ -184,7 +183,6 @@ class LocalJetSolver {
 
   int order_ = 0;
   int m_ = 0;
-  int stride_ = 0;
   std::vector<double> a_buffer_, b_buffer_, r_buffer_, u_buffer_, v_buffer_, w_buffer_;
   MatrixK ata_;
   VectorK atb_, alpha_, scaling_;
