@@ -14,7 +14,7 @@ install(DIRECTORY polyfit/jet DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/polyfit
         FILES_MATCHING PATTERN "*.h" PATTERN "*_test*" EXCLUDE)
 install(DIRECTORY cost_functions DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
         FILES_MATCHING PATTERN "*.h" PATTERN "*_test*" EXCLUDE)
-foreach(dir patch synthetic eval util)
+foreach(dir patch synthetic eval util mesh cluster model pipeline)
   install(DIRECTORY polyfit/${dir} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/polyfit
           FILES_MATCHING PATTERN "*.h")
 endforeach()

@@ -1,0 +1,365 @@
+#include "polyfit/cluster/acvd_clustering.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <queue>
+#include <random>
+#include <stdexcept>
+
+#include <Eigen/Geometry>
+
+#include "polyfit/eval/kd_tree.h"
+#include "polyfit/mesh/mesh_topology.h"
+
+namespace polyfit {
+
+std::string ClusteringOptions::Validate() const {
+  if (num_patches < 0) return "num_patches must be >= 0 (0: automatic)";
+  if (num_patches == 0) {
+    if (!(auto_area_per_patch > 0.0)) return "auto_area_per_patch must be > 0";
+    if (auto_min_patches < 1 || auto_max_patches < auto_min_patches) {
+      return "need 1 <= auto_min_patches <= auto_max_patches";
+    }
+  }
+  if (max_iterations < 0) return "max_iterations must be >= 0";
+  if (!(debris_fraction >= 0.0)) return "debris_fraction must be >= 0";
+  return {};
+}
+
+int ClusteringOptions::ResolveNumPatches(double surface_area) const {
+  if (num_patches > 0) return num_patches;
+  const double by_area = std::floor(surface_area / auto_area_per_patch);
+  return static_cast<int>(std::max<double>(auto_min_patches, std::min<double>(auto_max_patches, by_area)));
+}
+
+namespace {
+
+// Cell sums: mass m = sum rho, first moment s = sum rho gamma.
+struct Cell {
+  double mass = 0.0;
+  Eigen::Vector3d moment = Eigen::Vector3d::Zero();
+  int count = 0;
+  double Energy() const { return mass > 0.0 ? -moment.squaredNorm() / mass : 0.0; }
+};
+
+double TotalEnergy(const std::vector<Cell>& cells) {
+  double e = 0.0;
+  for (const Cell& c : cells) e += c.Energy();
+  return e;
+}
+
+// Splits `total` into parts proportional to `weights`, each at least 1
+// (largest remainders).
+std::vector<int> Apportion(int total, const std::vector<double>& weights) {
+  const int n = static_cast<int>(weights.size());
+  std::vector<int> parts(n, 1);
+  int remaining = total - n;
+  if (remaining <= 0) return parts;
+  const double sum = std::accumulate(weights.begin(), weights.end(), 0.0);
+  std::vector<std::pair<double, int>> remainders;
+  int assigned = 0;
+  for (int i = 0; i < n; ++i) {
+    const double share = remaining * weights[i] / sum;
+    const int whole = static_cast<int>(std::floor(share));
+    parts[i] += whole;
+    assigned += whole;
+    remainders.emplace_back(share - whole, i);
+  }
+  std::sort(remainders.rbegin(), remainders.rend());
+  for (int k = 0; k < remaining - assigned; ++k) ++parts[remainders[k].second];
+  return parts;
+}
+
+// Farthest-point seeds among `faces` (a random area-weighted subset of them
+// when there are many, which keeps seeding linear in the mesh size).
+std::vector<int> FarthestPointSeeds(const std::vector<int>& faces, int count,
+                                    const Eigen::Matrix3Xd& centroids, const Eigen::VectorXd& areas,
+                                    std::mt19937_64& rng) {
+  std::vector<int> candidates;
+  const size_t max_candidates = std::max<size_t>(64, 40 * static_cast<size_t>(count));
+  if (faces.size() <= max_candidates) {
+    candidates = faces;
+  } else {
+    std::vector<double> w(faces.size());
+    for (size_t i = 0; i < faces.size(); ++i) w[i] = areas[faces[i]] + 1e-300;
+    std::discrete_distribution<size_t> pick(w.begin(), w.end());
+    candidates.reserve(max_candidates);
+    for (size_t k = 0; k < max_candidates; ++k) candidates.push_back(faces[pick(rng)]);
+  }
+  std::vector<int> seeds;
+  std::vector<double> distance(candidates.size(), std::numeric_limits<double>::infinity());
+  size_t next = std::uniform_int_distribution<size_t>(0, candidates.size() - 1)(rng);
+  for (int s = 0; s < count; ++s) {
+    const int seed = candidates[next];
+    seeds.push_back(seed);
+    const Eigen::Vector3d c = centroids.col(seed);
+    double best = -1.0;
+    for (size_t i = 0; i < candidates.size(); ++i) {
+      distance[i] = std::min(distance[i], (centroids.col(candidates[i]) - c).squaredNorm());
+      if (distance[i] > best) {
+        best = distance[i];
+        next = i;
+      }
+    }
+  }
+  std::sort(seeds.begin(), seeds.end());
+  seeds.erase(std::unique(seeds.begin(), seeds.end()), seeds.end());
+  return seeds;
+}
+
+// Whether face f can leave its cell without cutting it: its edge neighbours
+// in the cell must stay connected through cell faces around f's vertices
+// (a local, sufficient test).
+bool CanLeave(int f, int cell, const TriangleMesh& mesh, const AdjacencyList& face_faces,
+              const AdjacencyList& vertex_faces, const std::vector<int>& labels) {
+  int same[3];
+  int num_same = 0;
+  for (const int* g = face_faces.begin(f); g != face_faces.end(f); ++g) {
+    if (labels[*g] == cell && num_same < 3) same[num_same++] = *g;
+  }
+  if (num_same <= 1) return true;
+  // Faces of the cell around f (excluding f), at most a few dozen.
+  int ring[96];
+  int num_ring = 0;
+  for (int c = 0; c < 3; ++c) {
+    const int v = mesh.faces(c, f);
+    for (const int* g = vertex_faces.begin(v); g != vertex_faces.end(v); ++g) {
+      if (*g == f || labels[*g] != cell) continue;
+      if (std::find(ring, ring + num_ring, *g) != ring + num_ring) continue;
+      if (num_ring == 96) return false;
+      ring[num_ring++] = *g;
+    }
+  }
+  bool reached[96] = {false};
+  int stack[96];
+  int top = 0;
+  const int start = static_cast<int>(std::find(ring, ring + num_ring, same[0]) - ring);
+  reached[start] = true;
+  stack[top++] = start;
+  while (top > 0) {
+    const int i = stack[--top];
+    for (const int* g = face_faces.begin(ring[i]); g != face_faces.end(ring[i]); ++g) {
+      const int j = static_cast<int>(std::find(ring, ring + num_ring, *g) - ring);
+      if (j < num_ring && !reached[j]) {
+        reached[j] = true;
+        stack[top++] = j;
+      }
+    }
+  }
+  for (int k = 1; k < num_same; ++k) {
+    const int j = static_cast<int>(std::find(ring, ring + num_ring, same[k]) - ring);
+    if (!reached[j]) return false;
+  }
+  return true;
+}
+
+// Lloyd iterations on face centroids: the fallback for triangle soups.
+void KMeansCells(const std::vector<int>& faces, const std::vector<int>& seeds,
+                 const Eigen::Matrix3Xd& centroids, const Eigen::VectorXd& areas,
+                 std::vector<int>* labels, int first_label) {
+  Eigen::Matrix3Xd centres(3, seeds.size());
+  for (size_t k = 0; k < seeds.size(); ++k) centres.col(k) = centroids.col(seeds[k]);
+  for (int iteration = 0; iteration < 10; ++iteration) {
+    KdTree3 tree(centres);
+    Eigen::Matrix3Xd sums = Eigen::Matrix3Xd::Zero(3, centres.cols());
+    Eigen::VectorXd mass = Eigen::VectorXd::Zero(centres.cols());
+    for (int f : faces) {
+      double d2;
+      const int k = tree.Nearest(centroids.col(f), &d2);
+      (*labels)[f] = first_label + k;
+      sums.col(k) += areas[f] * centroids.col(f);
+      mass[k] += areas[f];
+    }
+    for (Eigen::Index k = 0; k < centres.cols(); ++k) {
+      if (mass[k] > 0.0) centres.col(k) = sums.col(k) / mass[k];
+    }
+  }
+}
+
+}  // namespace
+
+std::vector<int> ClusterMeshFaces(const ClusteringOptions& options, const TriangleMesh& mesh,
+                                  ClusteringSummary* summary) {
+  const auto start_time = std::chrono::steady_clock::now();
+  if (const std::string problem = options.Validate(); !problem.empty()) {
+    throw std::invalid_argument("ClusteringOptions: " + problem);
+  }
+  if (const std::string problem = mesh.Validate(); !problem.empty()) {
+    throw std::invalid_argument("ClusterMeshFaces: " + problem);
+  }
+  const int num_faces = mesh.num_faces();
+  const Eigen::VectorXd raw_areas = FaceAreas(mesh);
+  const double total_area = raw_areas.sum();
+  // Zero-area faces still need a positive mass for the cell ratios.
+  const Eigen::VectorXd areas = raw_areas.array().max(1e-12 * total_area / num_faces + 1e-300);
+  // Centroids relative to the mesh's mean keep the moment sums well scaled.
+  Eigen::Matrix3Xd centroids(3, num_faces);
+  for (int f = 0; f < num_faces; ++f) {
+    centroids.col(f) = (mesh.vertices.col(mesh.faces(0, f)) + mesh.vertices.col(mesh.faces(1, f)) +
+                        mesh.vertices.col(mesh.faces(2, f))) / 3.0;
+  }
+  const Eigen::Vector3d mean = centroids.rowwise().mean();
+  centroids.colwise() -= mean;
+
+  const AdjacencyList face_faces = FaceFaceAdjacency(mesh);
+  const AdjacencyList vertex_faces = VertexFaceAdjacency(mesh);
+  std::vector<int> component;
+  const int num_components = ConnectedComponents(face_faces, &component);
+  std::vector<double> component_area(num_components, 0.0);
+  std::vector<std::vector<int>> component_faces(num_components);
+  for (int f = 0; f < num_faces; ++f) {
+    component_area[component[f]] += raw_areas[f];
+    component_faces[component[f]].push_back(f);
+  }
+
+  const int requested = std::min(options.ResolveNumPatches(total_area), num_faces);
+  const double debris_area = options.debris_fraction * total_area / requested;
+  std::vector<int> kept;  // components that get patches
+  double kept_area = 0.0;
+  for (int c = 0; c < num_components; ++c) {
+    if (component_area[c] >= debris_area && component_area[c] > 0.0) {
+      kept.push_back(c);
+      kept_area += component_area[c];
+    }
+  }
+  const bool soup = kept.empty() || kept_area < 0.5 * total_area;
+
+  std::mt19937_64 rng(options.seed);
+  std::vector<int> labels(num_faces, -1);
+  int num_cells = 0;
+  ClusteringSummary local;
+  if (soup) {
+    std::vector<int> all(num_faces);
+    std::iota(all.begin(), all.end(), 0);
+    const std::vector<int> seeds = FarthestPointSeeds(all, requested, centroids, areas, rng);
+    KMeansCells(all, seeds, centroids, areas, &labels, 0);
+    num_cells = static_cast<int>(seeds.size());
+  } else {
+    std::vector<double> weights;
+    for (int c : kept) weights.push_back(component_area[c]);
+    const std::vector<int> per_component = Apportion(requested, weights);
+    // Region growing from every seed at once (Dijkstra over face centroids).
+    using Entry = std::pair<double, std::pair<int, int>>;  // distance, (face, cell)
+    std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> queue;
+    std::vector<double> distance(num_faces, std::numeric_limits<double>::infinity());
+    for (size_t k = 0; k < kept.size(); ++k) {
+      const int wanted = std::min<int>(per_component[k], static_cast<int>(component_faces[kept[k]].size()));
+      for (int seed : FarthestPointSeeds(component_faces[kept[k]], wanted, centroids, areas, rng)) {
+        distance[seed] = 0.0;
+        queue.push({0.0, {seed, num_cells++}});
+      }
+    }
+    while (!queue.empty()) {
+      const auto [d, fc] = queue.top();
+      queue.pop();
+      const auto [f, cell] = fc;
+      if (labels[f] >= 0) continue;
+      labels[f] = cell;
+      for (const int* g = face_faces.begin(f); g != face_faces.end(f); ++g) {
+        if (labels[*g] >= 0) continue;
+        const double dg = d + (centroids.col(*g) - centroids.col(f)).norm();
+        if (dg < distance[*g]) {
+          distance[*g] = dg;
+          queue.push({dg, {*g, cell}});
+        }
+      }
+    }
+
+    // Greedy boundary moves.
+    std::vector<Cell> cells(num_cells);
+    for (int f = 0; f < num_faces; ++f) {
+      if (labels[f] < 0) continue;
+      Cell& c = cells[labels[f]];
+      c.mass += areas[f];
+      c.moment += areas[f] * centroids.col(f);
+      ++c.count;
+    }
+    local.initial_energy = TotalEnergy(cells);
+    const double tolerance = 1e-13 * std::abs(local.initial_energy) / num_faces;
+    for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
+      long long moves = 0;
+      for (int f = 0; f < num_faces; ++f) {
+        const int a = labels[f];
+        if (a < 0 || cells[a].count <= 1) continue;
+        const double rho = areas[f];
+        const Eigen::Vector3d s = rho * centroids.col(f);
+        const double leave_a = -(cells[a].moment - s).squaredNorm() / (cells[a].mass - rho) - cells[a].Energy();
+        double best = -tolerance;
+        int best_cell = -1;
+        for (const int* g = face_faces.begin(f); g != face_faces.end(f); ++g) {
+          const int b = labels[*g];
+          if (b == a || b < 0 || b == best_cell) continue;
+          const double delta =
+              leave_a - (cells[b].moment + s).squaredNorm() / (cells[b].mass + rho) - cells[b].Energy();
+          if (delta < best) {
+            best = delta;
+            best_cell = b;
+          }
+        }
+        if (best_cell < 0 || !CanLeave(f, a, mesh, face_faces, vertex_faces, labels)) continue;
+        cells[a].mass -= rho;
+        cells[a].moment -= s;
+        --cells[a].count;
+        cells[best_cell].mass += rho;
+        cells[best_cell].moment += s;
+        ++cells[best_cell].count;
+        labels[f] = best_cell;
+        ++moves;
+      }
+      local.iterations = iteration + 1;
+      local.num_moves += moves;
+      if (moves == 0) break;
+    }
+    local.final_energy = TotalEnergy(cells);
+
+    // Debris joins the patch of the nearest kept face.
+    std::vector<int> kept_faces;
+    for (int f = 0; f < num_faces; ++f) {
+      if (labels[f] >= 0) kept_faces.push_back(f);
+    }
+    if (static_cast<int>(kept_faces.size()) < num_faces) {
+      Eigen::Matrix3Xd kept_centroids(3, kept_faces.size());
+      for (size_t i = 0; i < kept_faces.size(); ++i) kept_centroids.col(i) = centroids.col(kept_faces[i]);
+      const KdTree3 tree(kept_centroids);
+      for (int f = 0; f < num_faces; ++f) {
+        if (labels[f] >= 0) continue;
+        double d2;
+        labels[f] = labels[kept_faces[tree.Nearest(centroids.col(f), &d2)]];
+        ++local.num_debris_faces;
+      }
+    }
+  }
+
+  // Compact labels (k-means can leave a centre with no face).
+  std::vector<int> compact(num_cells, -1);
+  int num_patches = 0;
+  for (int f = 0; f < num_faces; ++f) {
+    if (compact[labels[f]] < 0) compact[labels[f]] = num_patches++;
+    labels[f] = compact[labels[f]];
+  }
+
+  std::vector<double> patch_area(num_patches, 0.0);
+  for (int f = 0; f < num_faces; ++f) patch_area[labels[f]] += raw_areas[f];
+  const double mean_area = total_area / num_patches;
+  double min_area = std::numeric_limits<double>::infinity(), max_area = 0.0, var = 0.0;
+  for (double a : patch_area) {
+    min_area = std::min(min_area, a);
+    max_area = std::max(max_area, a);
+    var += (a - mean_area) * (a - mean_area);
+  }
+  local.requested_patches = requested;
+  local.num_patches = num_patches;
+  local.num_components = num_components;
+  local.soup_fallback = soup;
+  local.min_relative_area = min_area / mean_area;
+  local.max_relative_area = max_area / mean_area;
+  local.relative_area_stddev = std::sqrt(var / num_patches) / mean_area;
+  local.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
+  if (summary != nullptr) *summary = local;
+  return labels;
+}
+
+}  // namespace polyfit

@@ -1,0 +1,231 @@
+#include "polyfit/mesh/mesh_io.h"
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <unordered_map>
+#include <vector>
+
+#include <assimp/Importer.hpp>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+
+#include "polyfit/util/atomic_file.h"
+
+namespace polyfit {
+namespace {
+
+struct PositionKey {
+  std::uint64_t bits[3];
+  bool operator==(const PositionKey& o) const {
+    return bits[0] == o.bits[0] && bits[1] == o.bits[1] && bits[2] == o.bits[2];
+  }
+};
+
+struct PositionKeyHash {
+  size_t operator()(const PositionKey& k) const {
+    std::uint64_t h = k.bits[0] * 0x9E3779B97F4A7C15ull;
+    h ^= k.bits[1] + 0x632BE59BD9B4E019ull + (h << 6) + (h >> 2);
+    h ^= k.bits[2] + 0x94D049BB133111EBull + (h << 6) + (h >> 2);
+    return static_cast<size_t>(h);
+  }
+};
+
+PositionKey KeyOf(const Eigen::Vector3d& p) {
+  PositionKey key;
+  for (int i = 0; i < 3; ++i) {
+    const double value = p[i] == 0.0 ? 0.0 : p[i];  // -0 and +0 weld
+    std::memcpy(&key.bits[i], &value, sizeof(double));
+  }
+  return key;
+}
+
+[[noreturn]] void Fail(const std::string& path, const std::string& reason) {
+  throw MeshIoError(path + ": " + reason);
+}
+
+}  // namespace
+
+TriangleMesh ReadTriangleMesh(const std::string& path, MeshReadSummary* summary) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::exists(path, ec)) Fail(path, "no such file");
+  if (fs::is_directory(path, ec)) Fail(path, "is a directory, not a mesh file");
+  {
+    std::ifstream probe(path, std::ios::binary);
+    if (!probe) Fail(path, "cannot be opened for reading");
+    if (probe.peek() == std::ifstream::traits_type::eof()) Fail(path, "is empty");
+  }
+
+  Assimp::Importer importer;
+  importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
+  const aiScene* scene = importer.ReadFile(
+      path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_SortByPType |
+                aiProcess_PreTransformVertices);
+  if (scene == nullptr) {
+    std::string reason = importer.GetErrorString();
+    if (reason.empty()) reason = "assimp could not read it";
+    // assimp's words when every primitive was a point or a line.
+    if (reason.find("No output meshes") != std::string::npos || reason.find("no faces") != std::string::npos) {
+      Fail(path, "holds no triangles (a point cloud or lines only?): " + reason);
+    }
+    Fail(path, "unreadable: " + reason);
+  }
+
+  // Concatenate the triangles of every mesh, welding by position.
+  std::vector<Eigen::Vector3d> positions;
+  std::vector<Eigen::Vector3i> faces;
+  std::vector<Eigen::Vector2d> texcoords;
+  bool any_texcoords = false;
+  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
+    any_texcoords |= scene->mMeshes[m]->HasTextureCoords(0);
+  }
+  std::unordered_map<PositionKey, int, PositionKeyHash> welded;
+  int dropped_degenerate = 0;
+  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
+    const aiMesh* mesh = scene->mMeshes[m];
+    std::vector<int> remap(mesh->mNumVertices);
+    for (unsigned v = 0; v < mesh->mNumVertices; ++v) {
+      const aiVector3D& a = mesh->mVertices[v];
+      const Eigen::Vector3d p(a.x, a.y, a.z);
+      if (!p.allFinite()) {
+        Fail(path, "mesh " + std::to_string(m) + " vertex " + std::to_string(v) +
+                       " has a non-finite coordinate");
+      }
+      auto [it, inserted] = welded.emplace(KeyOf(p), static_cast<int>(positions.size()));
+      if (inserted) positions.push_back(p);
+      remap[v] = it->second;
+    }
+    const bool has_uv = mesh->HasTextureCoords(0);
+    for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
+      const aiFace& face = mesh->mFaces[f];
+      if (face.mNumIndices != 3) continue;
+      int idx[3];
+      for (int c = 0; c < 3; ++c) {
+        if (face.mIndices[c] >= mesh->mNumVertices) {
+          Fail(path, "mesh " + std::to_string(m) + " face " + std::to_string(f) +
+                         " refers to a vertex out of range");
+        }
+        idx[c] = remap[face.mIndices[c]];
+      }
+      if (idx[0] == idx[1] || idx[1] == idx[2] || idx[0] == idx[2]) {
+        ++dropped_degenerate;
+        continue;
+      }
+      faces.emplace_back(idx[0], idx[1], idx[2]);
+      if (any_texcoords) {
+        for (int c = 0; c < 3; ++c) {
+          if (has_uv) {
+            const aiVector3D& t = mesh->mTextureCoords[0][face.mIndices[c]];
+            texcoords.emplace_back(t.x, t.y);
+          } else {
+            texcoords.emplace_back(0.0, 0.0);
+          }
+        }
+      }
+    }
+  }
+  if (faces.empty()) {
+    Fail(path, dropped_degenerate > 0 ? "every triangle is degenerate"
+                                      : "holds no triangles (a point cloud or lines only?)");
+  }
+
+  // Drop vertices no face uses (welding and dropped faces can leave some).
+  std::vector<int> used(positions.size(), -1);
+  int num_used = 0;
+  for (const Eigen::Vector3i& f : faces) {
+    for (int c = 0; c < 3; ++c) {
+      if (used[f[c]] < 0) used[f[c]] = num_used++;
+    }
+  }
+  TriangleMesh out;
+  out.vertices.resize(3, num_used);
+  for (size_t v = 0; v < positions.size(); ++v) {
+    if (used[v] >= 0) out.vertices.col(used[v]) = positions[v];
+  }
+  out.faces.resize(3, static_cast<Eigen::Index>(faces.size()));
+  for (size_t f = 0; f < faces.size(); ++f) {
+    for (int c = 0; c < 3; ++c) out.faces(c, f) = used[faces[f][c]];
+  }
+  if (any_texcoords) {
+    out.corner_texcoords.resize(2, static_cast<Eigen::Index>(texcoords.size()));
+    for (size_t i = 0; i < texcoords.size(); ++i) out.corner_texcoords.col(i) = texcoords[i];
+  }
+  const std::string problem = out.Validate();
+  if (!problem.empty()) Fail(path, problem);
+  if (summary != nullptr) {
+    summary->num_dropped_degenerate_faces = dropped_degenerate;
+    summary->num_dropped_unreferenced_vertices = static_cast<int>(positions.size()) - num_used;
+    summary->num_meshes = static_cast<int>(scene->mNumMeshes);
+  }
+  return out;
+}
+
+void WritePly(const std::string& path, const TriangleMesh& mesh,
+              const Eigen::Matrix<std::uint8_t, 3, Eigen::Dynamic>* vertex_colors) {
+  if (vertex_colors != nullptr && vertex_colors->cols() != mesh.vertices.cols()) {
+    throw MeshIoError(path + ": " + std::to_string(vertex_colors->cols()) + " colours for " +
+                      std::to_string(mesh.vertices.cols()) + " vertices");
+  }
+  WriteFileAtomically(path, [&](std::ostream& out) {
+    out << "ply\nformat binary_little_endian 1.0\ncomment written by PolyFit\n"
+        << "element vertex " << mesh.vertices.cols() << "\n"
+        << "property float x\nproperty float y\nproperty float z\n";
+    if (vertex_colors != nullptr) {
+      out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+    }
+    out << "element face " << mesh.faces.cols() << "\n"
+        << "property list uchar int vertex_indices\nend_header\n";
+    std::vector<char> buffer;
+    buffer.reserve(static_cast<size_t>(mesh.vertices.cols()) * 15);
+    auto put = [&buffer](const void* data, size_t size) {
+      const char* bytes = static_cast<const char*>(data);
+      buffer.insert(buffer.end(), bytes, bytes + size);
+    };
+    for (Eigen::Index v = 0; v < mesh.vertices.cols(); ++v) {
+      for (int i = 0; i < 3; ++i) {
+        const float x = static_cast<float>(mesh.vertices(i, v));
+        put(&x, sizeof(x));
+      }
+      if (vertex_colors != nullptr) put(vertex_colors->col(v).data(), 3);
+    }
+    for (Eigen::Index f = 0; f < mesh.faces.cols(); ++f) {
+      const std::uint8_t three = 3;
+      put(&three, 1);
+      for (int c = 0; c < 3; ++c) {
+        const std::int32_t index = mesh.faces(c, f);
+        put(&index, sizeof(index));
+      }
+    }
+    out.write(buffer.data(), static_cast<std::streamsize>(buffer.size()));
+  });
+}
+
+void WriteObj(const std::string& path, const TriangleMesh& mesh) {
+  WriteFileAtomically(path, [&](std::ostream& out) {
+    out.precision(9);
+    out << "# written by PolyFit\n";
+    for (Eigen::Index v = 0; v < mesh.vertices.cols(); ++v) {
+      out << "v " << mesh.vertices(0, v) << ' ' << mesh.vertices(1, v) << ' ' << mesh.vertices(2, v)
+          << '\n';
+    }
+    const bool uv = mesh.has_texcoords();
+    if (uv) {
+      for (Eigen::Index i = 0; i < mesh.corner_texcoords.cols(); ++i) {
+        out << "vt " << mesh.corner_texcoords(0, i) << ' ' << mesh.corner_texcoords(1, i) << '\n';
+      }
+    }
+    for (Eigen::Index f = 0; f < mesh.faces.cols(); ++f) {
+      out << 'f';
+      for (int c = 0; c < 3; ++c) {
+        out << ' ' << mesh.faces(c, f) + 1;
+        if (uv) out << '/' << 3 * f + c + 1;
+      }
+      out << '\n';
+    }
+  });
+}
+
+}  // namespace polyfit

@@ -1,0 +1,104 @@
+#include "polyfit/mesh/mesh_topology.h"
+
+#include <algorithm>
+#include <cstdint>
+
+namespace polyfit {
+namespace {
+
+// Builds CSR lists from (element, neighbour) pairs.
+AdjacencyList FromPairs(int num_elements, std::vector<std::pair<int, int>>& pairs) {
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  AdjacencyList list;
+  list.offsets.assign(num_elements + 1, 0);
+  for (const auto& [a, b] : pairs) ++list.offsets[a + 1];
+  for (int i = 0; i < num_elements; ++i) list.offsets[i + 1] += list.offsets[i];
+  list.indices.resize(pairs.size());
+  for (size_t k = 0; k < pairs.size(); ++k) list.indices[k] = pairs[k].second;
+  return list;
+}
+
+}  // namespace
+
+AdjacencyList FaceFaceAdjacency(const TriangleMesh& mesh) {
+  const int num_faces = mesh.num_faces();
+  // (edge key, face), sorted so that faces on one edge are consecutive.
+  std::vector<std::pair<std::uint64_t, int>> edges;
+  edges.reserve(3 * static_cast<size_t>(num_faces));
+  for (int f = 0; f < num_faces; ++f) {
+    for (int c = 0; c < 3; ++c) {
+      std::uint32_t a = mesh.faces(c, f), b = mesh.faces((c + 1) % 3, f);
+      if (a > b) std::swap(a, b);
+      edges.emplace_back((std::uint64_t{a} << 32) | b, f);
+    }
+  }
+  std::sort(edges.begin(), edges.end());
+  std::vector<std::pair<int, int>> pairs;
+  pairs.reserve(edges.size() * 2);
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i;
+    while (j < edges.size() && edges[j].first == edges[i].first) ++j;
+    for (size_t p = i; p < j; ++p) {
+      for (size_t q = i; q < j; ++q) {
+        if (p != q && edges[p].second != edges[q].second) pairs.emplace_back(edges[p].second, edges[q].second);
+      }
+    }
+    i = j;
+  }
+  return FromPairs(num_faces, pairs);
+}
+
+AdjacencyList VertexFaceAdjacency(const TriangleMesh& mesh) {
+  AdjacencyList list;
+  list.offsets.assign(mesh.num_vertices() + 1, 0);
+  for (int f = 0; f < mesh.num_faces(); ++f) {
+    for (int c = 0; c < 3; ++c) ++list.offsets[mesh.faces(c, f) + 1];
+  }
+  for (int v = 0; v < mesh.num_vertices(); ++v) list.offsets[v + 1] += list.offsets[v];
+  list.indices.resize(list.offsets.back());
+  std::vector<int> fill(list.offsets.begin(), list.offsets.end() - 1);
+  for (int f = 0; f < mesh.num_faces(); ++f) {
+    for (int c = 0; c < 3; ++c) list.indices[fill[mesh.faces(c, f)]++] = f;
+  }
+  return list;
+}
+
+AdjacencyList VertexVertexAdjacency(const TriangleMesh& mesh) {
+  std::vector<std::pair<int, int>> pairs;
+  pairs.reserve(6 * static_cast<size_t>(mesh.num_faces()));
+  for (int f = 0; f < mesh.num_faces(); ++f) {
+    for (int c = 0; c < 3; ++c) {
+      const int a = mesh.faces(c, f), b = mesh.faces((c + 1) % 3, f);
+      pairs.emplace_back(a, b);
+      pairs.emplace_back(b, a);
+    }
+  }
+  return FromPairs(mesh.num_vertices(), pairs);
+}
+
+int ConnectedComponents(const AdjacencyList& graph, std::vector<int>* labels) {
+  const int n = graph.size();
+  labels->assign(n, -1);
+  std::vector<int> stack;
+  int count = 0;
+  for (int start = 0; start < n; ++start) {
+    if ((*labels)[start] >= 0) continue;
+    (*labels)[start] = count;
+    stack.push_back(start);
+    while (!stack.empty()) {
+      const int i = stack.back();
+      stack.pop_back();
+      for (const int* j = graph.begin(i); j != graph.end(i); ++j) {
+        if ((*labels)[*j] < 0) {
+          (*labels)[*j] = count;
+          stack.push_back(*j);
+        }
+      }
+    }
+    ++count;
+  }
+  return count;
+}
+
+}  // namespace polyfit

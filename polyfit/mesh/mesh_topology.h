@@ -1,0 +1,35 @@
+// Adjacency of a triangle mesh in compressed (CSR) form.
+#ifndef POLYFIT_MESH_MESH_TOPOLOGY_H_
+#define POLYFIT_MESH_MESH_TOPOLOGY_H_
+
+#include <vector>
+
+#include "polyfit/mesh/triangle_mesh.h"
+
+namespace polyfit {
+
+// Neighbours of element i: indices[offsets[i] .. offsets[i + 1]).
+struct AdjacencyList {
+  std::vector<int> offsets;  // #elements + 1
+  std::vector<int> indices;
+
+  int size() const { return static_cast<int>(offsets.size()) - 1; }
+  int degree(int i) const { return offsets[i + 1] - offsets[i]; }
+  const int* begin(int i) const { return indices.data() + offsets[i]; }
+  const int* end(int i) const { return indices.data() + offsets[i + 1]; }
+};
+
+// Faces sharing an edge with each face (all of them at non-manifold edges).
+AdjacencyList FaceFaceAdjacency(const TriangleMesh& mesh);
+// Faces incident to each vertex.
+AdjacencyList VertexFaceAdjacency(const TriangleMesh& mesh);
+// Vertices sharing an edge with each vertex.
+AdjacencyList VertexVertexAdjacency(const TriangleMesh& mesh);
+
+// Labels the connected components of a graph (0, 1, ... in order of their
+// smallest element); returns the number of components.
+int ConnectedComponents(const AdjacencyList& graph, std::vector<int>* labels);
+
+}  // namespace polyfit
+
+#endif  // POLYFIT_MESH_MESH_TOPOLOGY_H_

@@ -1,0 +1,191 @@
+#include "polyfit/pipeline/fit_mesh.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <stdexcept>
+
+#include <Eigen/Geometry>
+
+#include "polyfit/eval/mesh_metrics.h"
+#include "polyfit/eval/surface_distance.h"
+#include "polyfit/mesh/mesh_topology.h"
+#include "polyfit/util/parallel_for.h"
+
+namespace polyfit {
+namespace {
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+std::string MeshFitOptions::Validate() const {
+  if (std::string p = clustering.Validate(); !p.empty()) return "clustering: " + p;
+  if (std::string p = jet_fit.Validate(); !p.empty()) return "jet_fit: " + p;
+  if (std::string p = reconstruction.Validate(); !p.empty()) return "reconstruction: " + p;
+  if (min_vertices_per_patch < 0) return "min_vertices_per_patch must be >= 0";
+  if (max_subdivision_levels < 0 || max_subdivision_levels > 6) return "max_subdivision_levels must be in [0, 6]";
+  if (evaluate && evaluation_samples < 1) return "evaluation_samples must be >= 1";
+  return {};
+}
+
+std::string MeshFitSummary::BriefReport() const {
+  char line[512];
+  std::snprintf(line, sizeof(line),
+                "%d faces -> %d patches (%d subdivision levels), %.3f s (cluster %.3f, fit %.3f); "
+                "Chamfer x1e3 %.4f (floor %.4f, to surface %.4f), height RMSE %.2e, normal error %.2f deg",
+                input_faces, clustering.num_patches, subdivision.levels, total_time_s, cluster_time_s,
+                fit_time_s, 1e3 * chamfer, 1e3 * chamfer_floor, 1e3 * surface_chamfer, height_rmse, normal_error_deg);
+  return line;
+}
+
+void BuildPatchMemberships(const TriangleMesh& mesh, const std::vector<int>& face_patch, PolyFitModel* model) {
+  const AdjacencyList vertex_faces = VertexFaceAdjacency(mesh);
+  const Eigen::VectorXd face_areas = FaceAreas(mesh);
+  const int num_vertices = mesh.num_vertices();
+  model->membership_offsets.assign(1, 0);
+  model->membership_patch.clear();
+  model->membership_patch.reserve(static_cast<size_t>(num_vertices) * 5 / 4);
+  std::vector<std::pair<int, double>> local;  // (patch, incident area)
+  for (int v = 0; v < num_vertices; ++v) {
+    local.clear();
+    for (const int* f = vertex_faces.begin(v); f != vertex_faces.end(v); ++f) {
+      const int p = face_patch[*f];
+      auto it = std::find_if(local.begin(), local.end(), [p](const auto& e) { return e.first == p; });
+      if (it == local.end()) {
+        local.emplace_back(p, face_areas[*f]);
+      } else {
+        it->second += face_areas[*f];
+      }
+    }
+    // Owner first: most incident area, ties to the lower patch index.
+    std::sort(local.begin(), local.end(), [](const auto& a, const auto& b) {
+      return a.second != b.second ? a.second > b.second : a.first < b.first;
+    });
+    for (const auto& e : local) model->membership_patch.push_back(e.first);
+    model->membership_offsets.push_back(static_cast<int>(model->membership_patch.size()));
+  }
+  model->membership_uv = Eigen::Matrix2Xd::Zero(2, model->membership_patch.size());
+}
+
+MeshFitSummary FitMesh(const MeshFitOptions& options, const TriangleMesh& input, PolyFitModel* model_out,
+                       TriangleMesh* reconstruction_out) {
+  if (const std::string problem = options.Validate(); !problem.empty()) {
+    throw std::invalid_argument("MeshFitOptions: " + problem);
+  }
+  if (const std::string problem = input.Validate(); !problem.empty()) {
+    throw std::invalid_argument("FitMesh: " + problem);
+  }
+  const auto start = std::chrono::steady_clock::now();
+  MeshFitSummary summary;
+  summary.input_vertices = input.num_vertices();
+  summary.input_faces = input.num_faces();
+
+  // Subdivide coarse meshes so that every patch has points enough.
+  const int wanted_patches = std::min(options.clustering.ResolveNumPatches(SurfaceArea(input)), input.num_faces());
+  int levels = 0;
+  {
+    long long vertices = input.num_vertices(), faces = input.num_faces();
+    while (levels < options.max_subdivision_levels &&
+           vertices < static_cast<long long>(options.min_vertices_per_patch) * wanted_patches) {
+      vertices += faces * 3 / 2;  // one new vertex per edge
+      faces *= 4;
+      ++levels;
+    }
+  }
+  TriangleMesh subdivided;
+  if (levels > 0) {
+    SubdivisionOptions subdivision;
+    subdivision.levels = levels;
+    subdivision.scheme = options.subdivision_scheme;
+    subdivided = SubdivideMesh(input, subdivision, &summary.subdivision);
+  }
+  const TriangleMesh& mesh = levels > 0 ? subdivided : input;
+  summary.fitted_vertices = mesh.num_vertices();
+  summary.fitted_faces = mesh.num_faces();
+  summary.subdivide_time_s = SecondsSince(start);
+
+  // Patches.
+  PolyFitModel model;
+  model.face_patch = ClusterMeshFaces(options.clustering, mesh, &summary.clustering);
+  model.faces = mesh.faces;
+  BuildPatchMemberships(mesh, model.face_patch, &model);
+  summary.cluster_time_s = summary.clustering.time_s;
+
+  // Jets: every patch fitted to all of its vertices, weighted by area.
+  const auto fit_start = std::chrono::steady_clock::now();
+  const int num_patches = summary.clustering.num_patches;
+  const int num_memberships = static_cast<int>(model.membership_patch.size());
+  std::vector<int> patch_offsets(num_patches + 1, 0);
+  for (int p : model.membership_patch) ++patch_offsets[p + 1];
+  for (int p = 0; p < num_patches; ++p) patch_offsets[p + 1] += patch_offsets[p];
+  std::vector<int> slot(patch_offsets.begin(), patch_offsets.end() - 1);
+  std::vector<int> membership_slot(num_memberships);
+  Eigen::Matrix3Xd points(3, num_memberships);
+  std::vector<double> weights(num_memberships);
+  const Eigen::VectorXd vertex_areas = VertexAreas(mesh);
+  for (int v = 0; v < mesh.num_vertices(); ++v) {
+    for (int m = model.membership_offsets[v]; m < model.membership_offsets[v + 1]; ++m) {
+      const int s = slot[model.membership_patch[m]]++;
+      membership_slot[m] = s;
+      points.col(s) = mesh.vertices.col(v);
+      weights[s] = vertex_areas[v];
+    }
+  }
+  JetFitOptions jet_options = options.jet_fit;
+  jet_options.num_threads = options.num_threads;
+  summary.jet_fit = FitJetPatches(jet_options, points, patch_offsets, &weights, &model.patches);
+  for (int v = 0; v < mesh.num_vertices(); ++v) {
+    for (int m = model.membership_offsets[v]; m < model.membership_offsets[v + 1]; ++m) {
+      model.membership_uv.col(m) = model.patches[model.membership_patch[m]]
+                                       .frame.PointToPatch(mesh.vertices.col(v)).head<2>();
+    }
+  }
+  summary.fit_time_s = SecondsSince(fit_start);
+
+  // Reconstruction.
+  const auto reconstruct_start = std::chrono::steady_clock::now();
+  TriangleMesh reconstruction;
+  reconstruction.vertices = ReconstructVertices(model, options.reconstruction, &summary.reconstruction);
+  reconstruction.faces = mesh.faces;
+  reconstruction.corner_texcoords = mesh.corner_texcoords;
+  summary.reconstruct_time_s = SecondsSince(reconstruct_start);
+  summary.total_time_s = SecondsSince(start);
+
+  if (options.evaluate) {
+    const auto evaluate_start = std::chrono::steady_clock::now();
+    summary.chamfer =
+        MeshChamferDistance(input, reconstruction, options.evaluation_samples, options.evaluation_seed).sum();
+    summary.chamfer_floor =
+        MeshChamferDistance(input, input, options.evaluation_samples, options.evaluation_seed).sum();
+    summary.surface_chamfer = MeshToSurfaceChamferDistance(input, reconstruction, options.evaluation_samples,
+                                                           options.evaluation_seed, options.num_threads)
+                                  .sum();
+    const Normalization normalization = UnitSphereNormalization(input.vertices);
+    summary.height_rmse = normalization.scale *
+                          std::sqrt((reconstruction.vertices - mesh.vertices).colwise().squaredNorm().mean());
+    const Eigen::Matrix3Xd normals = VertexNormals(mesh);
+    double sum_angle = 0.0;
+    int count = 0;
+    for (int v = 0; v < mesh.num_vertices(); ++v) {
+      if (normals.col(v).squaredNorm() == 0.0) continue;
+      const int m = model.membership_offsets[v];
+      const Eigen::Vector2d uv = model.membership_uv.col(m);
+      const Eigen::Vector3d jet_normal = model.patches[model.membership_patch[m]].NormalInWorld(uv.x(), uv.y());
+      const double c = std::min(1.0, std::abs(jet_normal.dot(normals.col(v))));
+      sum_angle += std::acos(c) * 180.0 / M_PI;
+      ++count;
+    }
+    summary.normal_error_deg = count > 0 ? sum_angle / count : 0.0;
+    summary.evaluate_time_s = SecondsSince(evaluate_start);
+  }
+  if (model_out != nullptr) *model_out = std::move(model);
+  if (reconstruction_out != nullptr) *reconstruction_out = std::move(reconstruction);
+  return summary;
+}
+
+}  // namespace polyfit

@@ -1,0 +1,47 @@
+// WriteFileAtomically(path, write): write(stream) fills a temporary file
+// beside path, which then replaces path by rename, so readers never see a
+// half-written file and a failure leaves nothing behind. Throws
+// std::runtime_error naming the file when anything fails.
+#ifndef POLYFIT_UTIL_ATOMIC_FILE_H_
+#define POLYFIT_UTIL_ATOMIC_FILE_H_
+
+#include <atomic>
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+#include <string>
+#include <system_error>
+#include <thread>
+
+namespace polyfit {
+
+template <typename WriteFn>
+void WriteFileAtomically(const std::string& path, WriteFn&& write) {
+  namespace fs = std::filesystem;
+  static std::atomic<unsigned> counter{0};
+  const std::string temp = path + ".tmp" +
+                           std::to_string(std::hash<std::thread::id>{}(std::this_thread::get_id()) % 100000) +
+                           "_" + std::to_string(counter.fetch_add(1));
+  auto remove_temp = [&temp] {
+    std::error_code ec;
+    fs::remove(temp, ec);
+  };
+  try {
+    std::ofstream out(temp, std::ios::binary | std::ios::trunc);
+    if (!out) throw std::runtime_error(path + ": cannot be opened for writing");
+    write(out);
+    out.flush();
+    if (!out) throw std::runtime_error(path + ": writing failed (disk full?)");
+    out.close();
+    std::error_code ec;
+    fs::rename(temp, path, ec);
+    if (ec) throw std::runtime_error(path + ": cannot be replaced: " + ec.message());
+  } catch (...) {
+    remove_temp();
+    throw;
+  }
+}
+
+}  // namespace polyfit
+
+#endif  // POLYFIT_UTIL_ATOMIC_FILE_H_
