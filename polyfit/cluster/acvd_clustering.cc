@@ -279,9 +279,25 @@ std::vector<int> ClusterMeshFaces(const ClusteringOptions& options, const Triang
     }
     local.initial_energy = TotalEnergy(cells);
     const double tolerance = 1e-13 * std::abs(local.initial_energy) / num_faces;
+    // Only faces on a cell boundary can move: keep a list of them, updated
+    // around each move, so a pass costs the boundary's size, not the mesh's.
+    auto on_boundary = [&](int f) {
+      const int a = labels[f];
+      if (a < 0) return false;
+      for (const int* g = face_faces.begin(f); g != face_faces.end(f); ++g) {
+        if (labels[*g] != a && labels[*g] >= 0) return true;
+      }
+      return false;
+    };
+    std::vector<int> boundary, touched;
+    std::vector<int> stamp(num_faces, -1);
+    for (int f = 0; f < num_faces; ++f) {
+      if (on_boundary(f)) boundary.push_back(f);
+    }
     for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
       long long moves = 0;
-      for (int f = 0; f < num_faces; ++f) {
+      touched.clear();
+      for (const int f : boundary) {
         const int a = labels[f];
         if (a < 0 || cells[a].count <= 1) continue;
         const double rho = areas[f];
@@ -308,10 +324,22 @@ std::vector<int> ClusterMeshFaces(const ClusteringOptions& options, const Triang
         ++cells[best_cell].count;
         labels[f] = best_cell;
         ++moves;
+        for (const int* g = face_faces.begin(f); g != face_faces.end(f); ++g) touched.push_back(*g);
       }
       local.iterations = iteration + 1;
       local.num_moves += moves;
       if (moves == 0) break;
+      // The next boundary: this one and the neighbours of moved faces.
+      std::vector<int> next;
+      next.reserve(boundary.size() + touched.size());
+      for (const std::vector<int>* list : {&boundary, &touched}) {
+        for (const int f : *list) {
+          if (stamp[f] == iteration || !on_boundary(f)) continue;
+          stamp[f] = iteration;
+          next.push_back(f);
+        }
+      }
+      boundary.swap(next);
     }
     local.final_energy = TotalEnergy(cells);
 

@@ -5,10 +5,13 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <unordered_map>
 #include <vector>
 
+#include <assimp/DefaultLogger.hpp>
 #include <assimp/Importer.hpp>
+#include <assimp/LogStream.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
@@ -42,8 +45,48 @@ PositionKey KeyOf(const Eigen::Vector3d& p) {
   return key;
 }
 
+// Some assimp loaders repair bad input and only log an error (an OFF face
+// index out of range becomes the last vertex). Errors are collected per
+// thread; those saying the data was out of range or invalid fail the read,
+// the others (assimp also logs harmless oddities, such as blank lines at
+// the end of an OFF file, as errors) are passed on in the summary.
+thread_local std::string assimp_errors;
+
+class ErrorCollector : public Assimp::LogStream {
+ public:
+  void write(const char* message) override {
+    if (assimp_errors.size() < 4096) assimp_errors += message;
+  }
+};
+
+void InstallErrorCollector() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    if (Assimp::DefaultLogger::isNullLogger()) {
+      Assimp::DefaultLogger::create("", Assimp::Logger::NORMAL, 0);
+    }
+    Assimp::DefaultLogger::get()->attachStream(new ErrorCollector, Assimp::Logger::Err);
+  });
+}
+
+std::string Trimmed(std::string s) {
+  while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
+  return s;
+}
+
 [[noreturn]] void Fail(const std::string& path, const std::string& reason) {
   throw MeshIoError(path + ": " + reason);
+}
+
+template <typename WriteFn>
+void WriteMeshFile(const std::string& path, WriteFn&& write) {
+  try {
+    WriteFileAtomically(path, write);
+  } catch (const MeshIoError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw MeshIoError(e.what());
+  }
 }
 
 }  // namespace
@@ -59,6 +102,8 @@ TriangleMesh ReadTriangleMesh(const std::string& path, MeshReadSummary* summary)
     if (probe.peek() == std::ifstream::traits_type::eof()) Fail(path, "is empty");
   }
 
+  InstallErrorCollector();
+  assimp_errors.clear();
   Assimp::Importer importer;
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
   const aiScene* scene = importer.ReadFile(
@@ -72,6 +117,11 @@ TriangleMesh ReadTriangleMesh(const std::string& path, MeshReadSummary* summary)
       Fail(path, "holds no triangles (a point cloud or lines only?): " + reason);
     }
     Fail(path, "unreadable: " + reason);
+  }
+
+  const std::string errors = Trimmed(assimp_errors);
+  if (errors.find("out of range") != std::string::npos || errors.find("nvalid") != std::string::npos) {
+    Fail(path, "malformed: " + errors);
   }
 
   // Concatenate the triangles of every mesh, welding by position.
@@ -159,6 +209,7 @@ TriangleMesh ReadTriangleMesh(const std::string& path, MeshReadSummary* summary)
     summary->num_dropped_degenerate_faces = dropped_degenerate;
     summary->num_dropped_unreferenced_vertices = static_cast<int>(positions.size()) - num_used;
     summary->num_meshes = static_cast<int>(scene->mNumMeshes);
+    summary->loader_messages = errors;
   }
   return out;
 }
@@ -169,7 +220,7 @@ void WritePly(const std::string& path, const TriangleMesh& mesh,
     throw MeshIoError(path + ": " + std::to_string(vertex_colors->cols()) + " colours for " +
                       std::to_string(mesh.vertices.cols()) + " vertices");
   }
-  WriteFileAtomically(path, [&](std::ostream& out) {
+  WriteMeshFile(path, [&](std::ostream& out) {
     out << "ply\nformat binary_little_endian 1.0\ncomment written by PolyFit\n"
         << "element vertex " << mesh.vertices.cols() << "\n"
         << "property float x\nproperty float y\nproperty float z\n";
@@ -204,7 +255,7 @@ void WritePly(const std::string& path, const TriangleMesh& mesh,
 }
 
 void WriteObj(const std::string& path, const TriangleMesh& mesh) {
-  WriteFileAtomically(path, [&](std::ostream& out) {
+  WriteMeshFile(path, [&](std::ostream& out) {
     out.precision(9);
     out << "# written by PolyFit\n";
     for (Eigen::Index v = 0; v < mesh.vertices.cols(); ++v) {

@@ -27,6 +27,8 @@ struct MeshReadSummary {
   int num_dropped_unreferenced_vertices = 0;
   // Meshes in the file (all are concatenated).
   int num_meshes = 0;
+  // Errors assimp logged without failing (it repairs some input).
+  std::string loader_messages;
 };
 
 // Reads every triangle of every mesh in the file (polygons are

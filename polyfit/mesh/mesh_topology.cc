@@ -34,19 +34,40 @@ AdjacencyList FaceFaceAdjacency(const TriangleMesh& mesh) {
     }
   }
   std::sort(edges.begin(), edges.end());
-  std::vector<std::pair<int, int>> pairs;
-  pairs.reserve(edges.size() * 2);
-  for (size_t i = 0; i < edges.size();) {
-    size_t j = i;
-    while (j < edges.size() && edges[j].first == edges[i].first) ++j;
-    for (size_t p = i; p < j; ++p) {
-      for (size_t q = i; q < j; ++q) {
-        if (p != q && edges[p].second != edges[q].second) pairs.emplace_back(edges[p].second, edges[q].second);
-      }
+  // Two passes over the runs of equal edges: count, then fill.
+  AdjacencyList list;
+  list.offsets.assign(num_faces + 1, 0);
+  for (int pass = 0; pass < 2; ++pass) {
+    std::vector<int> fill;
+    if (pass == 1) {
+      for (int f = 0; f < num_faces; ++f) list.offsets[f + 1] += list.offsets[f];
+      list.indices.resize(list.offsets.back());
+      fill.assign(list.offsets.begin(), list.offsets.end() - 1);
     }
-    i = j;
+    for (size_t i = 0; i < edges.size();) {
+      size_t j = i;
+      while (j < edges.size() && edges[j].first == edges[i].first) ++j;
+      for (size_t p = i; p < j; ++p) {
+        for (size_t q = i; q < j; ++q) {
+          if (p == q || edges[p].second == edges[q].second) continue;
+          if (pass == 0) {
+            ++list.offsets[edges[p].second + 1];
+          } else {
+            list.indices[fill[edges[p].second]++] = edges[q].second;
+          }
+        }
+      }
+      i = j;
+    }
   }
-  return FromPairs(num_faces, pairs);
+  // Sorted lists; two faces sharing two edges (a fold) list each other
+  // twice, which no user of the list minds.
+  for (int f = 0; f < num_faces; ++f) {
+    int* begin = list.indices.data() + list.offsets[f];
+    int* end = list.indices.data() + list.offsets[f + 1];
+    std::sort(begin, end);
+  }
+  return list;
 }
 
 AdjacencyList VertexFaceAdjacency(const TriangleMesh& mesh) {

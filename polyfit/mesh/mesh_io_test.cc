@@ -1,0 +1,151 @@
+#include "polyfit/mesh/mesh_io.h"
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "polyfit/mesh/primitives.h"
+
+namespace polyfit {
+namespace {
+
+namespace fs = std::filesystem;
+
+class MeshIoTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("polyfit_mesh_io_" + std::to_string(::getpid()));
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string Path(const std::string& name) const { return (dir_ / name).string(); }
+  std::string Write(const std::string& name, const std::string& text) const {
+    std::ofstream(Path(name)) << text;
+    return Path(name);
+  }
+  // The message of the MeshIoError that reading `path` throws.
+  static std::string ReadError(const std::string& path) {
+    try {
+      ReadTriangleMesh(path);
+    } catch (const MeshIoError& e) {
+      return e.what();
+    }
+    return "(no error)";
+  }
+  fs::path dir_;
+};
+
+TEST_F(MeshIoTest, PlyRoundTripKeepsGeometryAndTopology) {
+  const TriangleMesh sphere = MakeIcosphere(2);
+  WritePly(Path("s.ply"), sphere);
+  const TriangleMesh back = ReadTriangleMesh(Path("s.ply"));
+  ASSERT_EQ(back.num_vertices(), sphere.num_vertices());
+  ASSERT_EQ(back.num_faces(), sphere.num_faces());
+  // assimp may reorder vertices: compare the faces' corner positions
+  // (floats on disk).
+  double max_error = 0.0;
+  for (int f = 0; f < sphere.num_faces(); ++f) {
+    for (int c = 0; c < 3; ++c) {
+      max_error = std::max(max_error, (back.vertices.col(back.faces(c, f)) -
+                                       sphere.vertices.col(sphere.faces(c, f))).norm());
+    }
+  }
+  EXPECT_LT(max_error, 1e-6);
+}
+
+TEST_F(MeshIoTest, ObjRoundTripKeepsTextureCoordinatesAndWeldsSeams) {
+  const TriangleMesh grid = MakeGrid(4, 3);
+  WriteObj(Path("g.obj"), grid);
+  MeshReadSummary summary;
+  const TriangleMesh back = ReadTriangleMesh(Path("g.obj"), &summary);
+  // assimp splits vertices per texture corner; welding joins them again.
+  EXPECT_EQ(back.num_vertices(), grid.num_vertices());
+  ASSERT_EQ(back.num_faces(), grid.num_faces());
+  ASSERT_TRUE(back.has_texcoords());
+  for (int f = 0; f < back.num_faces(); ++f) {
+    for (int c = 0; c < 3; ++c) {
+      const Eigen::Vector3d p = back.vertices.col(back.faces(c, f));
+      // Texture coordinates follow the position on this grid: u = x + 0.5.
+      EXPECT_NEAR(back.corner_texcoords(0, 3 * f + c), p.x() + 0.5, 1e-6);
+      EXPECT_NEAR(back.corner_texcoords(1, 3 * f + c), p.y() + 0.5, 1e-6);
+    }
+  }
+}
+
+TEST_F(MeshIoTest, ReadsOffAndTriangulatesQuads) {
+  const std::string path = Write("quad.off", "OFF\n4 1 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n");
+  const TriangleMesh mesh = ReadTriangleMesh(path);
+  EXPECT_EQ(mesh.num_vertices(), 4);
+  EXPECT_EQ(mesh.num_faces(), 2);
+  EXPECT_NEAR(SurfaceArea(mesh), 1.0, 1e-12);
+}
+
+TEST_F(MeshIoTest, MissingFileIsNamed) {
+  const std::string error = ReadError(Path("nothing.obj"));
+  EXPECT_NE(error.find("nothing.obj"), std::string::npos) << error;
+  EXPECT_NE(error.find("no such file"), std::string::npos) << error;
+}
+
+TEST_F(MeshIoTest, EmptyFileIsNamed) {
+  const std::string error = ReadError(Write("empty.obj", ""));
+  EXPECT_NE(error.find("empty.obj: is empty"), std::string::npos) << error;
+}
+
+TEST_F(MeshIoTest, DirectoryIsNamed) {
+  fs::create_directories(dir_ / "sub.obj");
+  EXPECT_NE(ReadError(Path("sub.obj")).find("is a directory"), std::string::npos);
+}
+
+TEST_F(MeshIoTest, GarbageIsUnreadable) {
+  const std::string error = ReadError(Write("garbage.ply", "this is not a mesh at all\n"));
+  EXPECT_NE(error.find("garbage.ply"), std::string::npos) << error;
+}
+
+TEST_F(MeshIoTest, PointCloudHasNoTriangles) {
+  const std::string path = Write("cloud.ply",
+                                 "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                 "property float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n");
+  const std::string error = ReadError(path);
+  EXPECT_NE(error.find("cloud.ply"), std::string::npos) << error;
+  EXPECT_NE(error.find("no triangles"), std::string::npos) << error;
+}
+
+TEST_F(MeshIoTest, NonFiniteCoordinateIsNamed) {
+  const std::string path = Write("nan.off", "OFF\n3 1 0\n0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n");
+  const std::string error = ReadError(path);
+  EXPECT_NE(error.find("nan.off"), std::string::npos) << error;
+  EXPECT_TRUE(error.find("non-finite") != std::string::npos || error.find("unreadable") != std::string::npos)
+      << error;
+}
+
+TEST_F(MeshIoTest, IndexOutOfRangeIsNamed) {
+  const std::string path = Write("range.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n");
+  const std::string error = ReadError(path);
+  EXPECT_NE(error.find("range.off: malformed"), std::string::npos) << error;
+  EXPECT_NE(error.find("out of range"), std::string::npos) << error;
+}
+
+TEST_F(MeshIoTest, DegenerateFacesAfterWeldingAreDropped) {
+  // Two copies of vertex 0 make the second face a line once welded.
+  const std::string path = Write("weld.off", "OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n0 0 0\n3 0 1 2\n3 0 3 1\n");
+  MeshReadSummary summary;
+  const TriangleMesh mesh = ReadTriangleMesh(path, &summary);
+  EXPECT_EQ(mesh.num_faces(), 1);
+  EXPECT_EQ(mesh.num_vertices(), 3);
+  EXPECT_EQ(summary.num_dropped_degenerate_faces, 1);
+}
+
+TEST_F(MeshIoTest, FailedWriteLeavesNoFile) {
+  const TriangleMesh sphere = MakeIcosphere(1);
+  EXPECT_THROW(WritePly((dir_ / "missing_dir" / "s.ply").string(), sphere), MeshIoError);
+  Eigen::Matrix<std::uint8_t, 3, Eigen::Dynamic> wrong(3, 2);
+  EXPECT_THROW(WritePly(Path("colours.ply"), sphere, &wrong), MeshIoError);
+  EXPECT_FALSE(fs::exists(Path("colours.ply")));
+}
+
+}  // namespace
+}  // namespace polyfit
