@@ -51,25 +51,28 @@ double TotalEnergy(const std::vector<Cell>& cells) {
   return e;
 }
 
-// Splits `total` into parts proportional to `weights`, each at least 1
-// (largest remainders).
+// Splits `total` into parts proportional to `weights` (largest
+// remainders), then raises empty parts to 1 at the expense of the largest.
 std::vector<int> Apportion(int total, const std::vector<double>& weights) {
   const int n = static_cast<int>(weights.size());
-  std::vector<int> parts(n, 1);
-  int remaining = total - n;
-  if (remaining <= 0) return parts;
+  std::vector<int> parts(n, 0);
   const double sum = std::accumulate(weights.begin(), weights.end(), 0.0);
   std::vector<std::pair<double, int>> remainders;
   int assigned = 0;
   for (int i = 0; i < n; ++i) {
-    const double share = remaining * weights[i] / sum;
-    const int whole = static_cast<int>(std::floor(share));
-    parts[i] += whole;
-    assigned += whole;
-    remainders.emplace_back(share - whole, i);
+    const double share = total * weights[i] / sum;
+    parts[i] = static_cast<int>(std::floor(share));
+    assigned += parts[i];
+    remainders.emplace_back(share - parts[i], i);
   }
   std::sort(remainders.rbegin(), remainders.rend());
-  for (int k = 0; k < remaining - assigned; ++k) ++parts[remainders[k].second];
+  for (int k = 0; k < total - assigned && k < n; ++k) ++parts[remainders[k].second];
+  for (int i = 0; i < n; ++i) {
+    if (parts[i] > 0) continue;
+    parts[i] = 1;
+    const int largest = static_cast<int>(std::max_element(parts.begin(), parts.end()) - parts.begin());
+    if (parts[largest] > 1) --parts[largest];
+  }
   return parts;
 }
 
