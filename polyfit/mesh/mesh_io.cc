@@ -5,6 +5,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <stdexcept>
 #include <mutex>
 #include <unordered_map>
 #include <vector>
@@ -16,6 +17,17 @@
 #include <assimp/scene.h>
 
 #include "polyfit/util/atomic_file.h"
+
+// Debian's assimp is built with its internal assertions on, and on some
+// malformed files (a truncated OFF) an assertion fails and aborts the
+// process. This definition takes the place of assimp's own (the dynamic
+// linker binds the library's calls to the executable's symbol) and turns the
+// failure into an exception that ReadTriangleMesh reports for the file.
+namespace Assimp {
+void aiAssertViolation(const char* expression, const char* file, int line) {
+  throw std::runtime_error(std::string("assimp internal check failed (") + expression + ")");
+}
+}  // namespace Assimp
 
 namespace polyfit {
 namespace {
@@ -106,9 +118,13 @@ TriangleMesh ReadTriangleMesh(const std::string& path, MeshReadSummary* summary)
   assimp_errors.clear();
   Assimp::Importer importer;
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
-  const aiScene* scene = importer.ReadFile(
-      path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_SortByPType |
-                aiProcess_PreTransformVertices);
+  const aiScene* scene = nullptr;
+  try {
+    scene = importer.ReadFile(path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_SortByPType |
+                                        aiProcess_PreTransformVertices);
+  } catch (const std::exception& e) {
+    Fail(path, std::string("malformed: ") + e.what());
+  }
   if (scene == nullptr) {
     std::string reason = importer.GetErrorString();
     if (reason.empty()) reason = "assimp could not read it";
