@@ -26,6 +26,7 @@ std::string ClusteringOptions::Validate() const {
   }
   if (max_iterations < 0) return "max_iterations must be >= 0";
   if (!(debris_fraction >= 0.0)) return "debris_fraction must be >= 0";
+  if (!(normal_weight >= 0.0)) return "normal_weight must be >= 0";
   return {};
 }
 
@@ -37,10 +38,15 @@ int ClusteringOptions::ResolveNumPatches(double surface_area) const {
 
 namespace {
 
+// A face's point in the clustering space: its centroid, then its unoriented
+// normal as the 6 independent entries of n n^T (scaled so that the squared
+// distance between two of them is 2 (1 - (n . m)^2)), times a weight.
+using Feature = Eigen::Matrix<double, 9, 1>;
+
 // Cell sums: mass m = sum rho, first moment s = sum rho gamma.
 struct Cell {
   double mass = 0.0;
-  Eigen::Vector3d moment = Eigen::Vector3d::Zero();
+  Feature moment = Feature::Zero();
   int count = 0;
   double Energy() const { return mass > 0.0 ? -moment.squaredNorm() / mass : 0.0; }
 };
@@ -271,13 +277,27 @@ std::vector<int> ClusterMeshFaces(const ClusteringOptions& options, const Triang
       }
     }
 
-    // Greedy boundary moves.
+    // Greedy boundary moves, in the space of positions and (weighted)
+    // normals: the weight is relative to the mean patch's size, so that the
+    // normal term means the same at every scale.
+    const double normal_scale = options.normal_weight * std::sqrt(total_area / requested);
+    Eigen::Matrix<double, 9, Eigen::Dynamic> features(9, num_faces);
+    for (int f = 0; f < num_faces; ++f) {
+      const Eigen::Vector3d a = mesh.vertices.col(mesh.faces(0, f));
+      Eigen::Vector3d n = (mesh.vertices.col(mesh.faces(1, f)) - a).cross(mesh.vertices.col(mesh.faces(2, f)) - a);
+      const double norm = n.norm();
+      n = norm > 0.0 ? Eigen::Vector3d(n / norm) : Eigen::Vector3d::Zero();
+      const double r2 = std::sqrt(2.0);
+      features.col(f) << centroids.col(f), normal_scale * n.x() * n.x(), normal_scale * n.y() * n.y(),
+          normal_scale * n.z() * n.z(), normal_scale * r2 * n.x() * n.y(), normal_scale * r2 * n.x() * n.z(),
+          normal_scale * r2 * n.y() * n.z();
+    }
     std::vector<Cell> cells(num_cells);
     for (int f = 0; f < num_faces; ++f) {
       if (labels[f] < 0) continue;
       Cell& c = cells[labels[f]];
       c.mass += areas[f];
-      c.moment += areas[f] * centroids.col(f);
+      c.moment += areas[f] * features.col(f);
       ++c.count;
     }
     local.initial_energy = TotalEnergy(cells);
@@ -304,7 +324,7 @@ std::vector<int> ClusterMeshFaces(const ClusteringOptions& options, const Triang
         const int a = labels[f];
         if (a < 0 || cells[a].count <= 1) continue;
         const double rho = areas[f];
-        const Eigen::Vector3d s = rho * centroids.col(f);
+        const Feature s = rho * features.col(f);
         const double leave_a = -(cells[a].moment - s).squaredNorm() / (cells[a].mass - rho) - cells[a].Energy();
         double best = -tolerance;
         int best_cell = -1;

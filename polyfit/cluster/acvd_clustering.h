@@ -5,7 +5,9 @@
 // Each face i has mass rho_i (its area) and centroid gamma_i. A clustering
 // into C_1..C_K minimises
 //   E = sum_k ( sum_{i in C_k} rho_i |gamma_i|^2 - |sum_{i in C_k} rho_i gamma_i|^2 / sum_{i in C_k} rho_i ),
-// whose minimisers are compact cells of near-equal area. Seeds come from
+// whose minimisers are compact cells of near-equal area. With a normal
+// weight, gamma_i is extended by the face's unoriented normal (n n^T), which
+// keeps sharp creases between patches. Seeds come from
 // farthest-point sampling, cells from region growing on the face graph, and
 // the energy is then lowered by greedy moves of boundary faces to a
 // neighbouring cell until no move lowers it. A move that would cut its cell
@@ -28,6 +30,11 @@ struct ClusteringOptions {
   double auto_area_per_patch = 0.008;
   int auto_min_patches = 100;
   int auto_max_patches = 400;
+  // Weight of the faces' normals beside their positions in the energy
+  // (0: plain ACVD). Cells then also have coherent normals, so that patches
+  // stop at sharp creases rather than fold over them; the weight is in units
+  // of the mean patch's size sqrt(A / K).
+  double normal_weight = 1.0;
   // Passes of greedy boundary moves.
   int max_iterations = 100;
   // Connected pieces of the mesh smaller than this fraction of the mean patch

@@ -72,6 +72,9 @@ int main(int argc, char** argv) {
   fit->add_option("--area-per-patch", batch.fit.clustering.auto_area_per_patch,
                   "With --patches auto: surface area per patch, in the mesh's units squared")
       ->capture_default_str();
+  fit->add_option("--normal-weight", batch.fit.clustering.normal_weight,
+                  "Weight of face normals in the clustering (keeps sharp creases between patches)")
+      ->capture_default_str();
   fit->add_option("--order", batch.fit.jet_fit.order, "Jet order n (1 to 8)")->capture_default_str();
   fit->add_flag("--refine", batch.fit.jet_fit.refine_orientation, "Refine each patch's orientation");
   fit->add_option("--min-vertices-per-patch", batch.fit.min_vertices_per_patch,
