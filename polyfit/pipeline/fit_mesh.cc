@@ -168,19 +168,24 @@ MeshFitSummary FitMesh(const MeshFitOptions& options, const TriangleMesh& input,
     const Normalization normalization = UnitSphereNormalization(input.vertices);
     summary.height_rmse = normalization.scale *
                           std::sqrt((reconstruction.vertices - mesh.vertices).colwise().squaredNorm().mean());
-    const Eigen::Matrix3Xd normals = VertexNormals(mesh);
-    double sum_angle = 0.0;
-    int count = 0;
-    for (int v = 0; v < mesh.num_vertices(); ++v) {
-      if (normals.col(v).squaredNorm() == 0.0) continue;
-      const int m = model.membership_offsets[v];
-      const Eigen::Vector2d uv = model.membership_uv.col(m);
-      const Eigen::Vector3d jet_normal = model.patches[model.membership_patch[m]].NormalInWorld(uv.x(), uv.y());
-      const double c = std::min(1.0, std::abs(jet_normal.dot(normals.col(v))));
-      sum_angle += std::acos(c) * 180.0 / M_PI;
-      ++count;
+    // Normals compared where both are defined: at each face's centroid, the
+    // face's normal against its patch's jet normal there, area-weighted
+    // (vertex normals would blur sharp creases into false errors).
+    const Eigen::VectorXd face_areas = FaceAreas(mesh);
+    double sum_angle = 0.0, sum_area = 0.0;
+    for (int f = 0; f < mesh.num_faces(); ++f) {
+      const Eigen::Vector3d a = mesh.vertices.col(mesh.faces(0, f));
+      const Eigen::Vector3d b = mesh.vertices.col(mesh.faces(1, f));
+      const Eigen::Vector3d c = mesh.vertices.col(mesh.faces(2, f));
+      const Eigen::Vector3d n = (b - a).cross(c - a);
+      if (n.squaredNorm() == 0.0) continue;
+      const JetPatch& patch = model.patches[model.face_patch[f]];
+      const Eigen::Vector3d uv = patch.frame.PointToPatch((a + b + c) / 3.0);
+      const double cosine = std::min(1.0, std::abs(patch.NormalInWorld(uv.x(), uv.y()).dot(n.normalized())));
+      sum_angle += face_areas[f] * std::acos(cosine) * 180.0 / M_PI;
+      sum_area += face_areas[f];
     }
-    summary.normal_error_deg = count > 0 ? sum_angle / count : 0.0;
+    summary.normal_error_deg = sum_area > 0.0 ? sum_angle / sum_area : 0.0;
     summary.evaluate_time_s = SecondsSince(evaluate_start);
   }
   if (model_out != nullptr) *model_out = std::move(model);

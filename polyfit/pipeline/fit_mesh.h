@@ -58,9 +58,9 @@ struct MeshFitSummary {
   // (UnitSphereNormalization): Chamfer (the paper's protocol) between
   // evaluation_samples uniform samples on the input and on the
   // reconstruction; the RMS distance from
-  // each fitted vertex to its reconstruction; the mean unoriented angle
-  // between the mesh's vertex normals and the jets' normals there. NaN
-  // without evaluate.
+  // each fitted vertex to its reconstruction; the area-weighted mean
+  // unoriented angle between each face's normal and its patch's jet normal
+  // at the face's centroid. NaN without evaluate.
   double chamfer = std::numeric_limits<double>::quiet_NaN();
   // The same protocol between two independent samplings of the input: what
   // a perfect reconstruction scores.

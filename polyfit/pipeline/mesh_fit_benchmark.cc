@@ -2,6 +2,7 @@
 // 10k to 1M triangles (or the meshes given) into K patches.
 //
 //   mesh_fit_benchmark [--patches K] [--threads N] [--csv FILE] [MESH...]
+//   mesh_fit_benchmark --seams [--patches K] MESH...   error of each seam mode
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -15,6 +16,7 @@
 
 int main(int argc, char** argv) {
   int patches = 400, threads = 0;
+  bool seams = false;
   std::string csv_path;
   std::vector<std::string> files;
   for (int i = 1; i < argc; ++i) {
@@ -22,6 +24,8 @@ int main(int argc, char** argv) {
       patches = std::atoi(argv[++i]);
     } else if (!std::strcmp(argv[i], "--threads") && i + 1 < argc) {
       threads = std::atoi(argv[++i]);
+    } else if (!std::strcmp(argv[i], "--seams")) {
+      seams = true;
     } else if (!std::strcmp(argv[i], "--csv") && i + 1 < argc) {
       csv_path = argv[++i];
     } else {
@@ -36,7 +40,28 @@ int main(int argc, char** argv) {
       meshes.emplace_back("torus_" + std::to_string(2 * nu * nv), polyfit::MakeBumpyTorus(nu, nv));
     }
   } else {
-    for (const std::string& f : files) meshes.emplace_back(f, polyfit::ReadTriangleMesh(f));
+    for (const std::string& f : files) {
+      meshes.emplace_back(f.substr(f.find_last_of('/') + 1), polyfit::ReadTriangleMesh(f));
+    }
+  }
+
+  if (seams) {
+    // Error of the reconstruction for each way of reconciling seams.
+    std::printf("%-28s %-16s %14s %14s %12s %12s\n", "mesh", "seams", "surf Ch x1e3", "height RMSE", "normal deg",
+                "seam gap (mesh units)");
+    for (const auto& [name, mesh] : meshes) {
+      for (int mode = 0; mode < 4; ++mode) {
+        polyfit::MeshFitOptions options;
+        options.clustering.num_patches = patches;
+        options.reconstruction.seam_mode = mode == 0 ? polyfit::SeamMode::kOwner : polyfit::SeamMode::kAverage;
+        options.reconstruction.boundary_smoothing_iterations = mode == 2 ? 1 : mode == 3 ? 3 : 0;
+        const char* label = mode == 0 ? "owner" : mode == 1 ? "average" : mode == 2 ? "average+smooth1" : "average+smooth3";
+        const polyfit::MeshFitSummary s = polyfit::FitMesh(options, mesh, nullptr, nullptr);
+        std::printf("%-28s %-16s %14.5f %14.3e %12.2f %12.3e\n", name.c_str(), label, 1e3 * s.surface_chamfer,
+                    s.height_rmse, s.normal_error_deg, s.reconstruction.mean_seam_gap);
+      }
+    }
+    return 0;
   }
 
   polyfit::MeshFitOptions options;
