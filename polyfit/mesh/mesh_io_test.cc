@@ -84,6 +84,43 @@ TEST_F(MeshIoTest, ReadsOffAndTriangulatesQuads) {
   EXPECT_NEAR(SurfaceArea(mesh), 1.0, 1e-12);
 }
 
+TEST_F(MeshIoTest, ReadsStl) {
+  const std::string path = Write("t.stl",
+                                 "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 2 0 0\nvertex 0 1 0\n"
+                                 "endloop\nendfacet\nfacet normal 0 0 1\nouter loop\nvertex 2 0 0\nvertex 2 1 0\n"
+                                 "vertex 0 1 0\nendloop\nendfacet\nendsolid t\n");
+  const TriangleMesh mesh = ReadTriangleMesh(path);
+  EXPECT_EQ(mesh.num_faces(), 2);
+  EXPECT_EQ(mesh.num_vertices(), 4);  // STL repeats corners; welded
+  EXPECT_NEAR(SurfaceArea(mesh), 2.0, 1e-12);
+}
+
+TEST_F(MeshIoTest, ReadsGltfWithNodeTransform) {
+  // One triangle: indices (uint16, 6 bytes + 2 padding) then positions.
+  std::ofstream bin(Path("tri.bin"), std::ios::binary);
+  const std::uint16_t indices[4] = {0, 1, 2, 0};
+  const float positions[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  bin.write(reinterpret_cast<const char*>(indices), 8);
+  bin.write(reinterpret_cast<const char*>(positions), 36);
+  bin.close();
+  const std::string path = Write("tri.gltf", R"({
+    "asset": {"version": "2.0"},
+    "scene": 0, "scenes": [{"nodes": [0]}],
+    "nodes": [{"mesh": 0, "translation": [0, 0, 5]}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 1}, "indices": 0}]}],
+    "buffers": [{"uri": "tri.bin", "byteLength": 44}],
+    "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 6},
+                    {"buffer": 0, "byteOffset": 8, "byteLength": 36}],
+    "accessors": [{"bufferView": 0, "componentType": 5123, "count": 3, "type": "SCALAR"},
+                  {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC3",
+                   "min": [0, 0, 0], "max": [1, 1, 0]}]})");
+  const TriangleMesh mesh = ReadTriangleMesh(path);
+  ASSERT_EQ(mesh.num_faces(), 1);
+  EXPECT_NEAR(SurfaceArea(mesh), 0.5, 1e-12);
+  // The node's translation is applied.
+  EXPECT_NEAR(mesh.vertices.row(2).mean(), 5.0, 1e-12);
+}
+
 TEST_F(MeshIoTest, MissingFileIsNamed) {
   const std::string error = ReadError(Path("nothing.obj"));
   EXPECT_NE(error.find("nothing.obj"), std::string::npos) << error;

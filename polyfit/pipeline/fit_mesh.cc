@@ -80,6 +80,7 @@ MeshFitSummary FitMesh(const MeshFitOptions& options, const TriangleMesh& input,
   if (const std::string problem = input.Validate(); !problem.empty()) {
     throw std::invalid_argument("FitMesh: " + problem);
   }
+  if (!(SurfaceArea(input) > 0.0)) throw std::invalid_argument("FitMesh: the mesh has zero area");
   const auto start = std::chrono::steady_clock::now();
   MeshFitSummary summary;
   summary.input_vertices = input.num_vertices();

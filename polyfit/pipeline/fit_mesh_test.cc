@@ -150,6 +150,10 @@ TEST(FitMeshTest, InvalidInputThrows) {
   TriangleMesh bad = MakeIcosphere(1);
   bad.vertices(0, 3) = std::nan("");
   EXPECT_THROW(FitMesh(options, bad, nullptr, nullptr), std::invalid_argument);
+  TriangleMesh flat_line = MakeIcosphere(1);
+  flat_line.vertices.row(1).setZero();
+  flat_line.vertices.row(2).setZero();  // every face collapses onto the x axis
+  EXPECT_THROW(FitMesh(options, flat_line, nullptr, nullptr), std::invalid_argument);
   options.jet_fit.order = 12;
   EXPECT_THROW(FitMesh(options, MakeIcosphere(1), nullptr, nullptr), std::invalid_argument);
 }
