@@ -1,7 +1,5 @@
 #include "polyfit/mesh/mesh_io.h"
 
-#include <unistd.h>
-
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -9,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "polyfit/mesh/primitives.h"
+#include "polyfit/util/scoped_temp_dir.h"
 
 namespace polyfit {
 namespace {
@@ -17,11 +16,6 @@ namespace fs = std::filesystem;
 
 class MeshIoTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("polyfit_mesh_io_" + std::to_string(::getpid()));
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
   std::string Path(const std::string& name) const { return (dir_ / name).string(); }
   std::string Write(const std::string& name, const std::string& text) const {
     std::ofstream(Path(name)) << text;
@@ -36,7 +30,8 @@ class MeshIoTest : public ::testing::Test {
     }
     return "(no error)";
   }
-  fs::path dir_;
+  ScopedTempDir temp_{"polyfit_mesh_io"};
+  const fs::path& dir_ = temp_.path();
 };
 
 TEST_F(MeshIoTest, PlyRoundTripKeepsGeometryAndTopology) {

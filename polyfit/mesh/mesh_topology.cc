@@ -21,19 +21,24 @@ AdjacencyList FromPairs(int num_elements, std::vector<std::pair<int, int>>& pair
 
 }  // namespace
 
-AdjacencyList FaceFaceAdjacency(const TriangleMesh& mesh) {
-  const int num_faces = mesh.num_faces();
-  // (edge key, face), sorted so that faces on one edge are consecutive.
+std::vector<std::pair<std::uint64_t, int>> SortedEdgeCorners(const TriangleMesh& mesh) {
   std::vector<std::pair<std::uint64_t, int>> edges;
-  edges.reserve(3 * static_cast<size_t>(num_faces));
-  for (int f = 0; f < num_faces; ++f) {
+  edges.reserve(3 * static_cast<size_t>(mesh.num_faces()));
+  for (int f = 0; f < mesh.num_faces(); ++f) {
     for (int c = 0; c < 3; ++c) {
       std::uint32_t a = mesh.faces(c, f), b = mesh.faces((c + 1) % 3, f);
       if (a > b) std::swap(a, b);
-      edges.emplace_back((std::uint64_t{a} << 32) | b, f);
+      edges.emplace_back((std::uint64_t{a} << 32) | b, 3 * f + c);
     }
   }
   std::sort(edges.begin(), edges.end());
+  return edges;
+}
+
+AdjacencyList FaceFaceAdjacency(const TriangleMesh& mesh) {
+  const int num_faces = mesh.num_faces();
+  std::vector<std::pair<std::uint64_t, int>> edges = SortedEdgeCorners(mesh);
+  for (auto& edge : edges) edge.second /= 3;  // corner -> face
   // Two passes over the runs of equal edges: count, then fill.
   AdjacencyList list;
   list.offsets.assign(num_faces + 1, 0);

@@ -2,6 +2,8 @@
 #ifndef POLYFIT_MESH_MESH_TOPOLOGY_H_
 #define POLYFIT_MESH_MESH_TOPOLOGY_H_
 
+#include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "polyfit/mesh/triangle_mesh.h"
@@ -18,6 +20,11 @@ struct AdjacencyList {
   const int* begin(int i) const { return indices.data() + offsets[i]; }
   const int* end(int i) const { return indices.data() + offsets[i + 1]; }
 };
+
+// Every face's edges as (key, corner) pairs, sorted by key: the key is
+// (min vertex << 32) | max vertex, the corner 3 f + c for the edge from
+// corner c to corner c + 1 of face f. Equal edges are consecutive.
+std::vector<std::pair<std::uint64_t, int>> SortedEdgeCorners(const TriangleMesh& mesh);
 
 // Faces sharing an edge with each face (all of them at non-manifold edges).
 AdjacencyList FaceFaceAdjacency(const TriangleMesh& mesh);

@@ -12,6 +12,8 @@
 #include <CGAL/Subdivision_method_3/subdivision_methods_3.h>
 #include <CGAL/Surface_mesh.h>
 
+#include "polyfit/mesh/mesh_topology.h"
+
 namespace polyfit {
 namespace {
 
@@ -66,17 +68,8 @@ bool SubdivideLoop(const TriangleMesh& mesh, int levels, TriangleMesh* out, std:
 TriangleMesh SubdivideMidpoint(const TriangleMesh& mesh) {
   const int num_vertices = mesh.num_vertices();
   const int num_faces = mesh.num_faces();
-  // Edge (a < b) -> new vertex, via a sorted key list.
-  std::vector<std::pair<std::uint64_t, int>> edges;
-  edges.reserve(3 * static_cast<size_t>(num_faces));
-  for (int f = 0; f < num_faces; ++f) {
-    for (int c = 0; c < 3; ++c) {
-      std::uint32_t a = mesh.faces(c, f), b = mesh.faces((c + 1) % 3, f);
-      if (a > b) std::swap(a, b);
-      edges.emplace_back((std::uint64_t{a} << 32) | b, 3 * f + c);
-    }
-  }
-  std::sort(edges.begin(), edges.end());
+  // Edge (a < b) -> new vertex, via the sorted edge list.
+  const std::vector<std::pair<std::uint64_t, int>> edges = SortedEdgeCorners(mesh);
   std::vector<int> edge_vertex(3 * static_cast<size_t>(num_faces));
   std::vector<std::uint64_t> unique_edges;
   for (size_t i = 0; i < edges.size(); ++i) {

@@ -1,7 +1,5 @@
 #include "polyfit/model/polyfit_model.h"
 
-#include <unistd.h>
-
 #include <filesystem>
 #include <fstream>
 
@@ -10,6 +8,7 @@
 #include "polyfit/mesh/primitives.h"
 #include "polyfit/model/reconstruction.h"
 #include "polyfit/pipeline/fit_mesh.h"
+#include "polyfit/util/scoped_temp_dir.h"
 
 namespace polyfit {
 namespace {
@@ -19,15 +18,12 @@ namespace fs = std::filesystem;
 class PolyFitModelTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("polyfit_model_" + std::to_string(::getpid()));
-    fs::create_directories(dir_);
     MeshFitOptions options;
     options.clustering.num_patches = 100;
     options.jet_fit.refine_orientation = true;  // non-trivial iterations and flags
     options.evaluate = false;
     FitMesh(options, MakeBumpyTorus(60, 24), &model_, nullptr);
   }
-  void TearDown() override { fs::remove_all(dir_); }
   std::string Path(const std::string& name) const { return (dir_ / name).string(); }
   std::string LoadError(const std::string& path) const {
     try {
@@ -37,7 +33,8 @@ class PolyFitModelTest : public ::testing::Test {
     }
     return "(no error)";
   }
-  fs::path dir_;
+  ScopedTempDir temp_{"polyfit_model"};
+  const fs::path& dir_ = temp_.path();
   PolyFitModel model_;
 };
 

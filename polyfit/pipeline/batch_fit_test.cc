@@ -1,7 +1,5 @@
 #include "polyfit/pipeline/batch_fit.h"
 
-#include <unistd.h>
-
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -11,6 +9,7 @@
 #include "polyfit/mesh/mesh_io.h"
 #include "polyfit/mesh/primitives.h"
 #include "polyfit/model/polyfit_model.h"
+#include "polyfit/util/scoped_temp_dir.h"
 
 namespace polyfit {
 namespace {
@@ -20,7 +19,6 @@ namespace fs = std::filesystem;
 class BatchFitTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("polyfit_batch_" + std::to_string(::getpid()));
     fs::create_directories(dir_ / "in");
     WriteObj((dir_ / "in" / "sphere.obj").string(), MakeIcosphere(4));
     WritePly((dir_ / "in" / "torus.ply").string(), MakeBumpyTorus(80, 30));
@@ -29,7 +27,6 @@ class BatchFitTest : public ::testing::Test {
     options_.fit.clustering.num_patches = 40;
     options_.fit.evaluation_samples = 2000;
   }
-  void TearDown() override { fs::remove_all(dir_); }
   std::string Out(const std::string& name) const { return (dir_ / "out" / name).string(); }
   std::vector<std::string> ReportLines() const {
     std::ifstream in(Out("report.csv"));
@@ -37,7 +34,8 @@ class BatchFitTest : public ::testing::Test {
     for (std::string line; std::getline(in, line);) lines.push_back(line);
     return lines;
   }
-  fs::path dir_;
+  ScopedTempDir temp_{"polyfit_batch"};
+  const fs::path& dir_ = temp_.path();
   BatchFitOptions options_;
 };
 
