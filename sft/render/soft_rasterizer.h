@@ -1,0 +1,111 @@
+// A soft rasterizer (SoftRas: Liu et al., ICCV 2019) on OpenCV images, with
+// exact derivatives of every pixel with respect to the projected vertices.
+//
+// For pixel p and triangle j (projected to pixels), with d_j the distance
+// from p to the triangle's boundary and delta_j = +1 inside, -1 outside
+// (edges shared with another triangle count as hard; see boundary_edges):
+//   D_j = sigmoid(delta_j d_j^2 / sigma)                 coverage
+//   S   = 1 - prod_j (1 - D_j)                            silhouette
+//   w_j = D_j exp(z_j / gamma) / (sum_k D_k exp(z_k / gamma) + exp(eps / gamma))
+//   I   = sum_j w_j C_j + w_b C_b                          colour
+// z_j is the normalised inverse depth of triangle j at p (1 nearest, 0
+// farthest; perspective-correct), C_j the texture's bilinear colour at the
+// triangle's interpolated texture coordinates (at the closest point of the
+// triangle for pixels outside it), C_b the background (a colour, or an
+// image: the observed frame, so that pixels the object does not cover match
+// exactly and only the object's own pixels carry residuals).
+//
+// Each triangle touches only pixels within sqrt(cutoff * sigma) of it
+// (beyond, D_j < 1e-4): triangles are binned into 8 x 8 tiles, and pixels
+// are rendered in parallel.
+#ifndef POLYFIT_SFT_RENDER_SOFT_RASTERIZER_H_
+#define POLYFIT_SFT_RENDER_SOFT_RASTERIZER_H_
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+namespace polyfit {
+
+struct SoftRasterizerOptions {
+  // sigma, in pixels squared: the width of the coverage sigmoid.
+  double sigma = 0.5;
+  // gamma: the depth blending temperature (smaller: harder z-buffer).
+  double gamma = 1e-2;
+  // eps: the background's normalised depth.
+  double background_depth = 1e-3;
+  // Coverage below sigmoid(-cutoff) is ignored.
+  double cutoff = 9.2;
+  // Background colour when no background image is given (RGB in [0, 1]).
+  Eigen::Vector3d background_color = Eigen::Vector3d::Zero();
+  int num_threads = 0;
+
+  std::string Validate() const;
+};
+
+// The mesh as the camera sees it.
+struct ScreenMesh {
+  // 2 by #V pixel coordinates and #V depths (> 0).
+  Eigen::Matrix2Xd pixels;
+  Eigen::VectorXd depths;
+  // 3 by #F vertex indices.
+  Eigen::Matrix3Xi faces;
+  // 2 by 3#F texture coordinates per corner (OBJ convention: v up).
+  Eigen::Matrix2Xd corner_texcoords;
+  // Depth range for the normalised inverse depth z_j (fixed by the caller,
+  // e.g. from the template, so that it is not a function of the vertices).
+  double depth_near = 0.1;
+  double depth_far = 10.0;
+  // Per face, bit e set when edge e (corner e to e + 1) is on the mesh's
+  // boundary (MeshBoundaryEdgeFlags). Interior edges are then hard: plain
+  // SoftRas softens every edge, so two triangles sharing one each cover it
+  // by 1/2 and the silhouette dips to 3/4 along every interior edge. Empty:
+  // every edge is soft (plain SoftRas).
+  std::vector<std::uint8_t> boundary_edges;
+};
+
+// The boundary_edges flags of a mesh's faces (an edge used by one face only).
+std::vector<std::uint8_t> MeshBoundaryEdgeFlags(const Eigen::Matrix3Xi& faces);
+
+// One pixel's derivatives with respect to one vertex: d(R, G, B, S) /
+// d(x, y, depth), row-major 4 by 3.
+struct VertexGradient {
+  int vertex = 0;
+  float d[4][3] = {};
+};
+
+struct SoftRenderOutput {
+  // CV_32FC3 RGB and CV_32F silhouette, width by height.
+  cv::Mat color;
+  cv::Mat silhouette;
+  // With gradients: for pixel i = y * width + x, the vertices it depends on
+  // are gradients[begin[i] .. end[i]).
+  std::vector<int> begin, end;
+  std::vector<VertexGradient> gradients;
+  int num_covered_pixels = 0;
+};
+
+class SoftRasterizer {
+ public:
+  // texture: CV_32FC3 RGB in [0, 1]; kept by reference (cv::Mat header).
+  SoftRasterizer(const SoftRasterizerOptions& options, const cv::Mat& texture);
+
+  // Renders width by height pixels. background: CV_32FC3 of that size, or
+  // empty for options.background_color. Only pixels inside `roi` (if not
+  // empty) are rendered; the others are background with no gradient.
+  void Render(const ScreenMesh& mesh, int width, int height, const cv::Mat& background, bool with_gradients,
+              SoftRenderOutput* output, const cv::Rect& roi = cv::Rect()) const;
+
+  const SoftRasterizerOptions& options() const { return options_; }
+
+ private:
+  SoftRasterizerOptions options_;
+  cv::Mat texture_;
+};
+
+}  // namespace polyfit
+
+#endif  // POLYFIT_SFT_RENDER_SOFT_RASTERIZER_H_

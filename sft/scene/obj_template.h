@@ -1,0 +1,29 @@
+// Reading a shape-from-template template OBJ with its vertices in file
+// order (ground truth refers to them by that order, so no welding or
+// reordering as in ReadTriangleMesh), polygons fan-triangulated.
+#ifndef POLYFIT_SFT_SCENE_OBJ_TEMPLATE_H_
+#define POLYFIT_SFT_SCENE_OBJ_TEMPLATE_H_
+
+#include <string>
+
+#include <Eigen/Core>
+
+#include "polyfit/mesh/triangle_mesh.h"
+
+namespace polyfit {
+
+// v, vt and f lines (f a, a/b, a/b/c, a//c; negative indices count from the
+// end); other lines are ignored. Throws std::runtime_error naming the file
+// and line on anything malformed: a bad number, an index out of range, a
+// face with fewer than three corners, no faces.
+TriangleMesh ReadObjTemplate(const std::string& path);
+
+// Per-vertex ground truth or point clouds: the x, y, z of a PLY's vertex
+// element (ASCII or binary little/big endian; float or double; other
+// properties skipped), in file order. 3 by N. Throws std::runtime_error
+// naming the file.
+Eigen::Matrix3Xd ReadPlyVertices(const std::string& path);
+
+}  // namespace polyfit
+
+#endif  // POLYFIT_SFT_SCENE_OBJ_TEMPLATE_H_

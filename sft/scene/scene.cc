@@ -1,0 +1,220 @@
+#include "sft/scene/scene.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "sft/scene/obj_template.h"
+
+namespace polyfit {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+[[noreturn]] void Fail(const std::string& message) { throw SceneError(message); }
+
+std::string FormatPattern(const std::string& pattern, int index) {
+  char buffer[1024];
+  std::snprintf(buffer, sizeof(buffer), pattern.c_str(), index);
+  return buffer;
+}
+
+template <typename T>
+T Required(const json& object, const char* key, const std::string& where) {
+  if (!object.contains(key)) Fail(where + ": missing required key '" + key + "'");
+  try {
+    return object.at(key).get<T>();
+  } catch (const json::exception&) {
+    Fail(where + ": key '" + key + "' has the wrong type");
+  }
+}
+
+cv::Mat ReadMask(const std::string& path) {
+  cv::Mat raw = cv::imread(path, cv::IMREAD_GRAYSCALE);
+  if (raw.empty()) Fail(path + ": cannot be read as an image");
+  cv::Mat mask;
+  cv::threshold(raw, mask, 127, 1.0, cv::THRESH_BINARY);
+  mask.convertTo(mask, CV_32F);
+  return mask;
+}
+
+}  // namespace
+
+PinholeCamera PinholeCamera::Scaled(double factor) const {
+  PinholeCamera c = *this;
+  c.fx *= factor;
+  c.fy *= factor;
+  // Pixel centres: x' + 0.5 = factor (x + 0.5).
+  c.cx = factor * (cx + 0.5) - 0.5;
+  c.cy = factor * (cy + 0.5) - 0.5;
+  c.width = static_cast<int>(std::lround(width * factor));
+  c.height = static_cast<int>(std::lround(height * factor));
+  c.distortion.clear();
+  return c;
+}
+
+cv::Mat ReadImageRgb(const std::string& path) {
+  cv::Mat raw = cv::imread(path, cv::IMREAD_COLOR);  // BGR
+  if (raw.empty()) Fail(path + ": cannot be read as an image (missing or not PNG/JPEG?)");
+  cv::Mat rgb;
+  cv::cvtColor(raw, rgb, cv::COLOR_BGR2RGB);
+  rgb.convertTo(rgb, CV_32FC3, 1.0 / 255.0);
+  return rgb;
+}
+
+SftScene LoadScene(const std::string& directory, const SceneLoadOptions& options) {
+  SftScene scene;
+  scene.directory = directory;
+  const fs::path dir(directory);
+  const std::string json_path = (dir / "scene.json").string();
+  std::ifstream in(json_path);
+  if (!in) Fail(json_path + ": missing (is " + directory + " a scene directory?)");
+  json root;
+  try {
+    root = json::parse(in);
+  } catch (const json::exception& e) {
+    Fail(json_path + ": not valid JSON: " + e.what());
+  }
+
+  const std::string where = json_path;
+  if (!root.contains("camera")) Fail(where + ": missing required key 'camera'");
+  const json& cam = root["camera"];
+  PinholeCamera& camera = scene.camera;
+  camera.fx = Required<double>(cam, "fx", where + " camera");
+  camera.fy = Required<double>(cam, "fy", where + " camera");
+  camera.cx = Required<double>(cam, "cx", where + " camera");
+  camera.cy = Required<double>(cam, "cy", where + " camera");
+  camera.width = Required<int>(cam, "width", where + " camera");
+  camera.height = Required<int>(cam, "height", where + " camera");
+  if (!(camera.fx > 0 && camera.fy > 0) || camera.width <= 0 || camera.height <= 0) {
+    Fail(where + ": camera: fx, fy, width and height must be positive");
+  }
+  if (cam.contains("distortion")) {
+    camera.distortion = cam["distortion"].get<std::vector<double>>();
+    if (camera.distortion.size() != 5) Fail(where + ": camera 'distortion' needs 5 values (k1, k2, p1, p2, k3)");
+  }
+
+  const std::string template_path = (dir / Required<std::string>(root, "template", where)).string();
+  try {
+    scene.template_mesh = ReadObjTemplate(template_path);
+  } catch (const std::runtime_error& e) {
+    Fail(e.what());
+  }
+  if (!scene.template_mesh.has_texcoords()) Fail(template_path + ": every face needs texture coordinates (vt)");
+  for (int v = 0; v < scene.template_mesh.num_vertices(); ++v) {
+    if (!(scene.template_mesh.vertices(2, v) > 0.0)) {
+      Fail(template_path + ": vertex " + std::to_string(v) + " is not in front of the camera (z <= 0)");
+    }
+  }
+  const std::string texture_path = (dir / Required<std::string>(root, "texture", where)).string();
+  scene.texture = ReadImageRgb(texture_path);
+
+  scene.frame_count = Required<int>(root, "frame_count", where);
+  scene.first_frame = root.value("first_frame", 0);
+  if (scene.frame_count <= 0) Fail(where + ": 'frame_count' must be positive");
+  const std::string frames = Required<std::string>(root, "frames", where);
+  const std::string masks = root.value("masks", std::string());
+  const std::string ground_truth = root.value("ground_truth", std::string());
+  const std::string kind = root.value("ground_truth_kind", std::string("vertices"));
+  if (!ground_truth.empty()) {
+    if (kind == "vertices") {
+      scene.ground_truth_kind = GroundTruthKind::kVertices;
+    } else if (kind == "points") {
+      scene.ground_truth_kind = GroundTruthKind::kPoints;
+    } else {
+      Fail(where + ": 'ground_truth_kind' must be \"vertices\" or \"points\", not \"" + kind + "\"");
+    }
+  }
+  for (int t = 0; t < scene.frame_count; ++t) {
+    const int index = scene.first_frame + t;
+    const std::string frame = (dir / FormatPattern(frames, index)).string();
+    if (!fs::exists(frame)) Fail(frame + ": missing (frame " + std::to_string(index) + ", key 'frames')");
+    scene.frame_paths.push_back(frame);
+    if (!masks.empty()) {
+      const std::string mask = (dir / FormatPattern(masks, index)).string();
+      if (!fs::exists(mask)) Fail(mask + ": missing (frame " + std::to_string(index) + ", key 'masks')");
+      scene.mask_paths.push_back(mask);
+    }
+    if (!ground_truth.empty()) {
+      const std::string gt = (dir / FormatPattern(ground_truth, index)).string();
+      if (!fs::exists(gt)) Fail(gt + ": missing (frame " + std::to_string(index) + ", key 'ground_truth')");
+      scene.ground_truth_paths.push_back(gt);
+    }
+  }
+  if (options.check_images) {
+    auto check_size = [&camera](const cv::Mat& image, const std::string& path) {
+      if (image.cols != camera.width || image.rows != camera.height) {
+        Fail(path + ": " + std::to_string(image.cols) + "x" + std::to_string(image.rows) + ", but the camera is " +
+             std::to_string(camera.width) + "x" + std::to_string(camera.height));
+      }
+    };
+    for (int t = 0; t < scene.frame_count; ++t) {
+      const cv::Mat image = cv::imread(scene.frame_paths[t], cv::IMREAD_UNCHANGED);
+      if (image.empty()) Fail(scene.frame_paths[t] + ": cannot be read as an image");
+      check_size(image, scene.frame_paths[t]);
+      if (scene.has_masks()) {
+        const cv::Mat mask = cv::imread(scene.mask_paths[t], cv::IMREAD_UNCHANGED);
+        if (mask.empty()) Fail(scene.mask_paths[t] + ": cannot be read as an image");
+        check_size(mask, scene.mask_paths[t]);
+      }
+    }
+  }
+  if (scene.ground_truth_kind == GroundTruthKind::kVertices) {
+    // Only the first file is read here; each frame's is checked on load.
+    const Eigen::Matrix3Xd gt = [&] {
+      try {
+        return ReadPlyVertices(scene.ground_truth_paths[0]);
+      } catch (const std::runtime_error& e) {
+        Fail(e.what());
+      }
+    }();
+    if (gt.cols() != scene.template_mesh.num_vertices()) {
+      Fail(scene.ground_truth_paths[0] + ": " + std::to_string(gt.cols()) + " vertices, the template has " +
+           std::to_string(scene.template_mesh.num_vertices()));
+    }
+  }
+  return scene;
+}
+
+SftFrame LoadFrame(const SftScene& scene, int t) {
+  if (t < 0 || t >= scene.frame_count) Fail("frame " + std::to_string(t) + " is out of range");
+  SftFrame frame;
+  frame.index = scene.first_frame + t;
+  frame.image = ReadImageRgb(scene.frame_paths[t]);
+  if (frame.image.cols != scene.camera.width || frame.image.rows != scene.camera.height) {
+    Fail(scene.frame_paths[t] + ": wrong size");
+  }
+  if (scene.has_masks()) frame.mask = ReadMask(scene.mask_paths[t]);
+  if (!scene.camera.distortion.empty()) {
+    const cv::Matx33d k(scene.camera.fx, 0, scene.camera.cx, 0, scene.camera.fy, scene.camera.cy, 0, 0, 1);
+    cv::Mat undistorted;
+    cv::undistort(frame.image, undistorted, k, scene.camera.distortion);
+    frame.image = undistorted;
+    if (!frame.mask.empty()) {
+      cv::Mat mask;
+      cv::undistort(frame.mask, mask, k, scene.camera.distortion);
+      frame.mask = mask;
+    }
+  }
+  if (scene.has_ground_truth()) {
+    try {
+      frame.ground_truth = ReadPlyVertices(scene.ground_truth_paths[t]);
+    } catch (const std::runtime_error& e) {
+      Fail(e.what());
+    }
+    if (scene.ground_truth_kind == GroundTruthKind::kVertices &&
+        frame.ground_truth.cols() != scene.template_mesh.num_vertices()) {
+      Fail(scene.ground_truth_paths[t] + ": " + std::to_string(frame.ground_truth.cols()) +
+           " vertices, the template has " + std::to_string(scene.template_mesh.num_vertices()));
+    }
+  }
+  return frame;
+}
+
+}  // namespace polyfit

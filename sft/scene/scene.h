@@ -1,0 +1,91 @@
+// A shape-from-template scene directory, as ../shared/docs/sft-scene-format.md
+// defines it: camera, textured template, frames, optional masks and ground
+// truth. LoadScene checks everything before any solving; LoadFrame reads
+// one frame's images and ground truth.
+#ifndef POLYFIT_SFT_SCENE_SCENE_H_
+#define POLYFIT_SFT_SCENE_SCENE_H_
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "polyfit/mesh/triangle_mesh.h"
+
+namespace polyfit {
+
+// Every problem with a scene: what() names the key or the file.
+class SceneError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// OpenCV pinhole: x right, y down, z forward; pixel (0, 0) is the centre of
+// the top-left pixel.
+struct PinholeCamera {
+  double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;
+  int width = 0, height = 0;
+  // k1, k2, p1, p2, k3, or empty. Frames are undistorted on load, so the
+  // solver sees the pinhole model only.
+  std::vector<double> distortion;
+
+  Eigen::Vector2d Project(const Eigen::Vector3d& point_in_camera) const {
+    return {fx * point_in_camera.x() / point_in_camera.z() + cx, fy * point_in_camera.y() / point_in_camera.z() + cy};
+  }
+  // The same camera for an image scaled by `factor` (a pyramid level).
+  PinholeCamera Scaled(double factor) const;
+};
+
+enum class GroundTruthKind { kNone, kVertices, kPoints };
+
+struct SftScene {
+  std::string directory;
+  PinholeCamera camera;
+  // In the camera frame at the first frame, the OBJ's vertex order, with
+  // per-corner texture coordinates (OBJ convention: v up).
+  TriangleMesh template_mesh;
+  // RGB, CV_32FC3 in [0, 1].
+  cv::Mat texture;
+  int first_frame = 0;
+  int frame_count = 0;
+  std::vector<std::string> frame_paths;
+  std::vector<std::string> mask_paths;  // empty: no masks
+  std::vector<std::string> ground_truth_paths;
+  GroundTruthKind ground_truth_kind = GroundTruthKind::kNone;
+
+  bool has_masks() const { return !mask_paths.empty(); }
+  bool has_ground_truth() const { return ground_truth_kind != GroundTruthKind::kNone; }
+};
+
+struct SftFrame {
+  int index = 0;  // first_frame + t
+  // RGB, CV_32FC3 in [0, 1], undistorted.
+  cv::Mat image;
+  // CV_32F, 1 inside (> 127 on disk), 0 outside; empty without masks.
+  cv::Mat mask;
+  // 3 by N in the camera frame; empty without ground truth.
+  Eigen::Matrix3Xd ground_truth;
+};
+
+struct SceneLoadOptions {
+  // Decode every frame and mask to check its size (and readability) now;
+  // off, only their existence is checked.
+  bool check_images = true;
+};
+
+// Reads scene.json and the template and texture, and checks every frame,
+// mask and ground-truth file. Throws SceneError.
+SftScene LoadScene(const std::string& directory, const SceneLoadOptions& options = {});
+
+// Frame t (0-based, from first_frame). Throws SceneError.
+SftFrame LoadFrame(const SftScene& scene, int t);
+
+// Reads an image as RGB CV_32FC3 in [0, 1] (grey is expanded). Throws
+// SceneError naming the file.
+cv::Mat ReadImageRgb(const std::string& path);
+
+}  // namespace polyfit
+
+#endif  // POLYFIT_SFT_SCENE_SCENE_H_
