@@ -1,0 +1,179 @@
+#include "sft/solver/frame_costs.h"
+
+#include <cmath>
+
+#include <ceres/jet.h>
+
+#include "cost_functions/edge_inextensibility.h"
+#include "cost_functions/temporal_consistency.h"
+#include "polyfit/util/parallel_for.h"
+
+namespace polyfit {
+
+bool ProjectVertices(const PinholeCamera& camera, const Eigen::Matrix3Xd& vertices, ScreenMesh* screen,
+                     Eigen::MatrixXd* jacobian) {
+  const Eigen::Index n = vertices.cols();
+  screen->pixels.resize(2, n);
+  screen->depths.resize(n);
+  if (jacobian != nullptr) jacobian->setZero(3 * n, 3);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double x = vertices(0, i), y = vertices(1, i), z = vertices(2, i);
+    if (!(z > 1e-6) || !std::isfinite(x) || !std::isfinite(y)) return false;
+    const double inv_z = 1.0 / z;
+    screen->pixels(0, i) = camera.fx * x * inv_z + camera.cx;
+    screen->pixels(1, i) = camera.fy * y * inv_z + camera.cy;
+    screen->depths[i] = z;
+    if (jacobian != nullptr) {
+      auto j = jacobian->middleRows(3 * i, 3);
+      j(0, 0) = camera.fx * inv_z;
+      j(0, 2) = -camera.fx * x * inv_z * inv_z;
+      j(1, 1) = camera.fy * inv_z;
+      j(1, 2) = -camera.fy * y * inv_z * inv_z;
+      j(2, 2) = 1.0;
+    }
+  }
+  return true;
+}
+
+RenderCost::RenderCost(Data data) : data_(std::move(data)) {
+  channels_ = data_.mask.empty() ? 3 : 4;
+  set_num_residuals(data_.roi.area() * channels_);
+  mutable_parameter_block_sizes()->push_back(data_.model->num_parameters());
+  screen_ = data_.mesh;
+}
+
+bool RenderCost::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+  const JetDeformationModel& model = *data_.model;
+  const bool want_jacobian = jacobians != nullptr && jacobians[0] != nullptr;
+  model.Evaluate(parameters[0], &vertices_, want_jacobian ? &model_jacobian_ : nullptr);
+  if (!ProjectVertices(data_.camera, vertices_, &screen_, want_jacobian ? &screen_jacobian_ : nullptr)) return false;
+  data_.rasterizer->Render(screen_, data_.camera.width, data_.camera.height, data_.image, want_jacobian, &render_,
+                           data_.roi);
+  const int P = model.num_parameters();
+  const int n = model.num_vertices();
+  // d(x, y, depth)/d theta per vertex: 3 #V by P.
+  Eigen::MatrixXd screen_theta;
+  if (want_jacobian) {
+    screen_theta.resize(3 * n, P);
+    for (int i = 0; i < n; ++i) {
+      screen_theta.middleRows(3 * i, 3).noalias() =
+          screen_jacobian_.middleRows(3 * i, 3) * model_jacobian_.middleRows(3 * i, 3);
+    }
+  }
+  const cv::Rect& roi = data_.roi;
+  const int width = data_.camera.width;
+  ParallelFor(roi.height, data_.rasterizer->options().num_threads, [&](int, int row) {
+    const int y = roi.y + row;
+    Eigen::Matrix<double, 4, Eigen::Dynamic> local(4, P);
+    for (int col = 0; col < roi.width; ++col) {
+      const int x = roi.x + col;
+      const int r0 = (row * roi.width + col) * channels_;
+      const cv::Vec3f rendered = render_.color.at<cv::Vec3f>(y, x), observed = data_.image.at<cv::Vec3f>(y, x);
+      double r[3];
+      for (int ch = 0; ch < 3; ++ch) r[ch] = data_.photometric_weight * (rendered[ch] - observed[ch]);
+      // Robust loss per pixel: residual scaled by sqrt(rho(s) / s), Jacobian
+      // by sqrt(rho'(s)) (iteratively reweighted least squares).
+      double residual_scale = 1.0, jacobian_scale = data_.photometric_weight;
+      if (data_.robust_loss != RobustLoss::kNone) {
+        const double s = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+        const double b2 = data_.robust_scale * data_.robust_scale;
+        double rho = s, rho1 = 1.0;
+        if (data_.robust_loss == RobustLoss::kHuber && s > b2) {
+          rho = 2.0 * std::sqrt(s * b2) - b2;
+          rho1 = std::sqrt(b2 / s);
+        } else if (data_.robust_loss == RobustLoss::kCauchy) {
+          rho = b2 * std::log1p(s / b2);
+          rho1 = 1.0 / (1.0 + s / b2);
+        }
+        residual_scale = s > 0.0 ? std::sqrt(rho / s) : 1.0;
+        jacobian_scale *= std::sqrt(rho1);
+      }
+      for (int ch = 0; ch < 3; ++ch) residuals[r0 + ch] = residual_scale * r[ch];
+      if (channels_ == 4) {
+        residuals[r0 + 3] = data_.silhouette_weight * (render_.silhouette.at<float>(y, x) - data_.mask.at<float>(y, x));
+      }
+      if (!want_jacobian) continue;
+      local.setZero();
+      const int pixel = y * width + x;
+      for (int k = render_.begin[pixel]; k < render_.end[pixel]; ++k) {
+        const VertexGradient& g = render_.gradients[k];
+        Eigen::Matrix<double, 4, 3> d;
+        for (int a = 0; a < 4; ++a) {
+          for (int b = 0; b < 3; ++b) d(a, b) = g.d[a][b];
+        }
+        local.noalias() += d * screen_theta.middleRows(3 * g.vertex, 3);
+      }
+      double* jrow = jacobians[0] + static_cast<size_t>(r0) * P;
+      for (int ch = 0; ch < 3; ++ch) {
+        for (int c = 0; c < P; ++c) jrow[ch * P + c] = jacobian_scale * local(ch, c);
+      }
+      if (channels_ == 4) {
+        for (int c = 0; c < P; ++c) jrow[3 * P + c] = data_.silhouette_weight * local(3, c);
+      }
+    }
+  }, 4);
+  return true;
+}
+
+InextensibilityCost::InextensibilityCost(const JetDeformationModel* model, const std::vector<Eigen::Vector2i>& edges,
+                                         const std::vector<double>& rest_lengths, double weight)
+    : model_(model), edges_(edges), rest_lengths_(rest_lengths), weight_(weight) {
+  set_num_residuals(static_cast<int>(edges.size()));
+  mutable_parameter_block_sizes()->push_back(model->num_parameters());
+}
+
+bool InextensibilityCost::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+  const bool want_jacobian = jacobians != nullptr && jacobians[0] != nullptr;
+  model_->Evaluate(parameters[0], &vertices_, want_jacobian ? &jacobian_ : nullptr);
+  const int P = model_->num_parameters();
+  using J6 = ceres::Jet<double, 6>;
+  for (size_t e = 0; e < edges_.size(); ++e) {
+    const int i = edges_[e][0], j = edges_[e][1];
+    const EdgeInextensibilityResidual functor(rest_lengths_[e], weight_);
+    if (!want_jacobian) {
+      functor(vertices_.col(i).data(), vertices_.col(j).data(), &residuals[e]);
+      continue;
+    }
+    J6 xi[3], xj[3], r;
+    for (int k = 0; k < 3; ++k) {
+      xi[k] = J6(vertices_(k, i), k);
+      xj[k] = J6(vertices_(k, j), 3 + k);
+    }
+    functor(xi, xj, &r);
+    residuals[e] = r.a;
+    Eigen::Map<Eigen::RowVectorXd> row(jacobians[0] + e * P, P);
+    row.noalias() = r.v.head<3>().transpose() * jacobian_.middleRows(3 * i, 3) +
+                    r.v.tail<3>().transpose() * jacobian_.middleRows(3 * j, 3);
+  }
+  return true;
+}
+
+TemporalCost::TemporalCost(const JetDeformationModel* model, double length_scale, double weight,
+                           const Eigen::Matrix3Xd* previous)
+    : model_(model), scale_(weight / length_scale), fixed_previous_(previous != nullptr) {
+  if (previous != nullptr) previous_ = *previous;
+  set_num_residuals(3 * model->num_vertices());
+  mutable_parameter_block_sizes()->push_back(model->num_parameters());
+  if (!fixed_previous_) mutable_parameter_block_sizes()->push_back(model->num_parameters());
+}
+
+bool TemporalCost::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+  const bool j_now = jacobians != nullptr && jacobians[0] != nullptr;
+  const bool j_before = !fixed_previous_ && jacobians != nullptr && jacobians[1] != nullptr;
+  model_->Evaluate(parameters[0], &now_, j_now ? &jacobian_now_ : nullptr);
+  const Eigen::Matrix3Xd* before = &previous_;
+  if (!fixed_previous_) {
+    model_->Evaluate(parameters[1], &before_, j_before ? &jacobian_before_ : nullptr);
+    before = &before_;
+  }
+  const int n = model_->num_vertices(), P = model_->num_parameters();
+  // r = scale (x_t - x_{t-1}): TemporalConsistencyResidual with length
+  // scale / weight folded into scale_.
+  const TemporalConsistencyResidual functor(1.0 / scale_, 1.0);
+  for (int i = 0; i < n; ++i) functor(now_.col(i).data(), before->col(i).data(), residuals + 3 * i);
+  if (j_now) Eigen::Map<Eigen::MatrixXd>(jacobians[0], P, 3 * n) = scale_ * jacobian_now_.transpose();
+  if (j_before) Eigen::Map<Eigen::MatrixXd>(jacobians[1], P, 3 * n) = -scale_ * jacobian_before_.transpose();
+  return true;
+}
+
+}  // namespace polyfit

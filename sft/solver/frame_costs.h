@@ -1,0 +1,96 @@
+// The per-frame Ceres costs of PolySfT, on one parameter block per frame
+// (the JetDeformationModel parameters theta). Each evaluates the model once
+// and chains its Jacobian by hand, so that a frame's thousands of residuals
+// cost one model evaluation.
+#ifndef POLYFIT_SFT_SOLVER_FRAME_COSTS_H_
+#define POLYFIT_SFT_SOLVER_FRAME_COSTS_H_
+
+#include <vector>
+
+#include <ceres/cost_function.h>
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "sft/model/jet_deformation.h"
+#include "sft/render/soft_rasterizer.h"
+#include "sft/scene/scene.h"
+#include "sft/solver/polysft.h"
+
+namespace polyfit {
+
+// Photometric and silhouette residuals over the pixels of `roi`:
+//   r_rgb(p) = w_photo (I(p; theta) - I_obs(p))   (robustified per pixel)
+//   r_s(p)   = w_sil (S(p; theta) - M(p))          (with a mask only)
+// I and S from the soft rasterizer with the observed frame as background.
+class RenderCost : public ceres::CostFunction {
+ public:
+  struct Data {
+    const JetDeformationModel* model = nullptr;
+    const SoftRasterizer* rasterizer = nullptr;
+    // Faces, corner texture coordinates, boundary flags, depth range.
+    ScreenMesh mesh;
+    PinholeCamera camera;
+    cv::Mat image;  // CV_32FC3
+    cv::Mat mask;   // CV_32F or empty
+    cv::Rect roi;
+    double photometric_weight = 1.0;
+    double silhouette_weight = 1.0;
+    RobustLoss robust_loss = RobustLoss::kNone;
+    double robust_scale = 0.1;
+  };
+  explicit RenderCost(Data data);
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+
+ private:
+  Data data_;
+  int channels_;
+  mutable ScreenMesh screen_;
+  mutable SoftRenderOutput render_;
+  mutable Eigen::Matrix3Xd vertices_;
+  mutable Eigen::MatrixXd model_jacobian_, screen_jacobian_;
+};
+
+// Edge inextensibility over all template edges (EdgeInextensibilityResidual).
+class InextensibilityCost : public ceres::CostFunction {
+ public:
+  InextensibilityCost(const JetDeformationModel* model, const std::vector<Eigen::Vector2i>& edges,
+                      const std::vector<double>& rest_lengths, double weight);
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+
+ private:
+  const JetDeformationModel* model_;
+  std::vector<Eigen::Vector2i> edges_;
+  std::vector<double> rest_lengths_;
+  double weight_;
+  mutable Eigen::Matrix3Xd vertices_;
+  mutable Eigen::MatrixXd jacobian_;
+};
+
+// Temporal consistency of every vertex between two frames
+// (TemporalConsistencyResidual). With `previous` given, the earlier frame
+// is fixed data and the cost has one parameter block; otherwise two (this
+// frame, the earlier one).
+class TemporalCost : public ceres::CostFunction {
+ public:
+  TemporalCost(const JetDeformationModel* model, double length_scale, double weight,
+               const Eigen::Matrix3Xd* previous = nullptr);
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+
+ private:
+  const JetDeformationModel* model_;
+  double scale_;
+  bool fixed_previous_;
+  Eigen::Matrix3Xd previous_;
+  mutable Eigen::Matrix3Xd now_, before_;
+  mutable Eigen::MatrixXd jacobian_now_, jacobian_before_;
+};
+
+// Projects vertices into the camera: pixels and depths, and the 3 by 3
+// Jacobian of (x, y, depth) per vertex stacked (3 #V by 3). False when a
+// vertex is not in front of the camera.
+bool ProjectVertices(const PinholeCamera& camera, const Eigen::Matrix3Xd& vertices, ScreenMesh* screen,
+                     Eigen::MatrixXd* jacobian);
+
+}  // namespace polyfit
+
+#endif  // POLYFIT_SFT_SOLVER_FRAME_COSTS_H_

@@ -1,0 +1,122 @@
+#include "sft/solver/frame_costs.h"
+
+#include <cmath>
+#include <memory>
+
+#include <gtest/gtest.h>
+
+#include "polyfit/mesh/mesh_topology.h"
+#include "polyfit/util/scoped_temp_dir.h"
+#include "sft/scene/scene.h"
+#include "sft/synthetic/sheet_scene.h"
+
+namespace polyfit {
+namespace {
+
+// Central differences of a one-block cost's residuals against its Jacobian;
+// returns the largest difference relative to the Jacobian's largest entry.
+double RelativeJacobianError(const ceres::CostFunction& cost, std::vector<double> theta, double h,
+                             double* largest = nullptr) {
+  const int m = cost.num_residuals(), P = static_cast<int>(theta.size());
+  std::vector<double> r(m), rp(m), rm(m), jacobian(static_cast<size_t>(m) * P);
+  const double* parameters[1] = {theta.data()};
+  double* jacobians[1] = {jacobian.data()};
+  EXPECT_TRUE(cost.Evaluate(parameters, r.data(), jacobians));
+  double max_entry = 0.0, max_error = 0.0;
+  for (double j : jacobian) max_entry = std::max(max_entry, std::abs(j));
+  for (int c = 0; c < P; ++c) {
+    std::vector<double> plus = theta, minus = theta;
+    plus[c] += h;
+    minus[c] -= h;
+    const double* pp[1] = {plus.data()};
+    const double* pm[1] = {minus.data()};
+    cost.Evaluate(pp, rp.data(), nullptr);
+    cost.Evaluate(pm, rm.data(), nullptr);
+    for (int i = 0; i < m; ++i) {
+      max_error = std::max(max_error, std::abs((rp[i] - rm[i]) / (2 * h) - jacobian[static_cast<size_t>(i) * P + c]));
+    }
+  }
+  if (largest != nullptr) *largest = max_entry;
+  return max_error / max_entry;
+}
+
+class FrameCostsTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    SheetSceneOptions options;
+    options.frame_count = 2;
+    options.width = 80;
+    options.height = 60;
+    options.focal_length = 72;
+    options.grid_x = 8;
+    options.grid_y = 6;
+    options.texture_size = 128;
+    GenerateSheetScene(options, dir_.path().string());
+    scene_ = LoadScene(dir_.path().string());
+    model_ = std::make_unique<JetDeformationModel>(JetDeformationOptions(), scene_.template_mesh.vertices);
+    theta_.assign(model_->num_parameters(), 0.0);
+    // Away from zero so that every term is exercised.
+    for (size_t k = 0; k < theta_.size(); ++k) theta_[k] = 0.01 * std::sin(1.0 + 3.0 * k);
+  }
+  ScopedTempDir dir_{"polyfit_frame_costs"};
+  SftScene scene_;
+  std::unique_ptr<JetDeformationModel> model_;
+  std::vector<double> theta_;
+};
+
+TEST_F(FrameCostsTest, ModelJacobianMatchesFiniteDifferences) {
+  Eigen::Matrix3Xd v, vp, vm;
+  Eigen::MatrixXd jacobian;
+  model_->Evaluate(theta_.data(), &v, &jacobian);
+  double max_error = 0.0;
+  for (int c = 0; c < model_->num_parameters(); ++c) {
+    std::vector<double> plus = theta_, minus = theta_;
+    plus[c] += 1e-7;
+    minus[c] -= 1e-7;
+    model_->Evaluate(plus.data(), &vp);
+    model_->Evaluate(minus.data(), &vm);
+    const Eigen::Matrix3Xd numeric = (vp - vm) / 2e-7;
+    for (int i = 0; i < model_->num_vertices(); ++i) {
+      max_error = std::max(max_error, (numeric.col(i) - jacobian.block(3 * i, c, 3, 1)).cwiseAbs().maxCoeff());
+    }
+  }
+  EXPECT_LT(max_error, 1e-6);
+  EXPECT_LT(model_->template_rms_error(), 1e-9);  // the flat sheet is a jet exactly
+}
+
+TEST_F(FrameCostsTest, RenderCostJacobianMatchesFiniteDifferences) {
+  const SoftRasterizer rasterizer(SoftRasterizerOptions(), scene_.texture);
+  const SftFrame frame = LoadFrame(scene_, 1);
+  RenderCost::Data d;
+  d.model = model_.get();
+  d.rasterizer = &rasterizer;
+  d.mesh.faces = scene_.template_mesh.faces;
+  d.mesh.corner_texcoords = scene_.template_mesh.corner_texcoords;
+  d.mesh.boundary_edges = MeshBoundaryEdgeFlags(d.mesh.faces);
+  d.mesh.depth_near = 0.2;
+  d.mesh.depth_far = 0.8;
+  d.camera = scene_.camera;
+  d.image = frame.image;
+  d.mask = frame.mask;
+  d.roi = cv::Rect(0, 0, 80, 60);
+  const RenderCost cost(d);
+  double largest = 0.0;
+  EXPECT_LT(RelativeJacobianError(cost, theta_, 1e-6, &largest), 0.02);
+  EXPECT_GT(largest, 0.0);
+}
+
+TEST_F(FrameCostsTest, InextensibilityAndTemporalJacobiansMatchFiniteDifferences) {
+  std::vector<Eigen::Vector2i> edges = {{0, 1}, {0, 9}, {10, 11}, {5, 14}};
+  std::vector<double> lengths;
+  for (const auto& e : edges) {
+    lengths.push_back((scene_.template_mesh.vertices.col(e[0]) - scene_.template_mesh.vertices.col(e[1])).norm());
+  }
+  const InextensibilityCost inextensibility(model_.get(), edges, lengths, 2.0);
+  EXPECT_LT(RelativeJacobianError(inextensibility, theta_, 1e-7), 1e-5);
+  const Eigen::Matrix3Xd previous = scene_.template_mesh.vertices;
+  const TemporalCost temporal(model_.get(), 0.3, 1.5, &previous);
+  EXPECT_LT(RelativeJacobianError(temporal, theta_, 1e-7), 1e-5);
+}
+
+}  // namespace
+}  // namespace polyfit

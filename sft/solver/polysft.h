@@ -1,0 +1,115 @@
+// PolySfT: shape from template over a video. Each frame's surface is the
+// template's patch deformed by JetDeformationModel parameters; frames are
+// solved in a sliding window by Levenberg-Marquardt (Ceres), coarse to fine
+// over an image pyramid, warm-started from the previous frame. Terms, each
+// built only when the scene supports it:
+//   photometric   the soft rasterizer's colour against the frame (RGB)
+//   silhouette    its silhouette against the mask (scenes with masks)
+//   inextensibility  edge lengths kept (cost_functions/edge_inextensibility.h)
+//   temporal      consecutive frames close (temporal_consistency.h; only with
+//                 more than one frame)
+#ifndef POLYFIT_SFT_SOLVER_POLYSFT_H_
+#define POLYFIT_SFT_SOLVER_POLYSFT_H_
+
+#include <functional>
+#include <limits>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "sft/model/jet_deformation.h"
+#include "sft/render/soft_rasterizer.h"
+#include "sft/scene/scene.h"
+
+namespace polyfit {
+
+enum class RobustLoss { kNone, kHuber, kCauchy };
+
+struct PolySftOptions {
+  JetDeformationOptions deformation;
+  // sigma is in pixels squared at every pyramid level.
+  SoftRasterizerOptions rasterizer;
+  // Frames solved together; the oldest leaves the window (and is written)
+  // when a new one enters.
+  int window_size = 3;
+  // Levels of the image pyramid, coarsest first (3: 1/4, 1/2, full size).
+  int pyramid_levels = 3;
+  // The adaptive window, in solver iterations: each level stops after
+  // max_iterations_per_level, or once `patience` iterations in a row lowered
+  // the cost by less than improvement_tolerance (relative).
+  int max_iterations_per_level = 10;
+  int patience = 2;
+  double improvement_tolerance = 1e-3;
+  // Term weights (relative; each term is normalised by its size).
+  double photometric_weight = 1.0;
+  double silhouette_weight = 1.0;
+  double inextensibility_weight = 10.0;  // k_mi
+  double temporal_weight = 0.1;          // k_tc
+  // Per-pixel robust loss of the photometric residual (real video).
+  RobustLoss robust_loss = RobustLoss::kNone;
+  double robust_scale = 0.1;
+  // Frames to solve (0: all).
+  int max_frames = 0;
+  int num_threads = 0;
+
+  std::string Validate() const;
+};
+
+struct SftFrameResult {
+  int index = 0;
+  // 3 by #V, camera frame, template vertex order.
+  Eigen::Matrix3Xd vertices;
+  // Solver time spent on the windows this frame entered as the newest.
+  double time_s = 0.0;
+  double cost = 0.0;
+  int iterations = 0;
+  double e3d = std::numeric_limits<double>::quiet_NaN();
+  double normal_error_deg = std::numeric_limits<double>::quiet_NaN();
+  double rmse_mm = std::numeric_limits<double>::quiet_NaN();
+  double chamfer_1e4 = std::numeric_limits<double>::quiet_NaN();
+};
+
+struct SftTraceRow {
+  int frame = 0;   // the window's newest frame
+  int window = 0;  // the window's oldest frame
+  int iteration = 0;
+  double time_s = 0.0;  // since the start of the sequence
+  double cost = 0.0;
+  double e3d = std::numeric_limits<double>::quiet_NaN();
+};
+
+struct PolySftSummary {
+  std::vector<SftFrameResult> frames;
+  std::vector<SftTraceRow> trace;
+  // Active terms and their weights.
+  std::vector<std::pair<std::string, double>> terms;
+  std::vector<std::string> warnings;
+  double total_time_s = 0.0;
+  double mean_time_per_frame_s = 0.0;
+  double mean_e3d = std::numeric_limits<double>::quiet_NaN();
+  double mean_normal_error_deg = std::numeric_limits<double>::quiet_NaN();
+  double mean_rmse_mm = std::numeric_limits<double>::quiet_NaN();
+  double mean_chamfer_1e4 = std::numeric_limits<double>::quiet_NaN();
+  // e_3D of holding the template still (the baseline), when ground truth
+  // has vertices.
+  double template_e3d = std::numeric_limits<double>::quiet_NaN();
+};
+
+// Called once per frame, when it leaves the window (its result is final).
+using SftFrameCallback = std::function<void(const SftFrameResult&)>;
+
+// Throws std::invalid_argument on invalid options, SceneError on a scene
+// that cannot be read.
+PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene,
+                            const SftFrameCallback& on_frame = nullptr);
+
+// Writes meshes/NNNNNN.ply, trace.csv and metrics.json into `directory` as
+// the scene format specifies. Throws std::runtime_error naming a file.
+void WriteSftOutputs(const std::string& directory, const SftScene& scene, const PolySftOptions& options,
+                     const PolySftSummary& summary);
+
+}  // namespace polyfit
+
+#endif  // POLYFIT_SFT_SOLVER_POLYSFT_H_

@@ -1,0 +1,302 @@
+#include "sft/synthetic/sheet_scene.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <stdexcept>
+
+#include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "polyfit/mesh/mesh_io.h"
+
+namespace polyfit {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Texture: smooth colour gradients, then random discs, bars and rings of
+// random colours (detail at every scale, so that every part of the sheet
+// can be located).
+cv::Mat MakeTexture(int size, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  cv::Mat texture(size, size, CV_32FC3);
+  const double a = 2 + 3 * unit(rng), b = 2 + 3 * unit(rng), c = 3 + 3 * unit(rng);
+  for (int y = 0; y < size; ++y) {
+    for (int x = 0; x < size; ++x) {
+      const double u = static_cast<double>(x) / size, v = static_cast<double>(y) / size;
+      texture.at<cv::Vec3f>(y, x) =
+          cv::Vec3f(0.5 + 0.25 * std::sin(2 * M_PI * a * u), 0.5 + 0.25 * std::sin(2 * M_PI * b * v + 1.0),
+                    0.5 + 0.25 * std::sin(2 * M_PI * c * (u + v)));
+    }
+  }
+  for (int k = 0; k < 220; ++k) {
+    const cv::Point centre(static_cast<int>(unit(rng) * size), static_cast<int>(unit(rng) * size));
+    const cv::Scalar colour(unit(rng), unit(rng), unit(rng));
+    const int radius = static_cast<int>(size * (0.01 + 0.05 * unit(rng)));
+    switch (k % 3) {
+      case 0: cv::circle(texture, centre, radius, colour, cv::FILLED, cv::LINE_AA); break;
+      case 1:
+        cv::rectangle(texture, centre, centre + cv::Point(radius * 2, radius / 2 + 1), colour, cv::FILLED,
+                      cv::LINE_AA);
+        break;
+      default: cv::circle(texture, centre, radius, colour, std::max(1, radius / 4), cv::LINE_AA); break;
+    }
+  }
+  return texture;
+}
+
+// A low-contrast backdrop, so that the background is not a constant.
+cv::Mat MakeBackground(int width, int height, std::mt19937_64& rng) {
+  cv::Mat noise(height / 8 + 1, width / 8 + 1, CV_32FC3);
+  std::uniform_real_distribution<float> unit(0.25f, 0.45f);
+  for (int y = 0; y < noise.rows; ++y) {
+    for (int x = 0; x < noise.cols; ++x) noise.at<cv::Vec3f>(y, x) = cv::Vec3f(unit(rng), unit(rng), unit(rng));
+  }
+  cv::Mat background;
+  cv::resize(noise, background, cv::Size(width, height), 0, 0, cv::INTER_CUBIC);
+  return background;
+}
+
+void WriteRgbPng(const std::string& path, const cv::Mat& rgb) {
+  cv::Mat bgr, bytes;
+  cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
+  bgr.convertTo(bytes, CV_8UC3, 255.0);
+  if (!cv::imwrite(path, bytes)) throw std::runtime_error(path + ": cannot be written");
+}
+
+std::string Frame(const char* pattern, int index) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof(buffer), pattern, index);
+  return buffer;
+}
+
+}  // namespace
+
+SheetMotion ParseSheetMotion(const std::string& name) {
+  if (name == "bend") return SheetMotion::kBend;
+  if (name == "wave") return SheetMotion::kWave;
+  if (name == "rigid") return SheetMotion::kRigid;
+  if (name == "mixed") return SheetMotion::kMixed;
+  throw std::invalid_argument("unknown motion '" + name + "' (bend, wave, rigid or mixed)");
+}
+
+std::string SheetSceneOptions::Validate() const {
+  if (frame_count < 1) return "frame_count must be >= 1";
+  if (width < 16 || height < 16) return "the image must be at least 16 x 16";
+  if (grid_x < 2 || grid_y < 2) return "the grid needs at least 2 x 2 cells";
+  if (!(distance > 0.05)) return "distance must be > 0.05 m";
+  if (supersampling < 1 || supersampling > 8) return "supersampling must be in [1, 8]";
+  return {};
+}
+
+Eigen::Matrix3Xd SheetVerticesAt(const SheetSceneOptions& o, double tau) {
+  const int nx = o.grid_x, ny = o.grid_y;
+  Eigen::Matrix3Xd vertices(3, (nx + 1) * (ny + 1));
+  const bool bend = o.motion == SheetMotion::kBend || o.motion == SheetMotion::kMixed;
+  const bool wave = o.motion == SheetMotion::kWave || o.motion == SheetMotion::kMixed;
+  const bool rigid = o.motion == SheetMotion::kRigid || o.motion == SheetMotion::kMixed;
+  // Curvature up to 1 / 0.13 m: the sheet's ends fold about 65 degrees.
+  const double curvature = bend ? std::sin(M_PI * tau) / 0.13 : 0.0;
+  const double amplitude = wave ? (o.motion == SheetMotion::kWave ? 0.012 : 0.004) * std::sin(M_PI * tau) : 0.0;
+  const Eigen::Matrix3d rotation =
+      rigid ? (Eigen::AngleAxisd(0.35 * std::sin(M_PI * tau), Eigen::Vector3d::UnitY()) *
+               Eigen::AngleAxisd(0.2 * std::sin(2 * M_PI * tau), Eigen::Vector3d::UnitX()))
+                  .toRotationMatrix()
+            : Eigen::Matrix3d::Identity();
+  const Eigen::Vector3d translation =
+      rigid ? Eigen::Vector3d(0.03 * std::sin(2 * M_PI * tau), 0.015 * std::sin(M_PI * tau), 0.05 * std::sin(M_PI * tau))
+            : Eigen::Vector3d::Zero();
+  for (int j = 0; j <= ny; ++j) {
+    for (int i = 0; i <= nx; ++i) {
+      const double x = (static_cast<double>(i) / nx - 0.5) * o.sheet_width;
+      const double y = (static_cast<double>(j) / ny - 0.5) * o.sheet_height;
+      Eigen::Vector3d p(x, y, 0.0);
+      if (curvature != 0.0) {
+        // Arc length x along a circle of radius 1 / curvature: an isometry.
+        p.x() = std::sin(curvature * x) / curvature;
+        p.z() = (1.0 - std::cos(curvature * x)) / curvature;
+      }
+      p.z() += amplitude * std::sin(2 * M_PI * (y / 0.14 + 0.5 * tau));
+      vertices.col(j * (nx + 1) + i) = rotation * p + translation + Eigen::Vector3d(0, 0, o.distance);
+    }
+  }
+  return vertices;
+}
+
+void RenderHard(const TriangleMesh& mesh, const cv::Mat& texture, double fx, double fy, double cx, double cy,
+                int ss, const cv::Mat& background, cv::Mat* color, cv::Mat* coverage) {
+  const int width = background.cols, height = background.rows;
+  const int sw = width * ss, sh = height * ss;
+  // Per sample: depth and colour of the nearest surface.
+  cv::Mat depth(sh, sw, CV_32F, cv::Scalar(std::numeric_limits<float>::infinity()));
+  cv::Mat sample_color(sh, sw, CV_32FC3, cv::Scalar(0, 0, 0));
+  const int tw = texture.cols, th = texture.rows;
+  for (int f = 0; f < mesh.num_faces(); ++f) {
+    Eigen::Vector3d P[3];
+    double sx[3], sy[3];
+    for (int c = 0; c < 3; ++c) {
+      P[c] = mesh.vertices.col(mesh.faces(c, f));
+      // Sample (i, j) has its centre at pixel ((i + 0.5) / ss - 0.5, ...).
+      sx[c] = ((fx * P[c].x() / P[c].z() + cx) + 0.5) * ss - 0.5;
+      sy[c] = ((fy * P[c].y() / P[c].z() + cy) + 0.5) * ss - 0.5;
+    }
+    const double area = (sx[1] - sx[0]) * (sy[2] - sy[0]) - (sy[1] - sy[0]) * (sx[2] - sx[0]);
+    if (area == 0.0) continue;
+    const int x0 = std::max(0, static_cast<int>(std::ceil(std::min({sx[0], sx[1], sx[2]}))));
+    const int x1 = std::min(sw - 1, static_cast<int>(std::floor(std::max({sx[0], sx[1], sx[2]}))));
+    const int y0 = std::max(0, static_cast<int>(std::ceil(std::min({sy[0], sy[1], sy[2]}))));
+    const int y1 = std::min(sh - 1, static_cast<int>(std::floor(std::max({sy[0], sy[1], sy[2]}))));
+    for (int y = y0; y <= y1; ++y) {
+      for (int x = x0; x <= x1; ++x) {
+        double b[3];
+        b[0] = ((sx[1] - x) * (sy[2] - y) - (sy[1] - y) * (sx[2] - x)) / area;
+        b[1] = ((sx[2] - x) * (sy[0] - y) - (sy[2] - y) * (sx[0] - x)) / area;
+        b[2] = 1.0 - b[0] - b[1];
+        if (b[0] < 0 || b[1] < 0 || b[2] < 0) continue;
+        // Perspective-correct: interpolate attributes / z and 1 / z.
+        double inv_z = 0.0, u = 0.0, v = 0.0;
+        for (int c = 0; c < 3; ++c) {
+          const double w = b[c] / P[c].z();
+          inv_z += w;
+          u += w * mesh.corner_texcoords(0, 3 * f + c);
+          v += w * mesh.corner_texcoords(1, 3 * f + c);
+        }
+        const double z = 1.0 / inv_z;
+        if (z >= depth.at<float>(y, x)) continue;
+        depth.at<float>(y, x) = static_cast<float>(z);
+        u *= z;
+        v *= z;
+        const double tx = std::clamp(u * tw - 0.5, 0.0, tw - 1.0), ty = std::clamp((1.0 - v) * th - 0.5, 0.0, th - 1.0);
+        const int ix = std::min(static_cast<int>(tx), tw - 2), iy = std::min(static_cast<int>(ty), th - 2);
+        const double ax = tx - ix, ay = ty - iy;
+        const cv::Vec3f c00 = texture.at<cv::Vec3f>(iy, ix), c01 = texture.at<cv::Vec3f>(iy, ix + 1);
+        const cv::Vec3f c10 = texture.at<cv::Vec3f>(iy + 1, ix), c11 = texture.at<cv::Vec3f>(iy + 1, ix + 1);
+        sample_color.at<cv::Vec3f>(y, x) = (1 - ay) * ((1 - ax) * c00 + ax * c01) + ay * ((1 - ax) * c10 + ax * c11);
+      }
+    }
+  }
+  color->create(height, width, CV_32FC3);
+  coverage->create(height, width, CV_32F);
+  const float inv = 1.0f / (ss * ss);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      cv::Vec3f sum(0, 0, 0);
+      int hits = 0;
+      for (int j = 0; j < ss; ++j) {
+        for (int i = 0; i < ss; ++i) {
+          if (std::isfinite(depth.at<float>(y * ss + j, x * ss + i))) {
+            sum += sample_color.at<cv::Vec3f>(y * ss + j, x * ss + i);
+            ++hits;
+          } else {
+            sum += background.at<cv::Vec3f>(y, x);
+          }
+        }
+      }
+      color->at<cv::Vec3f>(y, x) = sum * inv;
+      coverage->at<float>(y, x) = hits * inv;
+    }
+  }
+}
+
+void GenerateSheetScene(const SheetSceneOptions& o, const std::string& directory) {
+  if (const std::string problem = o.Validate(); !problem.empty()) {
+    throw std::invalid_argument("SheetSceneOptions: " + problem);
+  }
+  const fs::path dir(directory);
+  fs::create_directories(dir / "frames");
+  fs::create_directories(dir / "gt");
+  if (o.write_masks) fs::create_directories(dir / "masks");
+  std::mt19937_64 rng(o.seed);
+  const cv::Mat texture = MakeTexture(o.texture_size, rng);
+  const cv::Mat background = MakeBackground(o.width, o.height, rng);
+  WriteRgbPng((dir / "texture.png").string(), texture);
+
+  // The template: the sheet at the first frame, with texture coordinates.
+  TriangleMesh sheet;
+  sheet.vertices = SheetVerticesAt(o, 0.0);
+  const int nx = o.grid_x, ny = o.grid_y;
+  sheet.faces.resize(3, 2 * nx * ny);
+  sheet.corner_texcoords.resize(2, 6 * nx * ny);
+  int f = 0;
+  auto uv = [&](int vertex) {
+    return Eigen::Vector2d(static_cast<double>(vertex % (nx + 1)) / nx,
+                           1.0 - static_cast<double>(vertex / (nx + 1)) / ny);
+  };
+  for (int j = 0; j < ny; ++j) {
+    for (int i = 0; i < nx; ++i) {
+      const int a = j * (nx + 1) + i, b = a + 1, c = a + nx + 2, d = a + nx + 1;
+      for (const Eigen::Vector3i& face : {Eigen::Vector3i(a, c, b), Eigen::Vector3i(a, d, c)}) {
+        sheet.faces.col(f) = face;
+        for (int k = 0; k < 3; ++k) sheet.corner_texcoords.col(3 * f + k) = uv(face[k]);
+        ++f;
+      }
+    }
+  }
+  {
+    std::ofstream obj(dir / "template.obj");
+    obj.precision(10);
+    obj << "# PolyFit synthetic sheet: " << (nx + 1) * (ny + 1) << " vertices\n";
+    for (int v = 0; v < sheet.num_vertices(); ++v) {
+      obj << "v " << sheet.vertices(0, v) << ' ' << sheet.vertices(1, v) << ' ' << sheet.vertices(2, v) << '\n';
+    }
+    for (int v = 0; v < sheet.num_vertices(); ++v) obj << "vt " << uv(v).x() << ' ' << uv(v).y() << '\n';
+    for (int k = 0; k < sheet.num_faces(); ++k) {
+      obj << 'f';
+      for (int c = 0; c < 3; ++c) obj << ' ' << sheet.faces(c, k) + 1 << '/' << sheet.faces(c, k) + 1;
+      obj << '\n';
+    }
+    if (!obj) throw std::runtime_error((dir / "template.obj").string() + ": cannot be written");
+  }
+
+  const double cx = (o.width - 1) / 2.0, cy = (o.height - 1) / 2.0;
+  std::normal_distribution<float> noise(0.0f, static_cast<float>(o.noise_sigma));
+  for (int t = 0; t < o.frame_count; ++t) {
+    const double tau = o.frame_count > 1 ? static_cast<double>(t) / (o.frame_count - 1) : 0.0;
+    sheet.vertices = SheetVerticesAt(o, tau);
+    cv::Mat color, coverage;
+    RenderHard(sheet, texture, o.focal_length, o.focal_length, cx, cy, o.supersampling, background, &color,
+               &coverage);
+    if (o.noise_sigma > 0.0) {
+      for (auto it = color.begin<cv::Vec3f>(); it != color.end<cv::Vec3f>(); ++it) {
+        for (int ch = 0; ch < 3; ++ch) (*it)[ch] = std::clamp((*it)[ch] + noise(rng), 0.0f, 1.0f);
+      }
+    }
+    WriteRgbPng((dir / Frame("frames/%06d.png", t)).string(), color);
+    if (o.write_masks) {
+      cv::Mat mask;
+      coverage.convertTo(mask, CV_8U, 255.0);
+      const std::string path = (dir / Frame("masks/%06d.png", t)).string();
+      if (!cv::imwrite(path, mask)) throw std::runtime_error(path + ": cannot be written");
+    }
+    WritePly((dir / Frame("gt/%06d.ply", t)).string(), sheet);
+  }
+
+  nlohmann::json scene = {
+      {"camera",
+       {{"fx", o.focal_length}, {"fy", o.focal_length}, {"cx", cx}, {"cy", cy}, {"width", o.width}, {"height", o.height}}},
+      {"template", "template.obj"},
+      {"texture", "texture.png"},
+      {"frames", "frames/%06d.png"},
+      {"ground_truth", "gt/%06d.ply"},
+      {"ground_truth_kind", "vertices"},
+      {"frame_count", o.frame_count},
+      {"first_frame", 0},
+      {"units", "m"},
+      {"generator", {{"motion", o.motion == SheetMotion::kBend    ? "bend"
+                                : o.motion == SheetMotion::kWave  ? "wave"
+                                : o.motion == SheetMotion::kRigid ? "rigid"
+                                                                  : "mixed"},
+                     {"seed", o.seed},
+                     {"noise_sigma", o.noise_sigma}}}};
+  if (o.write_masks) scene["masks"] = "masks/%06d.png";
+  std::ofstream out(dir / "scene.json");
+  out << scene.dump(2) << '\n';
+  if (!out) throw std::runtime_error((dir / "scene.json").string() + ": cannot be written");
+}
+
+}  // namespace polyfit

@@ -1,0 +1,68 @@
+// The project's own test scenes: a textured A4-like sheet in front of a
+// camera under isometric bends, waves and rigid motion, with exact ground
+// truth, rendered by a supersampled hard rasterizer with perspective-correct
+// texturing (independent of the soft rasterizer the solver uses), written
+// in the scene format of ../shared/docs/sft-scene-format.md.
+#ifndef POLYFIT_SFT_SYNTHETIC_SHEET_SCENE_H_
+#define POLYFIT_SFT_SYNTHETIC_SHEET_SCENE_H_
+
+#include <cstdint>
+#include <string>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "polyfit/mesh/triangle_mesh.h"
+
+namespace polyfit {
+
+enum class SheetMotion {
+  kBend,   // cylindrical bend (isometric), curvature rising and falling
+  kWave,   // a travelling wave across the sheet (stretches it slightly)
+  kRigid,  // rotation and translation of the flat sheet
+  kMixed,  // bend and rigid motion together, with a small wave
+};
+
+// "bend", "wave", "rigid", "mixed"; throws std::invalid_argument otherwise.
+SheetMotion ParseSheetMotion(const std::string& name);
+
+struct SheetSceneOptions {
+  SheetMotion motion = SheetMotion::kMixed;
+  int frame_count = 30;
+  int width = 320;
+  int height = 240;
+  // Horizontal field of view of about 58 degrees at 320 pixels.
+  double focal_length = 288.0;
+  // The sheet (metres) and its grid of template vertices.
+  double sheet_width = 0.297;
+  double sheet_height = 0.210;
+  int grid_x = 24;
+  int grid_y = 17;
+  double distance = 0.4;
+  // Samples per pixel per axis for the hard rasterizer.
+  int supersampling = 4;
+  bool write_masks = true;
+  // Gaussian pixel noise (standard deviation, in [0, 1] intensity units).
+  double noise_sigma = 0.0;
+  int texture_size = 512;
+  std::uint64_t seed = 1;
+
+  std::string Validate() const;
+};
+
+// The sheet's vertices (3 by #V, camera frame) at time tau in [0, 1].
+Eigen::Matrix3Xd SheetVerticesAt(const SheetSceneOptions& options, double tau);
+
+// Renders a textured mesh (corner texture coordinates, OBJ convention) over
+// `background` (CV_32FC3 RGB) with ss x ss samples per pixel: colour and
+// coverage (CV_32F in [0, 1]).
+void RenderHard(const TriangleMesh& mesh, const cv::Mat& texture, double fx, double fy, double cx, double cy,
+                int supersampling, const cv::Mat& background, cv::Mat* color, cv::Mat* coverage);
+
+// Writes the scene into `directory` (created; existing files replaced).
+// Throws std::runtime_error naming a file that cannot be written.
+void GenerateSheetScene(const SheetSceneOptions& options, const std::string& directory);
+
+}  // namespace polyfit
+
+#endif  // POLYFIT_SFT_SYNTHETIC_SHEET_SCENE_H_
