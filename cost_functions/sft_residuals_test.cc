@@ -3,6 +3,7 @@
 #include <ceres/ceres.h>
 #include <gtest/gtest.h>
 
+#include "cost_functions/compressed_cost.h"
 #include "cost_functions/edge_inextensibility.h"
 #include "cost_functions/temporal_consistency.h"
 
@@ -62,6 +63,46 @@ TEST(TemporalConsistencyResidualTest, ValueAndJacobian) {
   EXPECT_NEAR(residuals[0], 2.0 * 0.5 / 0.5, 1e-12);
   EXPECT_NEAR(residuals[2], -2.0, 1e-12);
   ExpectJacobiansMatchFiniteDifferences(*cost, now, before);
+}
+
+// A tall least-squares problem: x in R^2, y in R^1, 50 residuals
+// r_i = a_i x0^2 + b_i x1 + c_i y - d_i.
+struct TallResidual {
+  template <typename T>
+  bool operator()(const T* x, const T* y, T* r) const {
+    for (int i = 0; i < 50; ++i) {
+      const double a = std::sin(i), b = std::cos(0.3 * i), c = 0.1 * i - 2.0, d = std::sin(0.7 * i) + 1.0;
+      r[i] = a * x[0] * x[0] + b * x[1] + c * y[0] - d;
+    }
+    return true;
+  }
+};
+
+TEST(CompressedCostTest, SameCostGradientAndGaussNewtonModel) {
+  auto* inner = new ceres::AutoDiffCostFunction<TallResidual, 50, 2, 1>(new TallResidual);
+  std::unique_ptr<ceres::CostFunction> reference(new ceres::AutoDiffCostFunction<TallResidual, 50, 2, 1>(new TallResidual));
+  const CompressedCost compressed(inner);
+  EXPECT_EQ(compressed.num_residuals(), 4);
+  double x[2] = {0.7, -0.4}, y[1] = {1.3};
+  double* parameters[2] = {x, y};
+  double r_full[50], j_full_x[100], j_full_y[50];
+  double* j_full[2] = {j_full_x, j_full_y};
+  ASSERT_TRUE(reference->Evaluate(parameters, r_full, j_full));
+  double r_small[4], j_small_x[8], j_small_y[4];
+  double* j_small[2] = {j_small_x, j_small_y};
+  ASSERT_TRUE(compressed.Evaluate(parameters, r_small, j_small));
+  Eigen::Map<Eigen::Matrix<double, 50, 1>> rf(r_full);
+  Eigen::Matrix<double, 50, 3> jf;
+  for (int i = 0; i < 50; ++i) jf.row(i) << j_full_x[2 * i], j_full_x[2 * i + 1], j_full_y[i];
+  Eigen::Map<Eigen::Matrix<double, 4, 1>> rs(r_small);
+  Eigen::Matrix<double, 4, 3> js;
+  for (int i = 0; i < 4; ++i) js.row(i) << j_small_x[2 * i], j_small_x[2 * i + 1], j_small_y[i];
+  EXPECT_NEAR(rs.squaredNorm(), rf.squaredNorm(), 1e-9);
+  EXPECT_LT((js.transpose() * rs - jf.transpose() * rf).norm(), 1e-9);
+  EXPECT_LT((js.transpose() * js - jf.transpose() * jf).norm(), 1e-9);
+  // Cost-only evaluation keeps the cost.
+  ASSERT_TRUE(compressed.Evaluate(parameters, r_small, nullptr));
+  EXPECT_NEAR(rs.squaredNorm(), rf.squaredNorm(), 1e-9);
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "cost_functions/compressed_cost.h"
 #include "polyfit/mesh/mesh_io.h"
 #include "polyfit/mesh/mesh_topology.h"
 #include "sft/scene/sft_metrics.h"
@@ -330,27 +331,30 @@ PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene
           d.silhouette_weight = std::sqrt(options.silhouette_weight / level_pixels);
           d.robust_loss = options.robust_loss;
           d.robust_scale = options.robust_scale * d.photometric_weight;
-          if (d.roi.area() > 0) problem.AddResidualBlock(new RenderCost(std::move(d)), nullptr, theta);
+          if (d.roi.area() > 0) problem.AddResidualBlock(new CompressedCost(new RenderCost(std::move(d))), nullptr, theta);
         }
         if (use_inextensibility && !edges.empty()) {
           problem.AddResidualBlock(
-              new InextensibilityCost(&model, edges, rest_lengths,
-                                      std::sqrt(options.inextensibility_weight / edges.size())),
+              new CompressedCost(new InextensibilityCost(&model, edges, rest_lengths,
+                                                         std::sqrt(options.inextensibility_weight / edges.size()))),
               nullptr, theta);
         }
         if (use_temporal) {
           const double w = std::sqrt(options.temporal_weight / model.num_vertices());
           if (k > 0) {
-            problem.AddResidualBlock(new TemporalCost(&model, size, w), nullptr, theta, window[k - 1]->theta.data());
+            problem.AddResidualBlock(new CompressedCost(new TemporalCost(&model, size, w)), nullptr, theta,
+                                     window[k - 1]->theta.data());
           } else if (has_previous_final) {
-            problem.AddResidualBlock(new TemporalCost(&model, size, w, &previous_final), nullptr, theta);
+            problem.AddResidualBlock(new CompressedCost(new TemporalCost(&model, size, w, &previous_final)), nullptr,
+                                     theta);
           }
         }
       }
       ceres::Solver::Options solver;
       solver.minimizer_type = ceres::TRUST_REGION;
       solver.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-      solver.linear_solver_type = window.size() > 1 ? ceres::SPARSE_NORMAL_CHOLESKY : ceres::DENSE_QR;
+      // Every term is compressed to (parameters + 1) rows: a small dense system.
+      solver.linear_solver_type = ceres::DENSE_QR;
       solver.max_num_iterations = options.max_iterations_per_level;
       solver.num_threads = 1;  // the rasterizer uses the threads
       solver.logging_type = ceres::SILENT;
