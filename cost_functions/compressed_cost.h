@@ -19,7 +19,9 @@
 #ifndef COST_FUNCTIONS_COMPRESSED_COST_H_
 #define COST_FUNCTIONS_COMPRESSED_COST_H_
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -29,6 +31,78 @@
 
 namespace polyfit {
 
+// Writes the compressed residuals (n + 1) and Jacobians (row-major, one per
+// parameter block of `sizes`) of a term with |r|^2 = squared_norm and
+// normal equations J^T J, J^T r. Without jacobians, only the cost.
+inline void WriteCompressedResiduals(const std::vector<int32_t>& sizes, double squared_norm,
+                                     const Eigen::MatrixXd& jtj, const Eigen::VectorXd& jtr, double* residuals,
+                                     double** jacobians) {
+  const int n = static_cast<int>(jtr.size());
+  Eigen::Map<Eigen::VectorXd> out(residuals, n + 1);
+  out.setZero();
+  if (jacobians == nullptr) {
+    out[n] = std::sqrt(std::max(0.0, squared_norm));
+    return;
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(jtj);
+  const Eigen::VectorXd& lambda = eigen.eigenvalues();
+  const double floor = 1e-12 * std::max(lambda.maxCoeff(), 1e-300);
+  Eigen::MatrixXd r_matrix = Eigen::MatrixXd::Zero(n, n);  // R, row i for eigenvector i
+  double compressed = 0.0;
+  for (int i = 0; i < n; ++i) {
+    if (!(lambda[i] > floor)) continue;
+    const double s = std::sqrt(lambda[i]);
+    r_matrix.row(i) = s * eigen.eigenvectors().col(i).transpose();
+    out[i] = eigen.eigenvectors().col(i).dot(jtr) / s;
+    compressed += out[i] * out[i];
+  }
+  out[n] = std::sqrt(std::max(0.0, squared_norm - compressed));
+  for (size_t b = 0, cb = 0; b < sizes.size(); cb += sizes[b], ++b) {
+    if (jacobians[b] == nullptr) continue;
+    Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> jac(jacobians[b], n + 1,
+                                                                                             sizes[b]);
+    jac.topRows(n) = r_matrix.middleCols(cb, sizes[b]);
+    jac.row(n).setZero();
+  }
+}
+
+// The compression for terms that can form their normal equations directly
+// (without the m by n Jacobian): subclasses give |r|^2, J^T J and J^T r.
+class NormalEquationsCost : public ceres::CostFunction {
+ public:
+  // parameter_block_sizes: as the term's parameters.
+  explicit NormalEquationsCost(const std::vector<int32_t>& parameter_block_sizes) {
+    int n = 0;
+    for (int size : parameter_block_sizes) {
+      mutable_parameter_block_sizes()->push_back(size);
+      n += size;
+    }
+    set_num_residuals(n + 1);
+  }
+  // jtj and jtr are null when only the cost is wanted.
+  virtual bool EvaluateNormalEquations(double const* const* parameters, double* squared_norm, Eigen::MatrixXd* jtj,
+                                       Eigen::VectorXd* jtr) const = 0;
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    double squared_norm = 0.0;
+    const bool want = jacobians != nullptr;
+    if (!EvaluateNormalEquations(parameters, &squared_norm, want ? &jtj_ : nullptr, want ? &jtr_ : nullptr)) {
+      return false;
+    }
+    if (!want) {
+      jtj_.resize(0, 0);
+      jtr_.resize(num_residuals() - 1);
+    }
+    WriteCompressedResiduals(parameter_block_sizes(), squared_norm, jtj_, jtr_, residuals, jacobians);
+    return true;
+  }
+
+ private:
+  mutable Eigen::MatrixXd jtj_;
+  mutable Eigen::VectorXd jtr_;
+};
+
+// Compresses any CostFunction (it forms J, then J^T J).
 class CompressedCost : public ceres::CostFunction {
  public:
   // Takes ownership of `inner`.
@@ -57,43 +131,19 @@ class CompressedCost : public ceres::CostFunction {
     if (!inner_->Evaluate(parameters, full_residuals_.data(), want_jacobians ? inner_jacobians.data() : nullptr)) {
       return false;
     }
-    const double total = full_residuals_.squaredNorm();
-    Eigen::Map<Eigen::VectorXd> out(residuals, n + 1);
-    out.setZero();
-    if (!want_jacobians) {
-      out[n] = std::sqrt(total);
-      return true;
-    }
-    // J^T J and J^T r, block by block.
-    Eigen::MatrixXd jtj(n, n);
+    Eigen::MatrixXd jtj;
     Eigen::VectorXd jtr(n);
-    for (size_t a = 0, ca = 0; a < sizes.size(); ca += sizes[a], ++a) {
-      jtr.segment(ca, sizes[a]).noalias() = block_jacobians_[a].transpose() * full_residuals_;
-      for (size_t b = 0, cb = 0; b <= a; cb += sizes[b], ++b) {
-        jtj.block(ca, cb, sizes[a], sizes[b]).noalias() = block_jacobians_[a].transpose() * block_jacobians_[b];
-        if (b != a) jtj.block(cb, ca, sizes[b], sizes[a]) = jtj.block(ca, cb, sizes[a], sizes[b]).transpose();
+    if (want_jacobians) {
+      jtj.resize(n, n);
+      for (size_t a = 0, ca = 0; a < sizes.size(); ca += sizes[a], ++a) {
+        jtr.segment(ca, sizes[a]).noalias() = block_jacobians_[a].transpose() * full_residuals_;
+        for (size_t b = 0, cb = 0; b <= a; cb += sizes[b], ++b) {
+          jtj.block(ca, cb, sizes[a], sizes[b]).noalias() = block_jacobians_[a].transpose() * block_jacobians_[b];
+          if (b != a) jtj.block(cb, ca, sizes[b], sizes[a]) = jtj.block(ca, cb, sizes[a], sizes[b]).transpose();
+        }
       }
     }
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(jtj);
-    const Eigen::VectorXd& lambda = eigen.eigenvalues();
-    const double floor = 1e-12 * std::max(lambda.maxCoeff(), 1e-300);
-    Eigen::MatrixXd r_matrix = Eigen::MatrixXd::Zero(n, n);  // R, row i for eigenvector i
-    double compressed = 0.0;
-    for (int i = 0; i < n; ++i) {
-      if (!(lambda[i] > floor)) continue;
-      const double s = std::sqrt(lambda[i]);
-      r_matrix.row(i) = s * eigen.eigenvectors().col(i).transpose();
-      out[i] = eigen.eigenvectors().col(i).dot(jtr) / s;
-      compressed += out[i] * out[i];
-    }
-    out[n] = std::sqrt(std::max(0.0, total - compressed));
-    for (size_t b = 0, cb = 0; b < sizes.size(); cb += sizes[b], ++b) {
-      if (jacobians[b] == nullptr) continue;
-      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> jac(jacobians[b], n + 1,
-                                                                                               sizes[b]);
-      jac.topRows(n) = r_matrix.middleCols(cb, sizes[b]);
-      jac.row(n).setZero();
-    }
+    WriteCompressedResiduals(sizes, full_residuals_.squaredNorm(), jtj, jtr, residuals, jacobians);
     return true;
   }
 

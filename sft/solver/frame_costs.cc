@@ -43,33 +43,67 @@ RenderCost::RenderCost(Data data) : data_(std::move(data)) {
 }
 
 bool RenderCost::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+  const bool want = jacobians != nullptr && jacobians[0] != nullptr;
+  return Compute(parameters[0], residuals, want ? jacobians[0] : nullptr, nullptr, nullptr, nullptr);
+}
+
+bool RenderCost::EvaluateNormalEquations(const double* theta, double* squared_norm, Eigen::MatrixXd* jtj,
+                                         Eigen::VectorXd* jtr) const {
+  return Compute(theta, nullptr, nullptr, squared_norm, jtj, jtr);
+}
+
+bool RenderCost::Compute(const double* theta, double* residuals, double* jacobian, double* squared_norm,
+                         Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr) const {
   const JetDeformationModel& model = *data_.model;
-  const bool want_jacobian = jacobians != nullptr && jacobians[0] != nullptr;
-  model.Evaluate(parameters[0], &vertices_, want_jacobian ? &model_jacobian_ : nullptr);
+  const bool normal = squared_norm != nullptr;
+  const bool want_jacobian = jacobian != nullptr || jtj != nullptr;
+  model.Evaluate(theta, &vertices_, want_jacobian ? &model_jacobian_ : nullptr);
   if (!ProjectVertices(data_.camera, vertices_, &screen_, want_jacobian ? &screen_jacobian_ : nullptr)) return false;
   data_.rasterizer->Render(screen_, data_.camera.width, data_.camera.height, data_.image, want_jacobian, &render_,
                            data_.roi);
   const int P = model.num_parameters();
   const int n = model.num_vertices();
   // d(x, y, depth)/d theta per vertex: 3 #V by P.
-  Eigen::MatrixXd screen_theta;
   if (want_jacobian) {
-    screen_theta.resize(3 * n, P);
+    screen_theta_.resize(3 * n, P);
     for (int i = 0; i < n; ++i) {
-      screen_theta.middleRows(3 * i, 3).noalias() =
+      screen_theta_.middleRows(3 * i, 3).noalias() =
           screen_jacobian_.middleRows(3 * i, 3) * model_jacobian_.middleRows(3 * i, 3);
     }
   }
   const cv::Rect& roi = data_.roi;
   const int width = data_.camera.width;
-  ParallelFor(roi.height, data_.rasterizer->options().num_threads, [&](int, int row) {
+  // Normal equations: per thread, Jacobian rows of covered pixels are
+  // gathered in blocks and added with one symmetric rank-k update each.
+  constexpr int kBlockRows = 64;
+  const int threads = std::max(1, std::min(ResolveNumThreads(data_.rasterizer->options().num_threads), roi.height));
+  if (normal) {
+    accumulators_.resize(threads);
+    for (Accumulator& a : accumulators_) {
+      a.squared_norm = 0.0;
+      if (want_jacobian) {
+        a.jtj.setZero(P, P);
+        a.jtr.setZero(P);
+        a.rows.resize(kBlockRows, P);
+        a.values.resize(kBlockRows);
+        a.count = 0;
+      }
+    }
+  }
+  auto flush = [P](Accumulator& a) {
+    if (a.count == 0) return;
+    a.jtj.selfadjointView<Eigen::Lower>().rankUpdate(a.rows.topRows(a.count).transpose());
+    a.jtr.noalias() += a.rows.topRows(a.count).transpose() * a.values.head(a.count);
+    a.count = 0;
+  };
+  ParallelFor(roi.height, threads, [&](int thread, int row) {
     const int y = roi.y + row;
     Eigen::Matrix<double, 4, Eigen::Dynamic> local(4, P);
+    double r[4];
     for (int col = 0; col < roi.width; ++col) {
       const int x = roi.x + col;
       const int r0 = (row * roi.width + col) * channels_;
       const cv::Vec3f rendered = render_.color.at<cv::Vec3f>(y, x), observed = data_.image.at<cv::Vec3f>(y, x);
-      double r[3];
       for (int ch = 0; ch < 3; ++ch) r[ch] = data_.photometric_weight * (rendered[ch] - observed[ch]);
       // Robust loss per pixel: residual scaled by sqrt(rho(s) / s), Jacobian
       // by sqrt(rho'(s)) (iteratively reweighted least squares).
@@ -88,31 +122,68 @@ bool RenderCost::Evaluate(double const* const* parameters, double* residuals, do
         residual_scale = s > 0.0 ? std::sqrt(rho / s) : 1.0;
         jacobian_scale *= std::sqrt(rho1);
       }
-      for (int ch = 0; ch < 3; ++ch) residuals[r0 + ch] = residual_scale * r[ch];
+      for (int ch = 0; ch < 3; ++ch) r[ch] *= residual_scale;
       if (channels_ == 4) {
-        residuals[r0 + 3] = data_.silhouette_weight * (render_.silhouette.at<float>(y, x) - data_.mask.at<float>(y, x));
+        r[3] = data_.silhouette_weight * (render_.silhouette.at<float>(y, x) - data_.mask.at<float>(y, x));
+      }
+      if (residuals != nullptr) {
+        for (int ch = 0; ch < channels_; ++ch) residuals[r0 + ch] = r[ch];
+      }
+      if (normal) {
+        for (int ch = 0; ch < channels_; ++ch) accumulators_[thread].squared_norm += r[ch] * r[ch];
       }
       if (!want_jacobian) continue;
-      local.setZero();
       const int pixel = y * width + x;
+      if (render_.end[pixel] == render_.begin[pixel] && jacobian == nullptr) continue;  // a zero row
+      local.setZero();
       for (int k = render_.begin[pixel]; k < render_.end[pixel]; ++k) {
         const VertexGradient& g = render_.gradients[k];
         Eigen::Matrix<double, 4, 3> d;
         for (int a = 0; a < 4; ++a) {
           for (int b = 0; b < 3; ++b) d(a, b) = g.d[a][b];
         }
-        local.noalias() += d * screen_theta.middleRows(3 * g.vertex, 3);
+        local.noalias() += d * screen_theta_.middleRows(3 * g.vertex, 3);
       }
-      double* jrow = jacobians[0] + static_cast<size_t>(r0) * P;
-      for (int ch = 0; ch < 3; ++ch) {
-        for (int c = 0; c < P; ++c) jrow[ch * P + c] = jacobian_scale * local(ch, c);
+      local.topRows(3) *= jacobian_scale;
+      local.row(3) *= data_.silhouette_weight;
+      if (jacobian != nullptr) {
+        double* jrow = jacobian + static_cast<size_t>(r0) * P;
+        for (int ch = 0; ch < channels_; ++ch) {
+          for (int c = 0; c < P; ++c) jrow[ch * P + c] = local(ch, c);
+        }
       }
-      if (channels_ == 4) {
-        for (int c = 0; c < P; ++c) jrow[3 * P + c] = data_.silhouette_weight * local(3, c);
+      if (normal) {
+        Accumulator& a = accumulators_[thread];
+        if (a.count + channels_ > kBlockRows) flush(a);
+        a.rows.middleRows(a.count, channels_) = local.topRows(channels_);
+        for (int ch = 0; ch < channels_; ++ch) a.values[a.count + ch] = r[ch];
+        a.count += channels_;
       }
     }
-  }, 4);
+  }, 1);
+  if (normal) {
+    *squared_norm = 0.0;
+    for (Accumulator& a : accumulators_) *squared_norm += a.squared_norm;
+    if (want_jacobian) {
+      jtj->setZero(P, P);
+      jtr->setZero(P);
+      for (Accumulator& a : accumulators_) {
+        flush(a);
+        *jtj += a.jtj;
+        *jtr += a.jtr;
+      }
+      *jtj = jtj->selfadjointView<Eigen::Lower>();
+    }
+  }
   return true;
+}
+
+CompressedRenderCost::CompressedRenderCost(RenderCost::Data data)
+    : NormalEquationsCost({data.model->num_parameters()}), cost_(std::move(data)) {}
+
+bool CompressedRenderCost::EvaluateNormalEquations(double const* const* parameters, double* squared_norm,
+                                                   Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr) const {
+  return cost_.EvaluateNormalEquations(parameters[0], squared_norm, jtj, jtr);
 }
 
 InextensibilityCost::InextensibilityCost(const JetDeformationModel* model, const std::vector<Eigen::Vector2i>& edges,

@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include "cost_functions/compressed_cost.h"
 #include "sft/model/jet_deformation.h"
 #include "sft/render/soft_rasterizer.h"
 #include "sft/scene/scene.h"
@@ -40,14 +41,42 @@ class RenderCost : public ceres::CostFunction {
   };
   explicit RenderCost(Data data);
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+  // |r|^2, and J^T J and J^T r (when not null), without forming J: rows of
+  // pixels no triangle touches are zero and skipped.
+  bool EvaluateNormalEquations(const double* theta, double* squared_norm, Eigen::MatrixXd* jtj,
+                               Eigen::VectorXd* jtr) const;
 
  private:
+  struct Accumulator {
+    double squared_norm = 0.0;
+    Eigen::MatrixXd jtj;
+    Eigen::VectorXd jtr;
+    Eigen::MatrixXd rows;
+    Eigen::VectorXd values;
+    int count = 0;
+  };
+  bool Compute(const double* theta, double* residuals, double* jacobian, double* squared_norm, Eigen::MatrixXd* jtj,
+               Eigen::VectorXd* jtr) const;
+
   Data data_;
   int channels_;
   mutable ScreenMesh screen_;
   mutable SoftRenderOutput render_;
   mutable Eigen::Matrix3Xd vertices_;
-  mutable Eigen::MatrixXd model_jacobian_, screen_jacobian_;
+  mutable Eigen::MatrixXd model_jacobian_, screen_jacobian_, screen_theta_;
+  mutable std::vector<Accumulator> accumulators_;
+};
+
+// RenderCost compressed (cost_functions/compressed_cost.h) from its normal
+// equations: what the solver uses.
+class CompressedRenderCost : public NormalEquationsCost {
+ public:
+  explicit CompressedRenderCost(RenderCost::Data data);
+  bool EvaluateNormalEquations(double const* const* parameters, double* squared_norm, Eigen::MatrixXd* jtj,
+                               Eigen::VectorXd* jtr) const override;
+
+ private:
+  RenderCost cost_;
 };
 
 // Edge inextensibility over all template edges (EdgeInextensibilityResidual).

@@ -103,6 +103,22 @@ TEST_F(FrameCostsTest, RenderCostJacobianMatchesFiniteDifferences) {
   double largest = 0.0;
   EXPECT_LT(RelativeJacobianError(cost, theta_, 1e-6, &largest), 0.02);
   EXPECT_GT(largest, 0.0);
+
+  // The normal equations formed directly equal those of the full Jacobian.
+  const int m = cost.num_residuals(), P = model_->num_parameters();
+  std::vector<double> r(m), j(static_cast<size_t>(m) * P);
+  const double* parameters[1] = {theta_.data()};
+  double* jacobians[1] = {j.data()};
+  ASSERT_TRUE(cost.Evaluate(parameters, r.data(), jacobians));
+  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(j.data(), m, P);
+  const Eigen::Map<const Eigen::VectorXd> R(r.data(), m);
+  double squared_norm = 0.0;
+  Eigen::MatrixXd jtj;
+  Eigen::VectorXd jtr;
+  ASSERT_TRUE(cost.EvaluateNormalEquations(theta_.data(), &squared_norm, &jtj, &jtr));
+  EXPECT_NEAR(squared_norm, R.squaredNorm(), 1e-9 * R.squaredNorm());
+  EXPECT_LT((jtj - J.transpose() * J).norm(), 1e-9 * jtj.norm());
+  EXPECT_LT((jtr - J.transpose() * R).norm(), 1e-9 * jtr.norm());
 }
 
 TEST_F(FrameCostsTest, InextensibilityAndTemporalJacobiansMatchFiniteDifferences) {

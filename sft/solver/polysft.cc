@@ -17,6 +17,7 @@
 #include "polyfit/mesh/mesh_io.h"
 #include "polyfit/mesh/mesh_topology.h"
 #include "sft/scene/sft_metrics.h"
+#include "polyfit/util/parallel_for.h"
 #include "sft/solver/frame_costs.h"
 
 namespace polyfit {
@@ -206,7 +207,7 @@ PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene
   // texel per image pixel: sampled at a single point per pixel, a finer
   // texture aliases, and its colours match neither the (area-averaged)
   // frames nor their neighbours, which ruins the photometric gradients.
-  std::vector<std::unique_ptr<SoftRasterizer>> rasterizers;
+  std::vector<std::unique_ptr<SoftRasterizer>> rasterizers, serial_rasterizers;
   {
     ScreenMesh screen = mesh_template;
     ProjectVertices(scene.camera, scene.template_mesh.vertices, &screen, nullptr);
@@ -232,6 +233,9 @@ PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene
                    0, 0, cv::INTER_AREA);
       }
       rasterizers.push_back(std::make_unique<SoftRasterizer>(options.rasterizer, texture));
+      SoftRasterizerOptions serial = options.rasterizer;
+      serial.num_threads = 1;
+      serial_rasterizers.push_back(std::make_unique<SoftRasterizer>(serial, texture));
     }
   }
   Eigen::Matrix3Xd template_now;
@@ -313,7 +317,7 @@ PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene
         if (!frame.mask_empty && (use_photometric || use_masks)) {
           RenderCost::Data d;
           d.model = &model;
-          d.rasterizer = rasterizers[l].get();
+          d.rasterizer = window.size() > 1 ? serial_rasterizers[l].get() : rasterizers[l].get();
           d.mesh = mesh_template;
           d.camera = cameras[l];
           d.image = frame.images[l];
@@ -331,7 +335,7 @@ PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene
           d.silhouette_weight = std::sqrt(options.silhouette_weight / level_pixels);
           d.robust_loss = options.robust_loss;
           d.robust_scale = options.robust_scale * d.photometric_weight;
-          if (d.roi.area() > 0) problem.AddResidualBlock(new CompressedCost(new RenderCost(std::move(d))), nullptr, theta);
+          if (d.roi.area() > 0) problem.AddResidualBlock(new CompressedRenderCost(std::move(d)), nullptr, theta);
         }
         if (use_inextensibility && !edges.empty()) {
           problem.AddResidualBlock(
@@ -356,7 +360,9 @@ PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene
       // Every term is compressed to (parameters + 1) rows: a small dense system.
       solver.linear_solver_type = ceres::DENSE_QR;
       solver.max_num_iterations = options.max_iterations_per_level;
-      solver.num_threads = 1;  // the rasterizer uses the threads
+      // The window's frames are evaluated side by side; a lone frame's pixels
+      // are split over the threads by the rasterizer instead.
+      solver.num_threads = window.size() > 1 ? ResolveNumThreads(options.num_threads) : 1;
       solver.logging_type = ceres::SILENT;
       solver.update_state_every_iteration = true;
       SftTraceRow row;
