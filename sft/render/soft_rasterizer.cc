@@ -157,6 +157,7 @@ void SoftRasterizer::Render(const ScreenMesh& mesh, int width, int height, const
     if (list.empty()) return;
     std::vector<VertexGradient>& grads = tile_gradients[tile];
     grads.clear();
+    if (with_gradients) grads.reserve(kTile * kTile * 12);
     std::vector<TriangleTerm> terms;
     terms.reserve(list.size());
     const int tx = tile % tiles_x, ty = tile / tiles_x;

@@ -39,9 +39,9 @@ struct PolySftOptions {
   // The adaptive window, in solver iterations: each level stops after
   // max_iterations_per_level, or once `patience` iterations in a row lowered
   // the cost by less than improvement_tolerance (relative).
-  int max_iterations_per_level = 10;
+  int max_iterations_per_level = 6;
   int patience = 2;
-  double improvement_tolerance = 1e-3;
+  double improvement_tolerance = 1e-2;
   // Term weights (relative; each term is normalised by its size).
   double photometric_weight = 1.0;
   double silhouette_weight = 1.0;

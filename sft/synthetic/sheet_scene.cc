@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <algorithm>
+#include <vector>
 #include <random>
 #include <stdexcept>
 
@@ -90,6 +92,7 @@ std::string SheetSceneOptions::Validate() const {
   if (width < 16 || height < 16) return "the image must be at least 16 x 16";
   if (grid_x < 2 || grid_y < 2) return "the grid needs at least 2 x 2 cells";
   if (!(distance > 0.05)) return "distance must be > 0.05 m";
+  if (!(wavelength > 0.0)) return "wavelength must be > 0";
   if (supersampling < 1 || supersampling > 8) return "supersampling must be in [1, 8]";
   return {};
 }
@@ -98,11 +101,10 @@ Eigen::Matrix3Xd SheetVerticesAt(const SheetSceneOptions& o, double tau) {
   const int nx = o.grid_x, ny = o.grid_y;
   Eigen::Matrix3Xd vertices(3, (nx + 1) * (ny + 1));
   const bool bend = o.motion == SheetMotion::kBend || o.motion == SheetMotion::kMixed;
-  const bool wave = o.motion == SheetMotion::kWave || o.motion == SheetMotion::kMixed;
+  const bool wave = o.motion == SheetMotion::kWave;
   const bool rigid = o.motion == SheetMotion::kRigid || o.motion == SheetMotion::kMixed;
   // Curvature up to 1 / 0.13 m: the sheet's ends fold about 65 degrees.
   const double curvature = bend ? std::sin(M_PI * tau) / 0.13 : 0.0;
-  const double amplitude = wave ? (o.motion == SheetMotion::kWave ? 0.012 : 0.004) * std::sin(M_PI * tau) : 0.0;
   const Eigen::Matrix3d rotation =
       rigid ? (Eigen::AngleAxisd(0.35 * std::sin(M_PI * tau), Eigen::Vector3d::UnitY()) *
                Eigen::AngleAxisd(0.2 * std::sin(2 * M_PI * tau), Eigen::Vector3d::UnitX()))
@@ -111,6 +113,47 @@ Eigen::Matrix3Xd SheetVerticesAt(const SheetSceneOptions& o, double tau) {
   const Eigen::Vector3d translation =
       rigid ? Eigen::Vector3d(0.03 * std::sin(2 * M_PI * tau), 0.015 * std::sin(M_PI * tau), 0.05 * std::sin(M_PI * tau))
             : Eigen::Vector3d::Zero();
+  // The wave: the profile z = A sin(2 pi (w / lambda + phase)) across the
+  // sheet's height, travelling, followed by arc length so that the sheet is
+  // not stretched (a developable surface, like paper). Tabulated: arc
+  // length s(w) from w = 0, then inverted by interpolation.
+  const double amplitude = wave ? o.wave_amplitude * std::sin(M_PI * tau) : 0.0, wavelength = o.wavelength,
+               phase = 0.5 * tau;
+  std::vector<double> table_w, table_s;
+  if (wave) {
+    const int steps = 4000;
+    const double reach = o.sheet_height;  // w in [-reach, reach] covers s in [-h/2, h/2]
+    double arc = 0.0;
+    const double dw = 2 * reach / steps;
+    auto slope = [&](double w) {
+      return amplitude * 2 * M_PI / wavelength * std::cos(2 * M_PI * (w / wavelength + phase));
+    };
+    for (int k = 0; k <= steps; ++k) {
+      const double w = -reach + k * dw;
+      if (k > 0) {
+        const double mid = w - 0.5 * dw;
+        arc += dw * std::sqrt(1.0 + slope(mid) * slope(mid));
+      }
+      table_w.push_back(w);
+      table_s.push_back(arc);
+    }
+    // Arc length measured from w = 0.
+    const double s0 = table_s[steps / 2];
+    for (double& s : table_s) s -= s0;
+  }
+  auto profile = [&](double s, double* w, double* z) {
+    if (!wave) {
+      *w = s;
+      *z = 0.0;
+      return;
+    }
+    const size_t k = std::min<size_t>(std::lower_bound(table_s.begin(), table_s.end(), s) - table_s.begin(),
+                                      table_s.size() - 1);
+    const size_t k0 = k == 0 ? 0 : k - 1;
+    const double t = table_s[k] > table_s[k0] ? (s - table_s[k0]) / (table_s[k] - table_s[k0]) : 0.0;
+    *w = table_w[k0] + t * (table_w[k] - table_w[k0]);
+    *z = amplitude * std::sin(2 * M_PI * (*w / wavelength + phase)) - amplitude * std::sin(2 * M_PI * phase);
+  };
   for (int j = 0; j <= ny; ++j) {
     for (int i = 0; i <= nx; ++i) {
       const double x = (static_cast<double>(i) / nx - 0.5) * o.sheet_width;
@@ -121,7 +164,10 @@ Eigen::Matrix3Xd SheetVerticesAt(const SheetSceneOptions& o, double tau) {
         p.x() = std::sin(curvature * x) / curvature;
         p.z() = (1.0 - std::cos(curvature * x)) / curvature;
       }
-      p.z() += amplitude * std::sin(2 * M_PI * (y / 0.14 + 0.5 * tau));
+      double w, z;
+      profile(y, &w, &z);
+      p.y() = w;
+      p.z() += z;
       vertices.col(j * (nx + 1) + i) = rotation * p + translation + Eigen::Vector3d(0, 0, o.distance);
     }
   }
@@ -292,6 +338,8 @@ void GenerateSheetScene(const SheetSceneOptions& o, const std::string& directory
                                 : o.motion == SheetMotion::kRigid ? "rigid"
                                                                   : "mixed"},
                      {"seed", o.seed},
+                     {"wavelength", o.wavelength},
+                     {"wave_amplitude", o.wave_amplitude},
                      {"noise_sigma", o.noise_sigma}}}};
   if (o.write_masks) scene["masks"] = "masks/%06d.png";
   std::ofstream out(dir / "scene.json");

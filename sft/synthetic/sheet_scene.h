@@ -18,9 +18,9 @@ namespace polyfit {
 
 enum class SheetMotion {
   kBend,   // cylindrical bend (isometric), curvature rising and falling
-  kWave,   // a travelling wave across the sheet (stretches it slightly)
+  kWave,   // a travelling wave across the sheet's height, isometric (arc length kept)
   kRigid,  // rotation and translation of the flat sheet
-  kMixed,  // bend and rigid motion together, with a small wave
+  kMixed,  // bend and rigid motion together
 };
 
 // "bend", "wave", "rigid", "mixed"; throws std::invalid_argument otherwise.
@@ -39,6 +39,11 @@ struct SheetSceneOptions {
   int grid_x = 24;
   int grid_y = 17;
   double distance = 0.4;
+  // The wave's length (metres) and peak amplitude. The default, longer than
+  // the sheet, is a gentle wave; 0.14 puts 1.5 periods across the sheet,
+  // beyond what one 4-jet represents.
+  double wavelength = 0.3;
+  double wave_amplitude = 0.015;
   // Samples per pixel per axis for the hard rasterizer.
   int supersampling = 4;
   bool write_masks = true;

@@ -118,6 +118,9 @@ int main(int argc, char** argv) {
   generate->add_option("--width", generate_options.width, "Image width")->capture_default_str();
   generate->add_option("--height", generate_options.height, "Image height")->capture_default_str();
   generate->add_option("--focal", generate_options.focal_length, "Focal length (pixels)")->capture_default_str();
+  generate->add_option("--wavelength", generate_options.wavelength, "Wave length (m), motion wave")
+      ->capture_default_str();
+  generate->add_option("--amplitude", generate_options.wave_amplitude, "Wave amplitude (m)")->capture_default_str();
   generate->add_option("--noise", generate_options.noise_sigma, "Pixel noise sigma")->capture_default_str();
   generate->add_option("--seed", generate_options.seed, "Random seed")->capture_default_str();
   bool no_masks = false;
