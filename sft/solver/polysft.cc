@@ -141,6 +141,19 @@ PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene
   if (use_masks) summary.terms.emplace_back("silhouette", options.silhouette_weight);
   if (use_inextensibility) summary.terms.emplace_back("inextensibility", options.inextensibility_weight);
   if (use_temporal) summary.terms.emplace_back("temporal", options.temporal_weight);
+  {
+    // Data terms are normalised to about 1 per unit weight: the regularisers
+    // far above them decide the shape alone.
+    const double data = std::max(use_photometric ? options.photometric_weight : 0.0,
+                                 use_masks ? options.silhouette_weight : 0.0);
+    const double stiffest = std::max(use_inextensibility ? options.inextensibility_weight : 0.0,
+                                     use_temporal ? options.temporal_weight : 0.0);
+    if (data > 0.0 && stiffest >= 1e4 * data) {
+      summary.warnings.emplace_back("stiff weights (a regulariser at " + std::to_string(stiffest / data) +
+                                    " times the data terms): the images barely move the surface and results may be "
+                                    "unreliable");
+    }
+  }
   if (!use_photometric && !use_masks) {
     throw std::invalid_argument("PolySftOptions: no data term (photometric weight 0 and no masks)");
   }
@@ -250,7 +263,19 @@ PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene
   bool has_previous_final = false;
   int frames_done = 0;
 
+  double first_cost = -1.0;
   auto finalize = [&](FrameData& data, double time_s, double cost, int iterations) {
+    // A frame that fits far worse than the first has probably lost track.
+    if (first_cost < 0.0) {
+      first_cost = cost;
+    } else if (cost > 4.0 * std::max(first_cost, 1e-12)) {
+      char buffer[200];
+      std::snprintf(buffer, sizeof(buffer),
+                    "frame %d: cost %.3g is %.0f times the first frame's: tracking may be lost (motion too large "
+                    "between frames?)",
+                    data.frame.index, cost, cost / std::max(first_cost, 1e-12));
+      summary.warnings.emplace_back(buffer);
+    }
     SftFrameResult result;
     result.index = data.frame.index;
     model.Evaluate(data.theta.data(), &result.vertices);
@@ -381,7 +406,8 @@ PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene
       solver.callbacks.push_back(&callback);
       ceres::Solver::Summary result;
       ceres::Solve(solver, &problem, &result);
-      cost = result.final_cost;
+      // Per frame of the window, so that windows of different sizes compare.
+      cost = result.final_cost / window.size();
       iterations += callback.iterations();
       for (const auto& frame : window) {
         for (double v : frame->theta) {

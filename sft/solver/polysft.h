@@ -63,6 +63,8 @@ struct SftFrameResult {
   Eigen::Matrix3Xd vertices;
   // Solver time spent on the windows this frame entered as the newest.
   double time_s = 0.0;
+  // The final cost of the window this frame entered as the newest, per
+  // frame of that window.
   double cost = 0.0;
   int iterations = 0;
   double e3d = std::numeric_limits<double>::quiet_NaN();

@@ -121,6 +121,8 @@ int main(int argc, char** argv) {
   generate->add_option("--wavelength", generate_options.wavelength, "Wave length (m), motion wave")
       ->capture_default_str();
   generate->add_option("--amplitude", generate_options.wave_amplitude, "Wave amplitude (m)")->capture_default_str();
+  generate->add_option("--grid-x", generate_options.grid_x, "Template cells across")->capture_default_str();
+  generate->add_option("--grid-y", generate_options.grid_y, "Template cells down")->capture_default_str();
   generate->add_option("--noise", generate_options.noise_sigma, "Pixel noise sigma")->capture_default_str();
   generate->add_option("--seed", generate_options.seed, "Random seed")->capture_default_str();
   bool no_masks = false;
