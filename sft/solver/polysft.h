@@ -40,7 +40,7 @@ struct PolySftOptions {
   // max_iterations_per_level, or once `patience` iterations in a row lowered
   // the cost by less than improvement_tolerance (relative).
   int max_iterations_per_level = 6;
-  int patience = 2;
+  int patience = 1;
   double improvement_tolerance = 1e-2;
   // Term weights (relative; each term is normalised by its size).
   double photometric_weight = 1.0;

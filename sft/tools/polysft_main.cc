@@ -3,6 +3,7 @@
 //
 //   polysft --scene DIR --out DIR [--config FILE] [--overlays]
 //   polysft generate --out DIR [--motion bend|wave|rigid|mixed] [--frames N] ...
+//   polysft demo [--dir DIR]      generate the default scene, then solve it
 //
 // Defaults live in PolySftOptions and SheetSceneOptions; this file maps
 // flags onto them and makes one library call.
@@ -128,8 +129,20 @@ int main(int argc, char** argv) {
   bool no_masks = false;
   generate->add_flag("--no-masks", no_masks, "Write no masks");
 
+  std::string demo_dir = "build/demo";
+  CLI::App* demo = app.add_subcommand(
+      "demo", "Generate the default scene (a sheet bending and moving, 30 frames, 320x240) and solve it");
+  demo->add_option("--dir", demo_dir, "Where to write the scene (DIR/scene) and the result (DIR/result)")
+      ->capture_default_str();
+
   CLI11_PARSE(app, argc, argv);
   try {
+    if (demo->parsed()) {
+      scene_dir = demo_dir + "/scene";
+      out_dir = demo_dir + "/result";
+      polyfit::GenerateSheetScene(polyfit::SheetSceneOptions(), scene_dir);
+      std::printf("generated %s\n", scene_dir.c_str());
+    }
     if (generate->parsed()) {
       generate_options.motion = polyfit::ParseSheetMotion(motion);
       generate_options.write_masks = !no_masks;
