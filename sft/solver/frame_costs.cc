@@ -98,7 +98,7 @@ bool RenderCost::Compute(const double* theta, double* residuals, double* jacobia
   };
   ParallelFor(roi.height, threads, [&](int thread, int row) {
     const int y = roi.y + row;
-    Eigen::Matrix<double, 4, Eigen::Dynamic> local(4, P);
+    Eigen::Matrix<double, 4, Eigen::Dynamic, Eigen::RowMajor> local(4, P);
     double r[4];
     for (int col = 0; col < roi.width; ++col) {
       const int x = roi.x + col;
@@ -135,14 +135,20 @@ bool RenderCost::Compute(const double* theta, double* residuals, double* jacobia
       if (!want_jacobian) continue;
       const int pixel = y * width + x;
       if (render_.end[pixel] == render_.begin[pixel] && jacobian == nullptr) continue;  // a zero row
+      // local (4 by P) = sum over the pixel's vertices of d(4 by 3) times
+      // their 3 by P rows; written out, as Eigen's dynamic-size product
+      // costs more than the arithmetic at this size.
       local.setZero();
       for (int k = render_.begin[pixel]; k < render_.end[pixel]; ++k) {
         const VertexGradient& g = render_.gradients[k];
-        Eigen::Matrix<double, 4, 3> d;
+        const double* s0 = screen_theta_.data() + static_cast<size_t>(3 * g.vertex) * P;
+        const double* s1 = s0 + P;
+        const double* s2 = s1 + P;
         for (int a = 0; a < 4; ++a) {
-          for (int b = 0; b < 3; ++b) d(a, b) = g.d[a][b];
+          const double d0 = g.d[a][0], d1 = g.d[a][1], d2 = g.d[a][2];
+          double* out = local.data() + static_cast<size_t>(a) * P;
+          for (int c = 0; c < P; ++c) out[c] += d0 * s0[c] + d1 * s1[c] + d2 * s2[c];
         }
-        local.noalias() += d * screen_theta_.middleRows(3 * g.vertex, 3);
       }
       local.topRows(3) *= jacobian_scale;
       local.row(3) *= data_.silhouette_weight;

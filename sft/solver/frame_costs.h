@@ -63,7 +63,9 @@ class RenderCost : public ceres::CostFunction {
   mutable ScreenMesh screen_;
   mutable SoftRenderOutput render_;
   mutable Eigen::Matrix3Xd vertices_;
-  mutable Eigen::MatrixXd model_jacobian_, screen_jacobian_, screen_theta_;
+  mutable Eigen::MatrixXd model_jacobian_, screen_jacobian_;
+  // Row-major: a vertex's three rows are contiguous.
+  mutable Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> screen_theta_;
   mutable std::vector<Accumulator> accumulators_;
 };
 
