@@ -97,6 +97,7 @@ struct PolySftSummary {
   // e_3D of holding the template still (the baseline), when ground truth
   // has vertices.
   double template_e3d = std::numeric_limits<double>::quiet_NaN();
+  double template_rmse_mm = std::numeric_limits<double>::quiet_NaN();
 };
 
 // Called once per frame, when it leaves the window (its result is final).

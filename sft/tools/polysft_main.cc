@@ -179,8 +179,9 @@ int main(int argc, char** argv) {
     std::printf("%zu frames in %.2f s (%.3f s per frame)", summary.frames.size(), summary.total_time_s,
                 summary.mean_time_per_frame_s);
     if (std::isfinite(summary.mean_e3d)) {
-      std::printf("; mean e3D %.4f (template held still: %.4f), e_n %.2f deg, RMSE %.2f mm", summary.mean_e3d,
-                  summary.template_e3d, summary.mean_normal_error_deg, summary.mean_rmse_mm);
+      std::printf("; mean e3D %.4f, e_n %.2f deg, RMSE %.2f mm (template held still: e3D %.4f, RMSE %.1f mm)",
+                  summary.mean_e3d, summary.mean_normal_error_deg, summary.mean_rmse_mm, summary.template_e3d,
+                  summary.template_rmse_mm);
     }
     if (std::isfinite(summary.mean_chamfer_1e4)) std::printf("; mean Chamfer x1e4 %.4f", summary.mean_chamfer_1e4);
     std::printf("\nwrote %s/metrics.json, trace.csv, meshes/\n", out_dir.c_str());
