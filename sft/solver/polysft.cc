@@ -112,6 +112,7 @@ std::string PolySftOptions::Validate() const {
   if (std::string p = rasterizer.Validate(); !p.empty()) return "rasterizer: " + p;
   if (window_size < 1) return "window_size must be >= 1";
   if (pyramid_levels < 1 || pyramid_levels > 6) return "pyramid_levels must be in [1, 6]";
+  if (max_image_width < 0) return "max_image_width must be >= 0";
   if (max_iterations_per_level < 1) return "max_iterations_per_level must be >= 1";
   if (patience < 1) return "patience must be >= 1";
   for (double w : {photometric_weight, silhouette_weight, inextensibility_weight, temporal_weight}) {
@@ -214,7 +215,14 @@ PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene
     }
   }
   std::vector<PinholeCamera> cameras(levels);
-  for (int l = 0; l < levels; ++l) cameras[l] = scene.camera.Scaled(std::ldexp(1.0, -(levels - 1 - l)));
+  const double top_scale = options.max_image_width > 0 && options.max_image_width < scene.camera.width
+                               ? static_cast<double>(options.max_image_width) / scene.camera.width
+                               : 1.0;
+  std::vector<double> level_scales(levels);
+  for (int l = 0; l < levels; ++l) {
+    level_scales[l] = top_scale * std::ldexp(1.0, -(levels - 1 - l));
+    cameras[l] = scene.camera.Scaled(level_scales[l]);
+  }
 
   // One rasterizer per level, each with the texture prefiltered to about one
   // texel per image pixel: sampled at a single point per pixel, a finer
@@ -236,7 +244,7 @@ PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene
       }
     }
     for (int l = 0; l < levels; ++l) {
-      const double level_scale = std::ldexp(1.0, -(levels - 1 - l));
+      const double level_scale = level_scales[l];
       const double factor = std::min(1.0, level_scale * pixels_per_uv / std::max(scene.texture.cols, scene.texture.rows));
       cv::Mat texture = scene.texture;
       if (factor < 1.0) {
@@ -312,7 +320,7 @@ PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene
     data->masks.resize(levels);
     for (int l = 0; l < levels; ++l) {
       const cv::Size size(cameras[l].width, cameras[l].height);
-      if (l == levels - 1) {
+      if (level_scales[l] == 1.0) {
         data->images[l] = data->frame.image;
         data->masks[l] = data->frame.mask;
       } else {
@@ -335,7 +343,7 @@ PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene
       ceres::Problem::Options problem_options;
       problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
       ceres::Problem problem(problem_options);
-      const double level_pixels = template_pixels * std::ldexp(1.0, -2 * (levels - 1 - l));
+      const double level_pixels = template_pixels * level_scales[l] * level_scales[l];
       for (size_t k = 0; k < window.size(); ++k) {
         FrameData& frame = *window[k];
         double* theta = frame.theta.data();
@@ -498,6 +506,7 @@ void WriteSftOutputs(const std::string& directory, const SftScene& scene, const 
         {"uv_order", options.deformation.uv_order},
         {"window_size", options.window_size},
         {"pyramid_levels", options.pyramid_levels},
+        {"max_image_width", options.max_image_width},
         {"max_iterations_per_level", options.max_iterations_per_level},
         {"patience", options.patience},
         {"sigma", options.rasterizer.sigma},

@@ -36,6 +36,9 @@ struct PolySftOptions {
   int window_size = 3;
   // Levels of the image pyramid, coarsest first (3: 1/4, 1/2, full size).
   int pyramid_levels = 3;
+  // Solve at most at this image width (0: full size): the finest level is
+  // scaled down to it, the others halve from there. For HD video.
+  int max_image_width = 0;
   // The adaptive window, in solver iterations: each level stops after
   // max_iterations_per_level, or once `patience` iterations in a row lowered
   // the cost by less than improvement_tolerance (relative).

@@ -46,6 +46,7 @@ void ApplyConfig(const std::string& path, polyfit::PolySftOptions* o) {
       } else if (key == "uv_order") o->deformation.uv_order = value.get<int>();
       else if (key == "window_size") o->window_size = value.get<int>();
       else if (key == "pyramid_levels") o->pyramid_levels = value.get<int>();
+      else if (key == "max_image_width") o->max_image_width = value.get<int>();
       else if (key == "max_iterations_per_level") o->max_iterations_per_level = value.get<int>();
       else if (key == "patience") o->patience = value.get<int>();
       else if (key == "improvement_tolerance") o->improvement_tolerance = value.get<double>();
