@@ -23,15 +23,7 @@ namespace fs = std::filesystem;
 class SceneTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    SheetSceneOptions options;
-    options.frame_count = 3;
-    options.width = 64;
-    options.height = 48;
-    options.focal_length = 58;
-    options.grid_x = 6;
-    options.grid_y = 4;
-    options.texture_size = 64;
-    GenerateSheetScene(options, dir_.path().string());
+    GenerateSheetScene(SheetSceneOptions::Small(64, 6, 3), dir_.path().string());
   }
   std::string Error() const {
     try {

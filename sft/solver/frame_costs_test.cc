@@ -43,15 +43,7 @@ double RelativeJacobianError(const ceres::CostFunction& cost, std::vector<double
 class FrameCostsTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    SheetSceneOptions options;
-    options.frame_count = 2;
-    options.width = 80;
-    options.height = 60;
-    options.focal_length = 72;
-    options.grid_x = 8;
-    options.grid_y = 6;
-    options.texture_size = 128;
-    GenerateSheetScene(options, dir_.path().string());
+    GenerateSheetScene(SheetSceneOptions::Small(80, 8, 2), dir_.path().string());
     scene_ = LoadScene(dir_.path().string());
     model_ = std::make_unique<JetDeformationModel>(JetDeformationOptions(), scene_.template_mesh.vertices);
     theta_.assign(model_->num_parameters(), 0.0);

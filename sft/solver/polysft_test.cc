@@ -18,15 +18,8 @@ namespace fs = std::filesystem;
 
 // A small generated scene (160 x 120, 12 x 8 cells) for fast solves.
 SheetSceneOptions SmallScene(SheetMotion motion, int frames) {
-  SheetSceneOptions o;
+  SheetSceneOptions o = SheetSceneOptions::Small(160, 12, frames);
   o.motion = motion;
-  o.frame_count = frames;
-  o.width = 160;
-  o.height = 120;
-  o.focal_length = 144;
-  o.grid_x = 12;
-  o.grid_y = 8;
-  o.texture_size = 256;
   return o;
 }
 

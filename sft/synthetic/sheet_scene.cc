@@ -97,6 +97,18 @@ std::string SheetSceneOptions::Validate() const {
   return {};
 }
 
+SheetSceneOptions SheetSceneOptions::Small(int width, int grid_x, int frame_count) {
+  SheetSceneOptions o;
+  o.width = width;
+  o.height = width * 3 / 4;
+  o.focal_length = 0.9 * width;
+  o.grid_x = grid_x;
+  o.grid_y = std::max(2, grid_x * 2 / 3);
+  o.texture_size = std::max(64, width * 8 / 5);
+  o.frame_count = frame_count;
+  return o;
+}
+
 Eigen::Matrix3Xd SheetVerticesAt(const SheetSceneOptions& o, double tau) {
   const int nx = o.grid_x, ny = o.grid_y;
   Eigen::Matrix3Xd vertices(3, (nx + 1) * (ny + 1));

@@ -53,6 +53,10 @@ struct SheetSceneOptions {
   std::uint64_t seed = 1;
 
   std::string Validate() const;
+  // A smaller scene with the same field of view: width x 3/4 width pixels,
+  // grid_x x 2/3 grid_x cells, a texture of about 1.6 texels per pixel
+  // (fast tests and benchmarks).
+  static SheetSceneOptions Small(int width, int grid_x, int frame_count);
 };
 
 // The sheet's vertices (3 by #V, camera frame) at time tau in [0, 1].
