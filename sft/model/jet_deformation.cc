@@ -7,6 +7,7 @@
 #include <ceres/rotation.h>
 
 #include "polyfit/jet/jet_surface.h"
+#include "polyfit/mesh/triangle_mesh.h"
 #include "polyfit/patch/jet_fit.h"
 
 namespace polyfit {
@@ -19,8 +20,25 @@ std::string JetDeformationOptions::Validate() const {
   return {};
 }
 
+Eigen::Matrix2Xd VertexTexcoords(const Eigen::Matrix3Xi& faces, const Eigen::Matrix2Xd& corner_texcoords,
+                                 int num_vertices) {
+  Eigen::Matrix2Xd sum = Eigen::Matrix2Xd::Zero(2, num_vertices);
+  Eigen::VectorXd count = Eigen::VectorXd::Zero(num_vertices);
+  for (Eigen::Index f = 0; f < faces.cols(); ++f) {
+    for (int c = 0; c < 3; ++c) {
+      sum.col(faces(c, f)) += corner_texcoords.col(3 * f + c);
+      count[faces(c, f)] += 1.0;
+    }
+  }
+  for (int v = 0; v < num_vertices; ++v) {
+    if (count[v] > 0.0) sum.col(v) /= count[v];
+  }
+  return sum;
+}
+
 JetDeformationModel::JetDeformationModel(const JetDeformationOptions& options,
-                                         const Eigen::Matrix3Xd& template_vertices)
+                                         const Eigen::Matrix3Xd& template_vertices,
+                                         const Eigen::Matrix2Xd* vertex_texcoords)
     : options_(options) {
   if (const std::string problem = options.Validate(); !problem.empty()) {
     throw std::invalid_argument("JetDeformationOptions: " + problem);
@@ -35,12 +53,35 @@ JetDeformationModel::JetDeformationModel(const JetDeformationOptions& options,
     throw std::invalid_argument("JetDeformationModel: the template is degenerate (" +
                                 JetFitFlagsToString(patch_.flags) + ")");
   }
-  if (patch_.flags & kJetFitNotHeightField) {
-    throw std::invalid_argument(
-        "JetDeformationModel: the template is not a height field over one plane (it folds over); split it into "
-        "patches or use a flatter template");
-  }
   const int num_vertices = static_cast<int>(template_vertices.cols());
+  if ((patch_.flags & kJetFitNotHeightField) || options.texture_space) {
+    if (vertex_texcoords == nullptr || vertex_texcoords->cols() != num_vertices) {
+      throw std::invalid_argument(
+          "JetDeformationModel: the template is not a height field over one plane (it folds over), and without "
+          "texture coordinates there is no texture-space fallback");
+    }
+    // The texture-space field, with (s, t) mapped to [-1, 1]^2.
+    texture_space_ = true;
+    template_ = template_vertices;
+    centroid_ = template_vertices.rowwise().mean();
+    const Eigen::Vector2d lo = vertex_texcoords->rowwise().minCoeff(), hi = vertex_texcoords->rowwise().maxCoeff();
+    const Eigen::Vector2d span = (hi - lo).cwiseMax(1e-12);
+    const int k = NumJetCoefficients(options.jet_order);
+    st_monomials_.resize(k - 1, num_vertices);
+    double monomials[kMaxJetCoefficients];
+    for (int i = 0; i < num_vertices; ++i) {
+      const Eigen::Vector2d st = 2.0 * (vertex_texcoords->col(i) - lo).cwiseQuotient(span).array() - 1.0;
+      JetMonomials(options.jet_order, st.x(), st.y(), monomials);
+      for (int j = 1; j < k; ++j) st_monomials_(j - 1, i) = monomials[j];
+    }
+    // The field's units: the template's size, so parameters are O(1).
+    st_monomials_ *= BoundingBoxDiagonal(template_vertices);
+    num_dalpha_ = 3 * (k - 1);
+    num_duv_ = 0;
+    uv_.setZero(2, num_vertices);
+    template_rms_error_ = 0.0;
+    return;
+  }
   uv_.resize(2, num_vertices);
   double sum2 = 0.0;
   for (int i = 0; i < num_vertices; ++i) {
@@ -66,6 +107,34 @@ JetDeformationModel::JetDeformationModel(const JetDeformationOptions& options,
 
 void JetDeformationModel::Evaluate(const double* theta, Eigen::Matrix3Xd* vertices,
                                    Eigen::MatrixXd* jacobian) const {
+  if (texture_space_) {
+    const int n = num_vertices(), m = static_cast<int>(st_monomials_.rows());
+    const double* omega = theta + rotation_offset();
+    const Eigen::Map<const Eigen::Vector3d> translation(theta + translation_offset());
+    vertices->resize(3, n);
+    if (jacobian != nullptr) jacobian->setZero(3 * n, num_parameters());
+    using J3 = ceres::Jet<double, 3>;
+    const J3 w[3] = {J3(omega[0], 0), J3(omega[1], 1), J3(omega[2], 2)};
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Vector3d p = template_.col(i) - centroid_;
+      const J3 q[3] = {J3(p.x()), J3(p.y()), J3(p.z())};
+      J3 rotated[3];
+      ceres::AngleAxisRotatePoint(w, q, rotated);
+      for (int k = 0; k < 3; ++k) {
+        double field = 0.0;
+        for (int j = 0; j < m; ++j) field += theta[k * m + j] * st_monomials_(j, i);
+        (*vertices)(k, i) = rotated[k].a + centroid_[k] + translation[k] + field;
+      }
+      if (jacobian == nullptr) continue;
+      auto rows = jacobian->middleRows(3 * i, 3);
+      for (int k = 0; k < 3; ++k) {
+        for (int j = 0; j < m; ++j) rows(k, k * m + j) = st_monomials_(j, i);
+        rows.block<1, 3>(k, rotation_offset()) = rotated[k].v.transpose();
+        rows(k, translation_offset() + k) = 1.0;
+      }
+    }
+    return;
+  }
   const int n = num_vertices(), order = patch_.order;
   const int num_alpha = NumJetCoefficients(order);
   double alpha[kMaxJetCoefficients];

@@ -76,6 +76,45 @@ TEST_F(FrameCostsTest, ModelJacobianMatchesFiniteDifferences) {
   EXPECT_LT(model_->template_rms_error(), 1e-9);  // the flat sheet is a jet exactly
 }
 
+TEST(JetDeformationModelTest, TexturedCylinderFallsBackToTheTextureSpaceField) {
+  // Three quarters of a cylinder: no height field over any plane.
+  const int na = 24, nh = 6;
+  Eigen::Matrix3Xd vertices(3, (na + 1) * (nh + 1));
+  Eigen::Matrix2Xd texcoords(2, vertices.cols());
+  for (int j = 0; j <= nh; ++j) {
+    for (int i = 0; i <= na; ++i) {
+      const double a = 1.5 * M_PI * i / na;
+      vertices.col(j * (na + 1) + i) << 0.05 * std::cos(a), 0.1 * j / nh - 0.05, 0.4 + 0.05 * std::sin(a);
+      texcoords.col(j * (na + 1) + i) << static_cast<double>(i) / na, static_cast<double>(j) / nh;
+    }
+  }
+  EXPECT_THROW(JetDeformationModel(JetDeformationOptions(), vertices), std::invalid_argument);
+  const JetDeformationModel model(JetDeformationOptions(), vertices, &texcoords);
+  ASSERT_TRUE(model.texture_space());
+  EXPECT_EQ(model.num_parameters(), 3 * 14 + 6);
+  std::vector<double> theta(model.num_parameters(), 0.0);
+  Eigen::Matrix3Xd at_zero;
+  model.Evaluate(theta.data(), &at_zero);
+  EXPECT_LT((at_zero - vertices).cwiseAbs().maxCoeff(), 1e-15);
+  for (size_t k = 0; k < theta.size(); ++k) theta[k] = 0.01 * std::cos(2.0 + k);
+  Eigen::Matrix3Xd v, vp, vm;
+  Eigen::MatrixXd jacobian;
+  model.Evaluate(theta.data(), &v, &jacobian);
+  double max_error = 0.0;
+  for (int c = 0; c < model.num_parameters(); ++c) {
+    std::vector<double> plus = theta, minus = theta;
+    plus[c] += 1e-7;
+    minus[c] -= 1e-7;
+    model.Evaluate(plus.data(), &vp);
+    model.Evaluate(minus.data(), &vm);
+    const Eigen::Matrix3Xd numeric = (vp - vm) / 2e-7;
+    for (int i = 0; i < model.num_vertices(); ++i) {
+      max_error = std::max(max_error, (numeric.col(i) - jacobian.block(3 * i, c, 3, 1)).cwiseAbs().maxCoeff());
+    }
+  }
+  EXPECT_LT(max_error, 1e-7);
+}
+
 TEST_F(FrameCostsTest, RenderCostJacobianMatchesFiniteDifferences) {
   const SoftRasterizer rasterizer(SoftRasterizerOptions(), scene_.texture);
   const SftFrame frame = LoadFrame(scene_, 1);

@@ -129,7 +129,9 @@ PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene
   }
   const auto start = Clock::now();
   PolySftSummary summary;
-  const JetDeformationModel model(options.deformation, scene.template_mesh.vertices);
+  const Eigen::Matrix2Xd vertex_texcoords = VertexTexcoords(
+      scene.template_mesh.faces, scene.template_mesh.corner_texcoords, scene.template_mesh.num_vertices());
+  const JetDeformationModel model(options.deformation, scene.template_mesh.vertices, &vertex_texcoords);
   const int P = model.num_parameters();
   const int num_frames =
       options.max_frames > 0 ? std::min(options.max_frames, scene.frame_count) : scene.frame_count;
@@ -157,6 +159,12 @@ PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene
   }
   if (!use_photometric && !use_masks) {
     throw std::invalid_argument("PolySftOptions: no data term (photometric weight 0 and no masks)");
+  }
+  summary.deformation = model.texture_space() ? "texture_space" : "patch_jet";
+  if (model.texture_space() && !options.deformation.texture_space) {
+    summary.warnings.emplace_back(
+        "the template is not a height field over one plane: it is deformed by a texture-space field instead of "
+        "its patch's jet");
   }
   if (model.template_rms_error() > 1e-3 * BoundingBoxDiagonal(scene.template_mesh.vertices)) {
     char buffer[160];
@@ -502,6 +510,7 @@ void WriteSftOutputs(const std::string& directory, const SftScene& scene, const 
       {"warnings", summary.warnings},
       {"settings",
        {{"jet_order", options.deformation.jet_order},
+        {"deformation", summary.deformation},
         {"uv_displacement", options.deformation.uv_displacement == UvDisplacement::kCompactField ? "compact" : "per_vertex"},
         {"uv_order", options.deformation.uv_order},
         {"window_size", options.window_size},

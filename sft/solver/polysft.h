@@ -88,6 +88,9 @@ struct SftTraceRow {
 struct PolySftSummary {
   std::vector<SftFrameResult> frames;
   std::vector<SftTraceRow> trace;
+  // "patch_jet", or "texture_space" (the fallback for templates that are
+  // no height field, or when asked for).
+  std::string deformation;
   // Active terms and their weights.
   std::vector<std::pair<std::string, double>> terms;
   std::vector<std::string> warnings;

@@ -44,6 +44,7 @@ void ApplyConfig(const std::string& path, polyfit::PolySftOptions* o) {
         o->deformation.uv_displacement =
             mode == "compact" ? polyfit::UvDisplacement::kCompactField : polyfit::UvDisplacement::kPerVertex;
       } else if (key == "uv_order") o->deformation.uv_order = value.get<int>();
+      else if (key == "texture_space") o->deformation.texture_space = value.get<bool>();
       else if (key == "window_size") o->window_size = value.get<int>();
       else if (key == "pyramid_levels") o->pyramid_levels = value.get<int>();
       else if (key == "max_image_width") o->max_image_width = value.get<int>();
