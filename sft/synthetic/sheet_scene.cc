@@ -84,7 +84,8 @@ SheetMotion ParseSheetMotion(const std::string& name) {
   if (name == "wave") return SheetMotion::kWave;
   if (name == "rigid") return SheetMotion::kRigid;
   if (name == "mixed") return SheetMotion::kMixed;
-  throw std::invalid_argument("unknown motion '" + name + "' (bend, wave, rigid or mixed)");
+  if (name == "roll") return SheetMotion::kRoll;
+  throw std::invalid_argument("unknown motion '" + name + "' (bend, wave, rigid, mixed or roll)");
 }
 
 std::string SheetSceneOptions::Validate() const {
@@ -116,7 +117,11 @@ Eigen::Matrix3Xd SheetVerticesAt(const SheetSceneOptions& o, double tau) {
   const bool wave = o.motion == SheetMotion::kWave;
   const bool rigid = o.motion == SheetMotion::kRigid || o.motion == SheetMotion::kMixed;
   // Curvature up to 1 / 0.13 m: the sheet's ends fold about 65 degrees.
-  const double curvature = bend ? std::sin(M_PI * tau) / 0.13 : 0.0;
+  // Rolled: the sheet wraps 270 degrees at first, 180 at the end.
+  const double curvature = bend ? std::sin(M_PI * tau) / 0.13
+                           : o.motion == SheetMotion::kRoll
+                               ? (1.5 * M_PI - 0.5 * M_PI * tau) / o.sheet_width
+                               : 0.0;
   const Eigen::Matrix3d rotation =
       rigid ? (Eigen::AngleAxisd(0.35 * std::sin(M_PI * tau), Eigen::Vector3d::UnitY()) *
                Eigen::AngleAxisd(0.2 * std::sin(2 * M_PI * tau), Eigen::Vector3d::UnitX()))
@@ -348,6 +353,7 @@ void GenerateSheetScene(const SheetSceneOptions& o, const std::string& directory
       {"generator", {{"motion", o.motion == SheetMotion::kBend    ? "bend"
                                 : o.motion == SheetMotion::kWave  ? "wave"
                                 : o.motion == SheetMotion::kRigid ? "rigid"
+                                : o.motion == SheetMotion::kRoll  ? "roll"
                                                                   : "mixed"},
                      {"seed", o.seed},
                      {"wavelength", o.wavelength},

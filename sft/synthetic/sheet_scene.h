@@ -21,9 +21,10 @@ enum class SheetMotion {
   kWave,   // a travelling wave across the sheet's height, isometric (arc length kept)
   kRigid,  // rotation and translation of the flat sheet
   kMixed,  // bend and rigid motion together
+  kRoll,   // rolled into three quarters of a cylinder, unrolling to half (no height field)
 };
 
-// "bend", "wave", "rigid", "mixed"; throws std::invalid_argument otherwise.
+// "bend", "wave", "rigid", "mixed", "roll"; throws std::invalid_argument otherwise.
 SheetMotion ParseSheetMotion(const std::string& name);
 
 struct SheetSceneOptions {

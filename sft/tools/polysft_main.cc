@@ -116,7 +116,7 @@ int main(int argc, char** argv) {
   std::string generate_out, motion = "mixed";
   CLI::App* generate = app.add_subcommand("generate", "Write a synthetic sheet scene with exact ground truth");
   generate->add_option("--out", generate_out, "Scene directory to write")->required();
-  generate->add_option("--motion", motion, "bend, wave, rigid or mixed")->capture_default_str();
+  generate->add_option("--motion", motion, "bend, wave, rigid, mixed or roll")->capture_default_str();
   generate->add_option("--frames", generate_options.frame_count, "Frames")->capture_default_str();
   generate->add_option("--width", generate_options.width, "Image width")->capture_default_str();
   generate->add_option("--height", generate_options.height, "Image height")->capture_default_str();
