@@ -1,0 +1,61 @@
+// Signed distance from garment points to a body mesh, two ways:
+//   BodySignedDistance    exact closest point (CGAL AABB tree over the
+//                         triangles), sign from the closest feature's
+//                         angle-weighted pseudonormal (Baerentzen and Aanaes
+//                         2005): negative inside a closed, outward-oriented body.
+//   NearestVertexDistance the SNUG/GAPS approximation: d = (p - x_v) . n_v
+//                         with x_v the nearest body vertex, n_v its normal.
+// Both are rebuilt per pose (SetVertices) and answer queries from many
+// threads.
+#ifndef POLYFIT_DRAPE_COLLISION_SIGNED_DISTANCE_H_
+#define POLYFIT_DRAPE_COLLISION_SIGNED_DISTANCE_H_
+
+#include <memory>
+
+#include <Eigen/Core>
+
+#include "polyfit/eval/kd_tree.h"
+#include "polyfit/mesh/triangle_mesh.h"
+
+namespace polyfit {
+
+struct SignedDistanceResult {
+  double distance = 0.0;                             // negative inside
+  Eigen::Vector3d closest = Eigen::Vector3d::Zero();  // on the body
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();   // the pseudonormal there (unit)
+  int face = -1;
+};
+
+class BodySignedDistance {
+ public:
+  // The body's faces are kept; its vertices can change (SetVertices).
+  explicit BodySignedDistance(const TriangleMesh& body);
+  ~BodySignedDistance();
+  BodySignedDistance(BodySignedDistance&&) noexcept;
+
+  // New vertex positions (a pose): 3 by #V, same faces.
+  void SetVertices(const Eigen::Matrix3Xd& vertices);
+  SignedDistanceResult Query(const Eigen::Vector3d& point) const;
+  // #points signed distances.
+  Eigen::VectorXd SignedDistances(const Eigen::Matrix3Xd& points, int num_threads = 1) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+class NearestVertexDistance {
+ public:
+  explicit NearestVertexDistance(const TriangleMesh& body);
+  void SetVertices(const Eigen::Matrix3Xd& vertices);
+  SignedDistanceResult Query(const Eigen::Vector3d& point) const;
+
+ private:
+  TriangleMesh body_;
+  Eigen::Matrix3Xd normals_;
+  std::unique_ptr<KdTree3> tree_;
+};
+
+}  // namespace polyfit
+
+#endif  // POLYFIT_DRAPE_COLLISION_SIGNED_DISTANCE_H_
