@@ -89,6 +89,8 @@ SkinnedBody LoadMakeHumanBody(const std::string& body_dir) {
   SkinnedBody body;
   body.mesh.vertices.resize(3, kBodyVertices);
   for (int v = 0; v < kBodyVertices; ++v) body.mesh.vertices.col(v) = 0.1 * obj.vertices[v];
+  body.base_vertices.resize(3, static_cast<Eigen::Index>(obj.vertices.size()));
+  for (size_t v = 0; v < obj.vertices.size(); ++v) body.base_vertices.col(v) = 0.1 * obj.vertices[v];
   std::vector<Eigen::Vector3i> triangles;
   for (const std::vector<int>& face : body_faces->second) {
     for (size_t k = 1; k + 1 < face.size(); ++k) {

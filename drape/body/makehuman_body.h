@@ -38,6 +38,9 @@ struct Skeleton {
 struct SkinnedBody {
   // Vertices (3 by #V, metres) in the rest pose, faces (quads split in two).
   TriangleMesh mesh;
+  // Every vertex of base.obj, helpers included (3 by 19158, metres): what
+  // garment bindings refer to.
+  Eigen::Matrix3Xd base_vertices;
   Skeleton skeleton;
   // Vertex v's bones are weight_joint[weight_offsets[v] .. weight_offsets[v+1])
   // with weights summing to 1.

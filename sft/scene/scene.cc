@@ -9,7 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "sft/scene/obj_template.h"
+#include "polyfit/mesh/ordered_io.h"
 
 namespace polyfit {
 namespace {

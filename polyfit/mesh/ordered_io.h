@@ -1,8 +1,9 @@
-// Reading a shape-from-template template OBJ with its vertices in file
-// order (ground truth refers to them by that order, so no welding or
-// reordering as in ReadTriangleMesh), polygons fan-triangulated.
-#ifndef POLYFIT_SFT_SCENE_OBJ_TEMPLATE_H_
-#define POLYFIT_SFT_SCENE_OBJ_TEMPLATE_H_
+// Reading meshes with their vertices in file order, for data that refers to
+// vertices by index (shape-from-template ground truth, garment bindings,
+// skinning weights): no welding or reordering as in ReadTriangleMesh.
+// Polygons are fan-triangulated.
+#ifndef POLYFIT_MESH_ORDERED_IO_H_
+#define POLYFIT_MESH_ORDERED_IO_H_
 
 #include <string>
 
@@ -26,4 +27,4 @@ Eigen::Matrix3Xd ReadPlyVertices(const std::string& path);
 
 }  // namespace polyfit
 
-#endif  // POLYFIT_SFT_SCENE_OBJ_TEMPLATE_H_
+#endif  // POLYFIT_MESH_ORDERED_IO_H_

@@ -1,4 +1,4 @@
-#include "sft/scene/obj_template.h"
+#include "polyfit/mesh/ordered_io.h"
 
 #include <algorithm>
 #include <cmath>
