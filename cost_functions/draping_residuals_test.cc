@@ -1,0 +1,129 @@
+#include <cmath>
+#include <memory>
+#include <random>
+#include <vector>
+
+#include <ceres/ceres.h>
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+
+#include "cost_functions/collision_residual.h"
+#include "cost_functions/gravity_inertia_residuals.h"
+#include "cost_functions/metric_inextensibility_residual.h"
+#include "cost_functions/patch_boundary_residual.h"
+
+namespace polyfit {
+namespace {
+
+// Largest difference between a cost's Jacobians and central differences of
+// its residuals at `blocks`.
+double JacobianError(const ceres::CostFunction& cost, std::vector<std::vector<double>> blocks, double h = 1e-6) {
+  const int m = cost.num_residuals();
+  std::vector<double*> parameters;
+  for (auto& b : blocks) parameters.push_back(b.data());
+  std::vector<std::vector<double>> jacobians(blocks.size());
+  std::vector<double*> jacobian_ptrs;
+  for (size_t b = 0; b < blocks.size(); ++b) {
+    jacobians[b].resize(m * blocks[b].size());
+    jacobian_ptrs.push_back(jacobians[b].data());
+  }
+  std::vector<double> r(m), rp(m), rm(m);
+  EXPECT_TRUE(cost.Evaluate(parameters.data(), r.data(), jacobian_ptrs.data()));
+  double worst = 0.0;
+  for (size_t b = 0; b < blocks.size(); ++b) {
+    const int size = static_cast<int>(blocks[b].size());
+    for (int c = 0; c < size; ++c) {
+      const double saved = blocks[b][c];
+      blocks[b][c] = saved + h;
+      cost.Evaluate(parameters.data(), rp.data(), nullptr);
+      blocks[b][c] = saved - h;
+      cost.Evaluate(parameters.data(), rm.data(), nullptr);
+      blocks[b][c] = saved;
+      for (int i = 0; i < m; ++i) {
+        worst = std::max(worst, std::abs((rp[i] - rm[i]) / (2 * h) - jacobians[b][i * size + c]));
+      }
+    }
+  }
+  return worst;
+}
+
+double Residual(const ceres::CostFunction& cost, std::vector<std::vector<double>> blocks, int index = 0) {
+  std::vector<double*> parameters;
+  for (auto& b : blocks) parameters.push_back(b.data());
+  std::vector<double> r(cost.num_residuals());
+  EXPECT_TRUE(cost.Evaluate(parameters.data(), r.data(), nullptr));
+  return r[index];
+}
+
+TEST(CollisionResidualTest, PenaltyInsideTheMarginOnly) {
+  const Eigen::Vector3d c(0, 0, 0), n(0, 0, 2);  // normalised inside
+  std::unique_ptr<ceres::CostFunction> cubic(CollisionResidual::Create(c, n, 0.004, 3.0, 3));
+  std::unique_ptr<ceres::CostFunction> square(CollisionResidual::Create(c, n, 0.004, 3.0, 2));
+  // 1 cm inside: depth 0.014.
+  EXPECT_NEAR(Residual(*cubic, {{0.2, 0.1, -0.01}}), 3.0 * std::pow(0.014, 1.5), 1e-15);
+  EXPECT_NEAR(Residual(*square, {{0.2, 0.1, -0.01}}), 3.0 * 0.014, 1e-15);
+  EXPECT_EQ(Residual(*cubic, {{0.2, 0.1, 0.005}}), 0.0);  // beyond the margin
+  EXPECT_LT(JacobianError(*cubic, {{0.2, 0.1, -0.01}}, 1e-8), 1e-6);
+  EXPECT_LT(JacobianError(*square, {{0.2, 0.1, -0.01}}, 1e-8), 1e-6);
+}
+
+TEST(GravityInertiaTest, GravityHasTheEnergysGradient) {
+  const double mass = 0.02, g = 9.81, weight = 1.5;
+  std::unique_ptr<ceres::CostFunction> gravity(
+      GravityResidual::Create(mass, g, Eigen::Vector3d(0, 1, 0), -10.0, weight));
+  const double r1 = Residual(*gravity, {{0.0, 0.3, 0.0}}), r2 = Residual(*gravity, {{0.0, 0.5, 0.0}});
+  // r^2 / 2 changes by k_g m g dh.
+  EXPECT_NEAR(0.5 * (r2 * r2 - r1 * r1), weight * mass * g * 0.2, 1e-12);
+  EXPECT_LT(JacobianError(*gravity, {{0.1, 0.3, 0.2}}), 1e-6);
+  double below[3] = {0, -11, 0}, r;
+  double* p[1] = {below};
+  EXPECT_FALSE(gravity->Evaluate(p, &r, nullptr));
+}
+
+TEST(GravityInertiaTest, InertiaPredictsConstantVelocity) {
+  std::unique_ptr<ceres::CostFunction> inertia(
+      InertiaResidual::Create(Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0.5, 0, 0), 0.04, 1.0 / 30, 0.5));
+  EXPECT_NEAR(Residual(*inertia, {{1.5, 0, 0}}), 0.0, 1e-15);  // on the prediction
+  EXPECT_NEAR(Residual(*inertia, {{1.6, 0, 0}}), std::sqrt(0.5 * 0.04) * 30 * 0.1, 1e-12);
+  EXPECT_LT(JacobianError(*inertia, {{1.2, 0.3, -0.1}}), 1e-6);
+}
+
+TEST(MetricInextensibilityTest, FlatPatchAndParabola) {
+  const Eigen::Matrix3d identity = Eigen::Matrix3d::Identity();
+  std::unique_ptr<ceres::CostFunction> flat(
+      MetricInextensibilityResidual::Create(2, 0.5, 0.0, Eigen::Vector3d(1, 0, 1), identity));
+  std::vector<double> alpha(6, 0.0);
+  EXPECT_NEAR(Residual(*flat, {alpha, {1.0}}), 0.0, 1e-15);
+  // z = u^2 at u = 0.5: z_u = 1, so g11 = s^2 (1 + 1) = 2 with s = 1.
+  alpha[3] = 1.0;  // coefficient of u^2
+  EXPECT_NEAR(Residual(*flat, {alpha, {1.0}}, 0), 1.0, 1e-12);
+  // A rigid frame changes nothing; a skinning stretch does.
+  const Eigen::Matrix3d rotation = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  std::unique_ptr<ceres::CostFunction> rotated(
+      MetricInextensibilityResidual::Create(2, 0.5, 0.0, Eigen::Vector3d(1, 0, 1), rotation));
+  EXPECT_NEAR(Residual(*rotated, {alpha, {1.0}}, 0), 1.0, 1e-12);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> unit(-0.5, 0.5);
+  std::vector<double> random(15);
+  for (double& a : random) a = unit(rng);
+  std::unique_ptr<ceres::CostFunction> quartic(MetricInextensibilityResidual::Create(
+      4, 0.3, -0.2, Eigen::Vector3d(1.1, 0.05, 0.9), rotation, Eigen::Matrix3d::Identity() * 1.1));
+  EXPECT_LT(JacobianError(*quartic, {random, {0.8}}), 1e-6);
+}
+
+TEST(PatchBoundaryTest, IdenticalPatchesAgreeAndJacobiansMatch) {
+  const Eigen::Matrix3d r = Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  std::unique_ptr<ceres::CostFunction> cost(
+      PatchBoundaryResidual::Create(3, Eigen::Vector2d(0.2, -0.4), r, Eigen::Vector2d(0.2, -0.4), r, 2.0, 0.5));
+  std::vector<double> alpha = {0.1, -0.2, 0.3, 0.05, 0.1, -0.1, 0.02, 0.0, 0.01, -0.03};
+  for (int i = 0; i < 6; ++i) EXPECT_NEAR(Residual(*cost, {alpha, {0.7}, {1, 2, 3}, alpha, {0.7}, {1, 2, 3}}, i), 0.0, 1e-15);
+  // A shifted translation shows in the position residuals only.
+  EXPECT_NEAR(Residual(*cost, {alpha, {0.7}, {1, 2, 3}, alpha, {0.7}, {1, 2, 3.5}}, 2), 2.0 * -0.5, 1e-12);
+  EXPECT_NEAR(Residual(*cost, {alpha, {0.7}, {1, 2, 3}, alpha, {0.7}, {1, 2, 3.5}}, 5), 0.0, 1e-15);
+  std::vector<double> other = alpha;
+  other[4] += 0.2;
+  EXPECT_LT(JacobianError(*cost, {alpha, {0.7}, {1, 2, 3}, other, {0.9}, {1, 2.1, 3}}), 1e-6);
+}
+
+}  // namespace
+}  // namespace polyfit
