@@ -14,6 +14,7 @@
 #ifndef COST_FUNCTIONS_JET_HEIGHT_RESIDUAL_H_
 #define COST_FUNCTIONS_JET_HEIGHT_RESIDUAL_H_
 
+#include <memory>
 #include <stdexcept>
 #include <string>
 
@@ -21,6 +22,7 @@
 #include <ceres/rotation.h>
 #include <Eigen/Core>
 
+#include "cost_functions/jet_order_dispatch.h"
 #include "polyfit/jet/jet_surface.h"
 
 namespace polyfit {
@@ -51,29 +53,13 @@ class JetHeightResidual {
   static ceres::CostFunction* Create(int order, const Eigen::Vector3d& point_in_world,
                                      double scale, double weight = 1.0) {
     if (!(scale > 0.0)) throw std::invalid_argument("JetHeightResidual: scale must be > 0");
-    auto* f = new JetHeightResidual(order, point_in_world, scale, weight);
-    switch (order) {
-      case 1: return Make<NumJetCoefficients(1)>(f);
-      case 2: return Make<NumJetCoefficients(2)>(f);
-      case 3: return Make<NumJetCoefficients(3)>(f);
-      case 4: return Make<NumJetCoefficients(4)>(f);
-      case 5: return Make<NumJetCoefficients(5)>(f);
-      case 6: return Make<NumJetCoefficients(6)>(f);
-      case 7: return Make<NumJetCoefficients(7)>(f);
-      case 8: return Make<NumJetCoefficients(8)>(f);
-      default:
-        delete f;
-        throw std::invalid_argument("JetHeightResidual: order must be in [1, 8], got " +
-                                    std::to_string(order));
-    }
+    auto functor = std::make_unique<JetHeightResidual>(order, point_in_world, scale, weight);
+    return DispatchJetCoefficients(order, "JetHeightResidual", [&](auto k) -> ceres::CostFunction* {
+      return new ceres::AutoDiffCostFunction<JetHeightResidual, 1, decltype(k)::value, 4, 3>(functor.release());
+    });
   }
 
  private:
-  template <int K>
-  static ceres::CostFunction* Make(JetHeightResidual* f) {
-    return new ceres::AutoDiffCostFunction<JetHeightResidual, 1, K, 4, 3>(f);
-  }
-
   int order_;
   Eigen::Vector3d point_in_world_;
   double scale_;

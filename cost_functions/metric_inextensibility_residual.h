@@ -13,12 +13,14 @@
 #define COST_FUNCTIONS_METRIC_INEXTENSIBILITY_RESIDUAL_H_
 
 #include <cmath>
+#include <memory>
 #include <stdexcept>
 #include <string>
 
 #include <ceres/autodiff_cost_function.h>
 #include <Eigen/Core>
 
+#include "cost_functions/jet_order_dispatch.h"
 #include "polyfit/jet/jet_surface.h"
 
 namespace polyfit {
@@ -53,29 +55,15 @@ class MetricInextensibilityResidual {
                                      const Eigen::Matrix3d& rotation,
                                      const Eigen::Matrix3d& skinning = Eigen::Matrix3d::Identity(),
                                      double weight = 1.0) {
-    auto* f = new MetricInextensibilityResidual(order, u, v, rest_metric, rotation, skinning, weight);
-    switch (order) {
-      case 1: return Make<NumJetCoefficients(1)>(f);
-      case 2: return Make<NumJetCoefficients(2)>(f);
-      case 3: return Make<NumJetCoefficients(3)>(f);
-      case 4: return Make<NumJetCoefficients(4)>(f);
-      case 5: return Make<NumJetCoefficients(5)>(f);
-      case 6: return Make<NumJetCoefficients(6)>(f);
-      case 7: return Make<NumJetCoefficients(7)>(f);
-      case 8: return Make<NumJetCoefficients(8)>(f);
-      default:
-        delete f;
-        throw std::invalid_argument("MetricInextensibilityResidual: order must be in [1, 8], got " +
-                                    std::to_string(order));
-    }
+    auto functor =
+        std::make_unique<MetricInextensibilityResidual>(order, u, v, rest_metric, rotation, skinning, weight);
+    return DispatchJetCoefficients(order, "MetricInextensibilityResidual", [&](auto k) -> ceres::CostFunction* {
+      using Cost = ceres::AutoDiffCostFunction<MetricInextensibilityResidual, 3, decltype(k)::value, 1>;
+      return new Cost(functor.release());
+    });
   }
 
  private:
-  template <int K>
-  static ceres::CostFunction* Make(MetricInextensibilityResidual* f) {
-    return new ceres::AutoDiffCostFunction<MetricInextensibilityResidual, 3, K, 1>(f);
-  }
-
   int order_;
   double u_, v_;
   Eigen::Vector3d rest_;

@@ -13,12 +13,14 @@
 #define COST_FUNCTIONS_PATCH_BOUNDARY_RESIDUAL_H_
 
 #include <cmath>
+#include <memory>
 #include <stdexcept>
 #include <string>
 
 #include <ceres/autodiff_cost_function.h>
 #include <Eigen/Core>
 
+#include "cost_functions/jet_order_dispatch.h"
 #include "polyfit/jet/jet_surface.h"
 
 namespace polyfit {
@@ -47,28 +49,15 @@ class PatchBoundaryResidual {
   static ceres::CostFunction* Create(int order, const Eigen::Vector2d& uv_a, const Eigen::Matrix3d& rotation_a,
                                      const Eigen::Vector2d& uv_b, const Eigen::Matrix3d& rotation_b,
                                      double position_weight = 1.0, double normal_weight = 1.0) {
-    auto* f = new PatchBoundaryResidual(order, uv_a, rotation_a, uv_b, rotation_b, position_weight, normal_weight);
-    switch (order) {
-      case 1: return Make<NumJetCoefficients(1)>(f);
-      case 2: return Make<NumJetCoefficients(2)>(f);
-      case 3: return Make<NumJetCoefficients(3)>(f);
-      case 4: return Make<NumJetCoefficients(4)>(f);
-      case 5: return Make<NumJetCoefficients(5)>(f);
-      case 6: return Make<NumJetCoefficients(6)>(f);
-      case 7: return Make<NumJetCoefficients(7)>(f);
-      case 8: return Make<NumJetCoefficients(8)>(f);
-      default:
-        delete f;
-        throw std::invalid_argument("PatchBoundaryResidual: order must be in [1, 8], got " + std::to_string(order));
-    }
+    auto functor = std::make_unique<PatchBoundaryResidual>(order, uv_a, rotation_a, uv_b, rotation_b,
+                                                           position_weight, normal_weight);
+    return DispatchJetCoefficients(order, "PatchBoundaryResidual", [&](auto k) -> ceres::CostFunction* {
+      constexpr int K = decltype(k)::value;
+      return new ceres::AutoDiffCostFunction<PatchBoundaryResidual, 6, K, 1, 3, K, 1, 3>(functor.release());
+    });
   }
 
  private:
-  template <int K>
-  static ceres::CostFunction* Make(PatchBoundaryResidual* f) {
-    return new ceres::AutoDiffCostFunction<PatchBoundaryResidual, 6, K, 1, 3, K, 1, 3>(f);
-  }
-
   template <typename T>
   void Point(const T* alpha, const T& scale, const T* translation, const Eigen::Vector2d& uv,
              const Eigen::Matrix3d& rotation, T* x, T* n) const {

@@ -1,4 +1,3 @@
-// CGAL-heavy: the AABB tree lives in this translation unit only.
 #include "drape/collision/signed_distance.h"
 
 #include <algorithm>
@@ -6,28 +5,18 @@
 #include <stdexcept>
 #include <vector>
 
-#include <CGAL/AABB_traits.h>
-#include <CGAL/AABB_tree.h>
-#include <CGAL/AABB_triangle_primitive.h>
-#include <CGAL/Simple_cartesian.h>
 #include <Eigen/Geometry>
 
 #include "polyfit/eval/mesh_metrics.h"
+#include "polyfit/eval/surface_distance.h"
 #include "polyfit/mesh/mesh_topology.h"
 #include "polyfit/util/parallel_for.h"
 
 namespace polyfit {
-namespace {
-using Kernel = CGAL::Simple_cartesian<double>;
-using Triangle = Kernel::Triangle_3;
-using Primitive = CGAL::AABB_triangle_primitive<Kernel, std::vector<Triangle>::const_iterator>;
-using Tree = CGAL::AABB_tree<CGAL::AABB_traits<Kernel, Primitive>>;
-}  // namespace
-
 struct BodySignedDistance::Impl {
   TriangleMesh body;
-  std::vector<Triangle> triangles;
-  Tree tree;
+  // The closest points (a CGAL AABB tree over the triangles).
+  std::unique_ptr<SurfaceDistance> surface;
   // Pseudonormals: per face, per vertex (angle-weighted), per face edge
   // (the sum of the faces on the edge; column 3 f + c for the edge from
   // corner c to c + 1).
@@ -36,17 +25,7 @@ struct BodySignedDistance::Impl {
 
   void Rebuild() {
     const int nf = body.num_faces(), nv = body.num_vertices();
-    triangles.clear();
-    auto point = [this](int v) {
-      return Kernel::Point_3(body.vertices(0, v), body.vertices(1, v), body.vertices(2, v));
-    };
-    for (int f = 0; f < nf; ++f) {
-      triangles.emplace_back(point(body.faces(0, f)), point(body.faces(1, f)), point(body.faces(2, f)));
-    }
-    tree.clear();
-    tree.insert(triangles.cbegin(), triangles.cend());
-    tree.build();
-    tree.accelerate_distance_queries();
+    surface = std::make_unique<SurfaceDistance>(body);
     face_normals.resize(3, nf);
     vertex_normals = Eigen::Matrix3Xd::Zero(3, nv);
     for (int f = 0; f < nf; ++f) {
@@ -93,10 +72,8 @@ void BodySignedDistance::SetVertices(const Eigen::Matrix3Xd& vertices) {
 
 SignedDistanceResult BodySignedDistance::Query(const Eigen::Vector3d& p) const {
   const Impl& m = *impl_;
-  const auto hit = m.tree.closest_point_and_primitive(Kernel::Point_3(p.x(), p.y(), p.z()));
   SignedDistanceResult r;
-  r.face = static_cast<int>(hit.second - m.triangles.cbegin());
-  r.closest = Eigen::Vector3d(hit.first.x(), hit.first.y(), hit.first.z());
+  r.closest = m.surface->ClosestPoint(p, &r.face);
   // Which feature the closest point lies on, from its barycentrics.
   const Eigen::Vector3d a = m.body.vertices.col(m.body.faces(0, r.face));
   const Eigen::Vector3d b = m.body.vertices.col(m.body.faces(1, r.face));

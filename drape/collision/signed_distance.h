@@ -1,6 +1,6 @@
 // Signed distance from garment points to a body mesh, two ways:
-//   BodySignedDistance    exact closest point (CGAL AABB tree over the
-//                         triangles), sign from the closest feature's
+//   BodySignedDistance    exact closest point (SurfaceDistance: a CGAL AABB
+//                         tree over the triangles), sign from the closest feature's
 //                         angle-weighted pseudonormal (Baerentzen and Aanaes
 //                         2005): negative inside a closed, outward-oriented body.
 //   NearestVertexDistance the SNUG/GAPS approximation: d = (p - x_v) . n_v

@@ -45,6 +45,12 @@ double SurfaceDistance::SquaredDistance(const Eigen::Vector3d& p) const {
   return impl_->tree.squared_distance(Kernel::Point_3(p.x(), p.y(), p.z()));
 }
 
+Eigen::Vector3d SurfaceDistance::ClosestPoint(const Eigen::Vector3d& p, int* face) const {
+  const auto hit = impl_->tree.closest_point_and_primitive(Kernel::Point_3(p.x(), p.y(), p.z()));
+  if (face != nullptr) *face = static_cast<int>(hit.second - impl_->triangles.cbegin());
+  return Eigen::Vector3d(hit.first.x(), hit.first.y(), hit.first.z());
+}
+
 Eigen::VectorXd SurfaceDistance::SquaredDistances(const Eigen::Matrix3Xd& points, int num_threads) const {
   Eigen::VectorXd d(points.cols());
   ParallelFor(static_cast<int>(points.cols()), num_threads,

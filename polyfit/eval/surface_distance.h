@@ -23,6 +23,8 @@ class SurfaceDistance {
   // Squared distance from a point to the nearest point of the surface.
   // Thread-safe.
   double SquaredDistance(const Eigen::Vector3d& point) const;
+  // The closest point of the surface, and the face it lies on.
+  Eigen::Vector3d ClosestPoint(const Eigen::Vector3d& point, int* face) const;
   // #points squared distances for the 3 by N points.
   Eigen::VectorXd SquaredDistances(const Eigen::Matrix3Xd& points, int num_threads = 1) const;
 
