@@ -1,6 +1,7 @@
 #include "drape/collision/signed_distance.h"
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 #include <stdexcept>
 #include <vector>
@@ -15,8 +16,12 @@
 namespace polyfit {
 struct BodySignedDistance::Impl {
   TriangleMesh body;
-  // The closest points (a CGAL AABB tree over the triangles).
-  std::unique_ptr<SurfaceDistance> surface;
+  // Per connected piece of the body: its faces and a tree for closest
+  // points (SurfaceDistance: a CGAL AABB tree). A body of several closed
+  // pieces (overlapping capsules) is their union: the signed distance is
+  // the smallest of the pieces'.
+  std::vector<std::vector<int>> piece_faces;
+  std::vector<std::unique_ptr<SurfaceDistance>> surfaces;
   // Pseudonormals: per face, per vertex (angle-weighted), per face edge
   // (the sum of the faces on the edge; column 3 f + c for the edge from
   // corner c to c + 1).
@@ -25,7 +30,14 @@ struct BodySignedDistance::Impl {
 
   void Rebuild() {
     const int nf = body.num_faces(), nv = body.num_vertices();
-    surface = std::make_unique<SurfaceDistance>(body);
+    surfaces.clear();
+    for (const std::vector<int>& faces : piece_faces) {
+      TriangleMesh piece;
+      piece.vertices = body.vertices;
+      piece.faces.resize(3, static_cast<Eigen::Index>(faces.size()));
+      for (size_t k = 0; k < faces.size(); ++k) piece.faces.col(k) = body.faces.col(faces[k]);
+      surfaces.push_back(std::make_unique<SurfaceDistance>(piece));
+    }
     face_normals.resize(3, nf);
     vertex_normals = Eigen::Matrix3Xd::Zero(3, nv);
     for (int f = 0; f < nf; ++f) {
@@ -56,6 +68,10 @@ BodySignedDistance::BodySignedDistance(const TriangleMesh& body) : impl_(std::ma
   }
   impl_->body = body;
   impl_->edges = SortedEdgeCorners(body);
+  std::vector<int> labels;
+  const int pieces = ConnectedComponents(FaceFaceAdjacency(body), &labels);
+  impl_->piece_faces.assign(pieces, {});
+  for (int f = 0; f < body.num_faces(); ++f) impl_->piece_faces[labels[f]].push_back(f);
   impl_->Rebuild();
 }
 
@@ -72,8 +88,20 @@ void BodySignedDistance::SetVertices(const Eigen::Matrix3Xd& vertices) {
 
 SignedDistanceResult BodySignedDistance::Query(const Eigen::Vector3d& p) const {
   const Impl& m = *impl_;
+  SignedDistanceResult best;
+  best.distance = std::numeric_limits<double>::infinity();
+  for (size_t piece = 0; piece < m.surfaces.size(); ++piece) {
+    SignedDistanceResult r = QueryPiece(m, piece, p);
+    if (r.distance < best.distance) best = r;
+  }
+  return best;
+}
+
+SignedDistanceResult BodySignedDistance::QueryPiece(const Impl& m, size_t piece, const Eigen::Vector3d& p) {
   SignedDistanceResult r;
-  r.closest = m.surface->ClosestPoint(p, &r.face);
+  int local_face = 0;
+  r.closest = m.surfaces[piece]->ClosestPoint(p, &local_face);
+  r.face = m.piece_faces[piece][local_face];
   // Which feature the closest point lies on, from its barycentrics.
   const Eigen::Vector3d a = m.body.vertices.col(m.body.faces(0, r.face));
   const Eigen::Vector3d b = m.body.vertices.col(m.body.faces(1, r.face));

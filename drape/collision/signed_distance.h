@@ -3,6 +3,8 @@
 //                         tree over the triangles), sign from the closest feature's
 //                         angle-weighted pseudonormal (Baerentzen and Aanaes
 //                         2005): negative inside a closed, outward-oriented body.
+//                         A body of several closed pieces (overlapping
+//                         capsules) is treated as their union.
 //   NearestVertexDistance the SNUG/GAPS approximation: d = (p - x_v) . n_v
 //                         with x_v the nearest body vertex, n_v its normal.
 // Both are rebuilt per pose (SetVertices) and answer queries from many
@@ -41,6 +43,7 @@ class BodySignedDistance {
 
  private:
   struct Impl;
+  static SignedDistanceResult QueryPiece(const Impl& m, size_t piece, const Eigen::Vector3d& point);
   std::unique_ptr<Impl> impl_;
 };
 
