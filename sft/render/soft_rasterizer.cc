@@ -152,14 +152,15 @@ void SoftRasterizer::Render(const ScreenMesh& mesh, int width, int height, const
   // Per tile: its pixels' gradients, concatenated afterwards.
   std::vector<std::vector<VertexGradient>> tile_gradients(tiles.size());
   std::vector<int> covered(tiles.size(), 0);
-  ParallelFor(static_cast<int>(tiles.size()), o.num_threads, [&](int, int tile) {
+  // One scratch list of triangle terms per thread, reused across tiles.
+  std::vector<std::vector<TriangleTerm>> scratch(ResolveNumThreads(o.num_threads));
+  ParallelFor(static_cast<int>(tiles.size()), o.num_threads, [&](int thread, int tile) {
     const std::vector<int>& list = tiles[tile];
     if (list.empty()) return;
     std::vector<VertexGradient>& grads = tile_gradients[tile];
     grads.clear();
     if (with_gradients) grads.reserve(kTile * kTile * 12);
-    std::vector<TriangleTerm> terms;
-    terms.reserve(list.size());
+    std::vector<TriangleTerm>& terms = scratch[thread];
     const int tx = tile % tiles_x, ty = tile / tiles_x;
     for (int py = std::max(ty * kTile, roi.y); py < std::min((ty + 1) * kTile, roi.y + roi.height); ++py) {
       for (int px = std::max(tx * kTile, roi.x); px < std::min((tx + 1) * kTile, roi.x + roi.width); ++px) {

@@ -96,9 +96,12 @@ bool RenderCost::Compute(const double* theta, double* residuals, double* jacobia
     a.jtr.noalias() += a.rows.topRows(a.count).transpose() * a.values.head(a.count);
     a.count = 0;
   };
+  // Per-thread scratch rows (4 by P), allocated once per evaluation.
+  std::vector<Eigen::Matrix<double, 4, Eigen::Dynamic, Eigen::RowMajor>> scratch(
+      threads, Eigen::Matrix<double, 4, Eigen::Dynamic, Eigen::RowMajor>(4, P));
   ParallelFor(roi.height, threads, [&](int thread, int row) {
     const int y = roi.y + row;
-    Eigen::Matrix<double, 4, Eigen::Dynamic, Eigen::RowMajor> local(4, P);
+    Eigen::Matrix<double, 4, Eigen::Dynamic, Eigen::RowMajor>& local = scratch[thread];
     double r[4];
     for (int col = 0; col < roi.width; ++col) {
       const int x = roi.x + col;
