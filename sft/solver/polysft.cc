@@ -277,7 +277,6 @@ PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene
   std::deque<std::unique_ptr<FrameData>> window;
   Eigen::Matrix3Xd previous_final;  // the frame before the window, once there is one
   bool has_previous_final = false;
-  int frames_done = 0;
 
   double first_cost = -1.0;
   auto finalize = [&](FrameData& data, double time_s, double cost, int iterations) {
@@ -439,7 +438,6 @@ PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene
       const int oldest = window.front()->frame.index - scene.first_frame;
       finalize(*window.front(), frame_time[oldest], frame_cost[oldest], frame_iterations[oldest]);
       window.pop_front();
-      ++frames_done;
     }
   }
   while (!window.empty()) {
