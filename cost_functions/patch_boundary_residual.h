@@ -4,7 +4,11 @@
 //
 //   X_p = s_p R_p (u_p, v_p, z(u_p, v_p; alpha_p)) + T_p
 //   n_p = R_p (-z_u, -z_v, 1) / |(-z_u, -z_v, 1)|
-//   r = (w_x (X_a - X_b), w_n (n_a - n_b))          6 residuals
+//   r = (w_x (X_a - X_b - d_x), w_n (n_a - n_b - d_n))          6 residuals
+//
+// d_x, d_n are zero in the paper; a solver may pass the gaps its patches
+// have at rest (a fit's residual), so that the term keeps seams as they
+// were rather than shrinking patches to close a gap no shape can close.
 //
 // R_p and (u_p, v_p) are data (PolyFitModel::BoundaryPoints). Parameter
 // blocks: alpha_a (NumJetCoefficients(order)), s_a (1), T_a (3), alpha_b,
@@ -29,9 +33,11 @@ class PatchBoundaryResidual {
  public:
   PatchBoundaryResidual(int order, const Eigen::Vector2d& uv_a, const Eigen::Matrix3d& rotation_a,
                         const Eigen::Vector2d& uv_b, const Eigen::Matrix3d& rotation_b, double position_weight,
-                        double normal_weight)
+                        double normal_weight, const Eigen::Vector3d& position_gap = Eigen::Vector3d::Zero(),
+                        const Eigen::Vector3d& normal_gap = Eigen::Vector3d::Zero())
       : order_(order), uv_a_(uv_a), uv_b_(uv_b), rotation_a_(rotation_a), rotation_b_(rotation_b),
-        position_weight_(position_weight), normal_weight_(normal_weight) {}
+        position_weight_(position_weight), normal_weight_(normal_weight), position_gap_(position_gap),
+        normal_gap_(normal_gap) {}
 
   template <typename T>
   bool operator()(const T* alpha_a, const T* scale_a, const T* translation_a, const T* alpha_b, const T* scale_b,
@@ -40,17 +46,19 @@ class PatchBoundaryResidual {
     Point(alpha_a, scale_a[0], translation_a, uv_a_, rotation_a_, xa, na);
     Point(alpha_b, scale_b[0], translation_b, uv_b_, rotation_b_, xb, nb);
     for (int k = 0; k < 3; ++k) {
-      residual[k] = T(position_weight_) * (xa[k] - xb[k]);
-      residual[3 + k] = T(normal_weight_) * (na[k] - nb[k]);
+      residual[k] = T(position_weight_) * (xa[k] - xb[k] - T(position_gap_[k]));
+      residual[3 + k] = T(normal_weight_) * (na[k] - nb[k] - T(normal_gap_[k]));
     }
     return true;
   }
 
   static ceres::CostFunction* Create(int order, const Eigen::Vector2d& uv_a, const Eigen::Matrix3d& rotation_a,
                                      const Eigen::Vector2d& uv_b, const Eigen::Matrix3d& rotation_b,
-                                     double position_weight = 1.0, double normal_weight = 1.0) {
-    auto functor = std::make_unique<PatchBoundaryResidual>(order, uv_a, rotation_a, uv_b, rotation_b,
-                                                           position_weight, normal_weight);
+                                     double position_weight = 1.0, double normal_weight = 1.0,
+                                     const Eigen::Vector3d& position_gap = Eigen::Vector3d::Zero(),
+                                     const Eigen::Vector3d& normal_gap = Eigen::Vector3d::Zero()) {
+    auto functor = std::make_unique<PatchBoundaryResidual>(order, uv_a, rotation_a, uv_b, rotation_b, position_weight,
+                                                           normal_weight, position_gap, normal_gap);
     return DispatchJetCoefficients(order, "PatchBoundaryResidual", [&](auto k) -> ceres::CostFunction* {
       constexpr int K = decltype(k)::value;
       return new ceres::AutoDiffCostFunction<PatchBoundaryResidual, 6, K, 1, 3, K, 1, 3>(functor.release());
@@ -79,6 +87,7 @@ class PatchBoundaryResidual {
   Eigen::Vector2d uv_a_, uv_b_;
   Eigen::Matrix3d rotation_a_, rotation_b_;
   double position_weight_, normal_weight_;
+  Eigen::Vector3d position_gap_, normal_gap_;
 };
 
 }  // namespace polyfit

@@ -138,12 +138,14 @@ SkinnedBody LoadMakeHumanBody(const std::string& body_dir) {
     } else {
       Fail(rig_path + ": bone '" + skeleton.names[j] + "': unknown head strategy '" + strategy + "'");
     }
+    if (vertices.empty()) Fail(rig_path + ": bone '" + skeleton.names[j] + "' has no head vertices");
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     for (int v : vertices) {
       if (v < 0 || v >= static_cast<int>(obj.vertices.size())) Fail(rig_path + ": vertex index out of range");
       sum += obj.vertices[v];
     }
     skeleton.rest_heads.col(j) = 0.1 * sum / static_cast<double>(vertices.size());
+    skeleton.head_vertices.emplace_back(vertices.begin(), vertices.end());
   }
 
   // Weights, per vertex, normalised.

@@ -30,6 +30,9 @@ struct Skeleton {
   std::vector<int> parents;
   // 3 by #joints: each bone's head (its pivot) in the rest pose.
   Eigen::Matrix3Xd rest_heads;
+  // Per joint, the base-mesh vertices whose mean is its head (MakeHuman
+  // bodies; empty otherwise), so that a reshaped body moves its joints.
+  std::vector<std::vector<int>> head_vertices;
 
   int num_joints() const { return static_cast<int>(names.size()); }
   int Find(const std::string& name) const;

@@ -32,7 +32,9 @@ TEST(BodySignedDistanceTest, SphereInsideAndOutside) {
       // length near the surface.
       const SignedDistanceResult a = approximate.Query(p);
       EXPECT_EQ(a.distance < 0.0, r < 1.0);
-      if (std::abs(r - 1.0) < 0.1) EXPECT_NEAR(a.distance, r - 1.0, 0.01);
+      if (std::abs(r - 1.0) < 0.1) {
+        EXPECT_NEAR(a.distance, r - 1.0, 0.01);
+      }
       ++checked;
     }
   }

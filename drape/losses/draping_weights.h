@@ -17,6 +17,22 @@ struct DrapingWeights {
   double collision_margin = 4e-3;  // eps, metres
 };
 
+// k_ext: the metric-tensor term (eq. 4) is ramped in, from `start` times
+// its weight to the full weight over `ramp_steps` steps (frames of the
+// reference drape, optimiser steps of training), so that a garment first
+// settles against the body under a soft metric and is then held to its
+// rest metric.
+struct KextSchedule {
+  double start = 0.1;
+  int ramp_steps = 10;
+
+  double operator()(int step) const {
+    if (ramp_steps <= 0 || step >= ramp_steps) return 1.0;
+    if (step <= 0) return start;
+    return start + (1.0 - start) * static_cast<double>(step) / ramp_steps;
+  }
+};
+
 }  // namespace polyfit
 
 #endif  // POLYFIT_DRAPE_LOSSES_DRAPING_WEIGHTS_H_

@@ -72,6 +72,35 @@ void BuildPatchMemberships(const TriangleMesh& mesh, const std::vector<int>& fac
   model->membership_uv = Eigen::Matrix2Xd::Zero(2, model->membership_patch.size());
 }
 
+JetFitSummary FitPatchJets(const JetFitOptions& options, const TriangleMesh& mesh, PolyFitModel* model) {
+  const int num_patches = model->face_patch.empty()
+                              ? 0
+                              : *std::max_element(model->face_patch.begin(), model->face_patch.end()) + 1;
+  const int num_memberships = static_cast<int>(model->membership_patch.size());
+  std::vector<int> patch_offsets(num_patches + 1, 0);
+  for (int p : model->membership_patch) ++patch_offsets[p + 1];
+  for (int p = 0; p < num_patches; ++p) patch_offsets[p + 1] += patch_offsets[p];
+  std::vector<int> slot(patch_offsets.begin(), patch_offsets.end() - 1);
+  Eigen::Matrix3Xd points(3, num_memberships);
+  std::vector<double> weights(num_memberships);
+  const Eigen::VectorXd vertex_areas = VertexAreas(mesh);
+  for (int v = 0; v < mesh.num_vertices(); ++v) {
+    for (int m = model->membership_offsets[v]; m < model->membership_offsets[v + 1]; ++m) {
+      const int s = slot[model->membership_patch[m]]++;
+      points.col(s) = mesh.vertices.col(v);
+      weights[s] = vertex_areas[v];
+    }
+  }
+  const JetFitSummary summary = FitJetPatches(options, points, patch_offsets, &weights, &model->patches);
+  for (int v = 0; v < mesh.num_vertices(); ++v) {
+    for (int m = model->membership_offsets[v]; m < model->membership_offsets[v + 1]; ++m) {
+      model->membership_uv.col(m) =
+          model->patches[model->membership_patch[m]].frame.PointToPatch(mesh.vertices.col(v)).head<2>();
+    }
+  }
+  return summary;
+}
+
 MeshFitSummary FitMesh(const MeshFitOptions& options, const TriangleMesh& input, PolyFitModel* model_out,
                        TriangleMesh* reconstruction_out) {
   if (const std::string problem = options.Validate(); !problem.empty()) {
@@ -119,33 +148,9 @@ MeshFitSummary FitMesh(const MeshFitOptions& options, const TriangleMesh& input,
 
   // Jets: every patch fitted to all of its vertices, weighted by area.
   const auto fit_start = std::chrono::steady_clock::now();
-  const int num_patches = summary.clustering.num_patches;
-  const int num_memberships = static_cast<int>(model.membership_patch.size());
-  std::vector<int> patch_offsets(num_patches + 1, 0);
-  for (int p : model.membership_patch) ++patch_offsets[p + 1];
-  for (int p = 0; p < num_patches; ++p) patch_offsets[p + 1] += patch_offsets[p];
-  std::vector<int> slot(patch_offsets.begin(), patch_offsets.end() - 1);
-  std::vector<int> membership_slot(num_memberships);
-  Eigen::Matrix3Xd points(3, num_memberships);
-  std::vector<double> weights(num_memberships);
-  const Eigen::VectorXd vertex_areas = VertexAreas(mesh);
-  for (int v = 0; v < mesh.num_vertices(); ++v) {
-    for (int m = model.membership_offsets[v]; m < model.membership_offsets[v + 1]; ++m) {
-      const int s = slot[model.membership_patch[m]]++;
-      membership_slot[m] = s;
-      points.col(s) = mesh.vertices.col(v);
-      weights[s] = vertex_areas[v];
-    }
-  }
   JetFitOptions jet_options = options.jet_fit;
   jet_options.num_threads = options.num_threads;
-  summary.jet_fit = FitJetPatches(jet_options, points, patch_offsets, &weights, &model.patches);
-  for (int v = 0; v < mesh.num_vertices(); ++v) {
-    for (int m = model.membership_offsets[v]; m < model.membership_offsets[v + 1]; ++m) {
-      model.membership_uv.col(m) = model.patches[model.membership_patch[m]]
-                                       .frame.PointToPatch(mesh.vertices.col(v)).head<2>();
-    }
-  }
+  summary.jet_fit = FitPatchJets(jet_options, mesh, &model);
   summary.fit_time_s = SecondsSince(fit_start);
 
   // Reconstruction.

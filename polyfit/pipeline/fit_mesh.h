@@ -84,6 +84,11 @@ MeshFitSummary FitMesh(const MeshFitOptions& options, const TriangleMesh& mesh, 
 // with the owner first. Exposed for tests and for OneFit's garments.
 void BuildPatchMemberships(const TriangleMesh& mesh, const std::vector<int>& face_patch, PolyFitModel* model);
 
+// Fits every patch's jet to its members (area-weighted) and sets their
+// (u, v): model->face_patch and the memberships (BuildPatchMemberships)
+// must be set. Returns the fit's summary.
+JetFitSummary FitPatchJets(const JetFitOptions& options, const TriangleMesh& mesh, PolyFitModel* model);
+
 }  // namespace polyfit
 
 #endif  // POLYFIT_PIPELINE_FIT_MESH_H_

@@ -1,0 +1,103 @@
+#include "drape/eval/cloth_energy.h"
+
+#include <cmath>
+#include <map>
+#include <stdexcept>
+#include <string>
+
+namespace polyfit {
+namespace {
+
+double SignedDihedral(const Eigen::Vector3d& xi, const Eigen::Vector3d& xj, const Eigen::Vector3d& xk,
+                      const Eigen::Vector3d& xl) {
+  // Faces (i, j, k) and (j, i, l) share the edge i -> j.
+  const Eigen::Vector3d e = xj - xi;
+  const Eigen::Vector3d n1 = e.cross(xk - xi);
+  const Eigen::Vector3d n2 = (xl - xi).cross(e);
+  const double en = e.norm();
+  if (!(en > 0.0) || !(n1.norm() > 0.0) || !(n2.norm() > 0.0)) return 0.0;
+  return std::atan2(n1.cross(n2).dot(e) / en, n1.dot(n2));
+}
+
+}  // namespace
+
+ClothRest PrepareClothRest(const TriangleMesh& rest) {
+  ClothRest out;
+  out.faces = rest.faces;
+  const int nf = static_cast<int>(rest.faces.cols());
+  out.vertex_area.assign(rest.num_vertices(), 0.0);
+  std::map<std::pair<int, int>, std::vector<std::pair<int, int>>> edge_faces;  // (min, max) -> (face, opposite)
+  for (int f = 0; f < nf; ++f) {
+    const Eigen::Vector3i t = rest.faces.col(f);
+    const Eigen::Vector3d x0 = rest.vertices.col(t[0]), x1 = rest.vertices.col(t[1]), x2 = rest.vertices.col(t[2]);
+    const Eigen::Vector3d e1 = x1 - x0, e2 = x2 - x0;
+    const Eigen::Vector3d normal = e1.cross(e2);
+    const double area = 0.5 * normal.norm();
+    if (!(area > 0.0)) throw std::invalid_argument("PrepareClothRest: face " + std::to_string(f) + " has zero area");
+    const Eigen::Vector3d tangent = e1.normalized();
+    const Eigen::Vector3d bitangent = normal.cross(e1).normalized();
+    Eigen::Matrix2d dm;
+    dm << e1.dot(tangent), e2.dot(tangent), e1.dot(bitangent), e2.dot(bitangent);
+    out.face_area.push_back(area);
+    out.face_inverse.push_back(dm.inverse());
+    for (int c = 0; c < 3; ++c) {
+      out.vertex_area[t[c]] += area / 3.0;
+      const int a = t[c], b = t[(c + 1) % 3];
+      edge_faces[{std::min(a, b), std::max(a, b)}].emplace_back(f, t[(c + 2) % 3]);
+    }
+  }
+  for (const auto& [edge, faces] : edge_faces) {
+    out.edges.push_back({edge.first, edge.second});
+    out.edge_length.push_back((rest.vertices.col(edge.first) - rest.vertices.col(edge.second)).norm());
+    if (faces.size() != 2) continue;
+    // Orient the edge as it runs in the first face.
+    const Eigen::Vector3i t = rest.faces.col(faces[0].first);
+    int i = edge.first, j = edge.second;
+    for (int c = 0; c < 3; ++c) {
+      if (t[c] == edge.second && t[(c + 1) % 3] == edge.first) std::swap(i, j);
+    }
+    const std::array<int, 4> hinge{i, j, faces[0].second, faces[1].second};
+    out.hinges.push_back(hinge);
+    out.hinge_angle.push_back(SignedDihedral(rest.vertices.col(i), rest.vertices.col(j), rest.vertices.col(hinge[2]),
+                                             rest.vertices.col(hinge[3])));
+    const double length = out.edge_length.back();
+    out.hinge_weight.push_back(3.0 * length * length / (out.face_area[faces[0].first] + out.face_area[faces[1].first]));
+  }
+  return out;
+}
+
+ClothMeasures MeasureCloth(const ClothRest& rest, const Eigen::Matrix3Xd& x, const ClothMaterial& material) {
+  ClothMeasures m;
+  const int nf = static_cast<int>(rest.faces.cols());
+  double area_change = 0.0;
+  for (int f = 0; f < nf; ++f) {
+    const Eigen::Vector3i t = rest.faces.col(f);
+    Eigen::Matrix<double, 3, 2> ds;
+    ds.col(0) = x.col(t[1]) - x.col(t[0]);
+    ds.col(1) = x.col(t[2]) - x.col(t[0]);
+    const Eigen::Matrix<double, 3, 2> deformation = ds * rest.face_inverse[f];
+    const Eigen::Matrix2d strain = 0.5 * (deformation.transpose() * deformation - Eigen::Matrix2d::Identity());
+    const double trace = strain.trace();
+    m.stretch_energy += rest.face_area[f] * (material.mu * (strain * strain).trace() + 0.5 * material.lambda * trace * trace);
+    const double area = 0.5 * ds.col(0).cross(ds.col(1)).norm();
+    area_change += std::abs(area - rest.face_area[f]) / rest.face_area[f];
+  }
+  double edge_strain = 0.0;
+  for (size_t e = 0; e < rest.edges.size(); ++e) {
+    const double length = (x.col(rest.edges[e][0]) - x.col(rest.edges[e][1])).norm();
+    const double strain = std::abs(length - rest.edge_length[e]) / rest.edge_length[e];
+    edge_strain += strain;
+    m.max_edge_strain_percent = std::max(m.max_edge_strain_percent, 100.0 * strain);
+  }
+  for (size_t h = 0; h < rest.hinges.size(); ++h) {
+    const std::array<int, 4>& k = rest.hinges[h];
+    const double angle = SignedDihedral(x.col(k[0]), x.col(k[1]), x.col(k[2]), x.col(k[3]));
+    const double d = angle - rest.hinge_angle[h];
+    m.bending_energy += material.bending * rest.hinge_weight[h] * d * d;
+  }
+  m.edge_strain_percent = rest.edges.empty() ? 0.0 : 100.0 * edge_strain / static_cast<double>(rest.edges.size());
+  m.area_change_percent = nf == 0 ? 0.0 : 100.0 * area_change / nf;
+  return m;
+}
+
+}  // namespace polyfit

@@ -1,0 +1,106 @@
+#include "drape/garment/skin_transfer.h"
+
+#include <algorithm>
+#include <stdexcept>
+
+#include "polyfit/eval/surface_distance.h"
+#include "polyfit/mesh/mesh_topology.h"
+
+namespace polyfit {
+
+void SkinWeights::Blend(int v, const std::vector<Eigen::Isometry3d>& transforms, Eigen::Matrix3d* linear,
+                        Eigen::Vector3d* translation) const {
+  linear->setZero();
+  translation->setZero();
+  for (int k = offsets[v]; k < offsets[v + 1]; ++k) {
+    const Eigen::Isometry3d& t = transforms[joint[k]];
+    *linear += value[k] * t.linear();
+    *translation += value[k] * t.translation();
+  }
+}
+
+SkinWeights TransferSkinWeights(const SkinnedBody& body, const TriangleMesh& garment,
+                                const SkinTransferOptions& options) {
+  const int num_joints = body.skeleton.num_joints();
+  const int n = garment.num_vertices();
+  if (n == 0) throw std::invalid_argument("TransferSkinWeights: the garment has no vertex");
+  if (!garment.vertices.allFinite()) throw std::invalid_argument("TransferSkinWeights: the garment has non-finite vertices");
+  // Dense #joints by #V: the rigs have tens of joints.
+  Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(num_joints, n);
+  const SurfaceDistance surface(body.mesh);
+  for (int v = 0; v < n; ++v) {
+    int face = -1;
+    const Eigen::Vector3d p = surface.ClosestPoint(garment.vertices.col(v), &face);
+    const Eigen::Vector3i corners = body.mesh.faces.col(face);
+    const Eigen::Vector3d a = body.mesh.vertices.col(corners[0]), b = body.mesh.vertices.col(corners[1]),
+                          c = body.mesh.vertices.col(corners[2]);
+    // Barycentric coordinates of p (on the triangle, up to rounding).
+    const Eigen::Vector3d e0 = b - a, e1 = c - a, d = p - a;
+    const double d00 = e0.dot(e0), d01 = e0.dot(e1), d11 = e1.dot(e1), d20 = d.dot(e0), d21 = d.dot(e1);
+    const double denominator = d00 * d11 - d01 * d01;
+    Eigen::Vector3d bary(1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0);
+    if (denominator > 0.0) {
+      const double y = (d11 * d20 - d01 * d21) / denominator, z = (d00 * d21 - d01 * d20) / denominator;
+      bary = Eigen::Vector3d(1.0 - y - z, y, z).cwiseMax(0.0);
+      bary /= bary.sum();
+    }
+    for (int k = 0; k < 3; ++k) {
+      const int bv = corners[k];
+      for (int i = body.weight_offsets[bv]; i < body.weight_offsets[bv + 1]; ++i) {
+        dense(body.weight_joint[i], v) += bary[k] * body.weight_value[i];
+      }
+    }
+  }
+  if (options.smoothing_iterations > 0) {
+    const AdjacencyList neighbours = VertexVertexAdjacency(garment);
+    Eigen::MatrixXd next(num_joints, n);
+    for (int it = 0; it < options.smoothing_iterations; ++it) {
+      for (int v = 0; v < n; ++v) {
+        if (neighbours.degree(v) == 0) {
+          next.col(v) = dense.col(v);
+          continue;
+        }
+        Eigen::VectorXd mean = Eigen::VectorXd::Zero(num_joints);
+        for (const int* u = neighbours.begin(v); u != neighbours.end(v); ++u) mean += dense.col(*u);
+        next.col(v) = 0.5 * dense.col(v) + 0.5 * mean / static_cast<double>(neighbours.degree(v));
+      }
+      dense.swap(next);
+    }
+  }
+  SkinWeights out;
+  for (int v = 0; v < n; ++v) {
+    double total = 0.0;
+    for (int j = 0; j < num_joints; ++j) {
+      if (dense(j, v) >= options.min_weight) total += dense(j, v);
+    }
+    if (!(total > 0.0)) {  // every weight tiny: keep the largest
+      Eigen::Index best = 0;
+      dense.col(v).maxCoeff(&best);
+      out.joint.push_back(static_cast<int>(best));
+      out.value.push_back(1.0);
+    } else {
+      for (int j = 0; j < num_joints; ++j) {
+        if (dense(j, v) < options.min_weight) continue;
+        out.joint.push_back(j);
+        out.value.push_back(dense(j, v) / total);
+      }
+    }
+    out.offsets.push_back(static_cast<int>(out.joint.size()));
+  }
+  return out;
+}
+
+Eigen::Matrix3Xd SkinPoints(const SkinWeights& weights, const Eigen::Matrix3Xd& rest,
+                            const std::vector<Eigen::Isometry3d>& transforms) {
+  if (weights.num_vertices() != rest.cols()) throw std::invalid_argument("SkinPoints: one weight row per point is needed");
+  Eigen::Matrix3Xd posed(3, rest.cols());
+  Eigen::Matrix3d linear;
+  Eigen::Vector3d translation;
+  for (int v = 0; v < weights.num_vertices(); ++v) {
+    weights.Blend(v, transforms, &linear, &translation);
+    posed.col(v) = linear * rest.col(v) + translation;
+  }
+  return posed;
+}
+
+}  // namespace polyfit

@@ -1,0 +1,50 @@
+// Skinning weights for a garment, transferred from the body it is fitted
+// to: each garment vertex takes the weights at its closest point on the
+// body surface (the closest face's three vertices, blended barycentrically),
+// then the weights are diffused over the garment's edges so that loose
+// parts (a skirt between the legs) do not tear along the body's seams.
+#ifndef POLYFIT_DRAPE_GARMENT_SKIN_TRANSFER_H_
+#define POLYFIT_DRAPE_GARMENT_SKIN_TRANSFER_H_
+
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "drape/body/makehuman_body.h"
+#include "polyfit/mesh/triangle_mesh.h"
+
+namespace polyfit {
+
+// Sparse per-vertex weights, rows summing to 1: vertex v's joints are
+// joint[offsets[v] .. offsets[v+1]).
+struct SkinWeights {
+  std::vector<int> offsets{0};
+  std::vector<int> joint;
+  std::vector<double> value;
+
+  int num_vertices() const { return static_cast<int>(offsets.size()) - 1; }
+  // The blended map sum_j w_vj T_j: linear part and translation.
+  void Blend(int v, const std::vector<Eigen::Isometry3d>& transforms, Eigen::Matrix3d* linear,
+             Eigen::Vector3d* translation) const;
+};
+
+struct SkinTransferOptions {
+  // Jacobi smoothing steps over the garment's edges (each vertex moves
+  // half-way to its neighbours' mean), 0 for none.
+  int smoothing_iterations = 10;
+  // Weights below this are dropped (then rows renormalised).
+  double min_weight = 1e-3;
+};
+
+// garment: in the body's rest pose (3 by #V vertices, triangles).
+SkinWeights TransferSkinWeights(const SkinnedBody& body, const TriangleMesh& garment,
+                                const SkinTransferOptions& options = {});
+
+// The garment posed by linear blend skinning: 3 by #V.
+Eigen::Matrix3Xd SkinPoints(const SkinWeights& weights, const Eigen::Matrix3Xd& rest,
+                            const std::vector<Eigen::Isometry3d>& transforms);
+
+}  // namespace polyfit
+
+#endif  // POLYFIT_DRAPE_GARMENT_SKIN_TRANSFER_H_

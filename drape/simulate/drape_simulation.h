@@ -1,0 +1,105 @@
+// `onefit simulate`: a garment on a body through a motion clip, by the
+// reference drape (drape_solver.h). Loads and checks every input before
+// writing anything, then writes into out_dir:
+//   meshes/frame_NNNN.ply   the garment per clip frame (atomically)
+//   renders/frame_NNNN.png  body and garment, front and side, every k frames
+//   frames.csv              per-frame metrics and times
+//   metrics.json            options, sizes, per-frame metrics, their summary
+// Metrics per frame: epsilon_c (% of garment vertices inside the body, exact
+// signed distance; and with the nearest-vertex approximation), epsilon_e and
+// epsilon_a (mean % edge-length and area change against the garment at rest
+// as its patches rebuild it),
+// the StVK stretch and bending energies (J), the solver's cost, time.
+#ifndef POLYFIT_DRAPE_SIMULATE_DRAPE_SIMULATION_H_
+#define POLYFIT_DRAPE_SIMULATE_DRAPE_SIMULATION_H_
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "drape/body/body_shape.h"
+#include "drape/garment/skin_transfer.h"
+#include "drape/simulate/drape_solver.h"
+
+namespace polyfit {
+
+class DrapeInputError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct DrapeSimulationOptions {
+  // The MakeHuman body folder (../shared/data/drape/body); empty for the
+  // procedural capsule body.
+  std::string body_dir;
+  // Macro shape of the MakeHuman body (needs body_dir/targets_macro_young).
+  BodyShape shape;
+  // A MakeHuman garment (.mhclo, fitted to the shaped body by its binding)
+  // or a mesh file (OBJ, PLY, ...) in the body's rest pose, metres.
+  std::string garment_path;
+  // A BVH clip; its units and the frame rate to resample to.
+  std::string motion_path;
+  double bvh_units_to_metres = 0.056444;
+  std::string out_dir;
+
+  int first_frame = 0;
+  int num_frames = -1;  // -1: to the clip's end
+  // Frames that blend the rest pose into the first frame's, not written.
+  int lead_in_frames = 10;
+  int render_every = 10;  // 0: no renders
+  int render_height = 480;
+  bool write_meshes = true;
+
+  DrapeSolverOptions solver;
+  SkinTransferOptions skin;
+
+  std::string Validate() const;
+};
+
+struct DrapeFrameRecord {
+  int frame = 0;
+  double time_s = 0.0;
+  double solve_time_s = 0.0;
+  int iterations = 0;
+  int passes = 0;
+  double inside_percent = 0.0;          // epsilon_c, exact signed distance
+  double inside_nearest_percent = 0.0;  // epsilon_c, nearest body vertex
+  double min_distance = 0.0;            // m, negative inside
+  double edge_strain_percent = 0.0;     // epsilon_e
+  double area_change_percent = 0.0;     // epsilon_a
+  double max_edge_strain_percent = 0.0;
+  double stretch_energy = 0.0;
+  double bending_energy = 0.0;
+  double cost = 0.0;
+  bool finite = true;
+};
+
+struct DrapeSimulationSummary {
+  int garment_vertices = 0;
+  int garment_faces = 0;
+  int patches = 0;
+  // The patches' rest shape against the input garment (m); stretch is
+  // measured against the former.
+  double fit_error_mean = 0.0;
+  double fit_error_max = 0.0;
+  int frames = 0;
+  std::vector<DrapeFrameRecord> records;
+  double mean_time_s = 0.0;  // per clip frame
+  double max_time_s = 0.0;
+  double mean_inside_percent = 0.0;
+  double max_inside_percent = 0.0;
+  double mean_edge_strain_percent = 0.0;
+  double max_edge_strain_percent = 0.0;  // the worst frame's mean
+  double mean_area_change_percent = 0.0;
+  bool all_finite = true;
+  double total_time_s = 0.0;
+  std::vector<std::string> warnings;
+};
+
+// Throws DrapeInputError naming the file or option before anything is
+// written; std::runtime_error when an output cannot be written.
+DrapeSimulationSummary RunDrapeSimulation(const DrapeSimulationOptions& options);
+
+}  // namespace polyfit
+
+#endif  // POLYFIT_DRAPE_SIMULATE_DRAPE_SIMULATION_H_

@@ -1,0 +1,119 @@
+// The reference drape: OneFit's losses minimised directly, frame by frame,
+// over the garment's patch parameters (jet coefficients alpha, scale s,
+// translation T per patch, in the body's rest pose; the garment is posed by
+// skinning weights transferred from the body), with Ceres, warm-started
+// from the previous frame.
+//
+// Per frame the objective (joules, so that the paper's weights multiply
+// physical energies) is
+//   k_c    sum_v kappa / 2 max(eps - d_v, 0)^2          collision (eq. 3), d along the body's normal
+//   k_mi   sum_e mu A_e ((l_e - L_e) / L_e)^2           edge inextensibility (eq. 1)
+//   k_mi k_ext(t) sum_(v,p) mu A / 4 |g - g0|_F^2       metric tensor (eq. 4)
+//   k_b    sum_boundary mu A (|X_a - X_b|^2 / h^2 + |n_a - n_b|^2)   patch boundary (eq. 5)
+//   k_g    sum_v m_v g (x_v . up - floor)               gravity (eq. 7)
+//   k_i    sum_v m_v / (2 dt^2) |x_v - (2 x_v^{t-1} - x_v^{t-2})|^2   inertia (eq. 8)
+// plus a small prior pulling the parameters to the previous frame's. mu is
+// the material's Lame mu, A vertex or edge areas, m_v = density A_v, h the
+// mean edge length, kappa a stiffness in N/m. Collisions are linearised at
+// the start of each pass (closest body point and pseudonormal) and passes
+// repeat while a vertex is inside the body.
+#ifndef POLYFIT_DRAPE_SIMULATE_DRAPE_SOLVER_H_
+#define POLYFIT_DRAPE_SIMULATE_DRAPE_SOLVER_H_
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "drape/body/makehuman_body.h"
+#include "drape/eval/cloth_energy.h"
+#include "drape/garment/skin_transfer.h"
+#include "drape/losses/draping_weights.h"
+#include "polyfit/model/polyfit_model.h"
+#include "polyfit/mesh/triangle_mesh.h"
+
+namespace polyfit {
+
+struct DrapeSolverOptions {
+  DrapingWeights weights;
+  KextSchedule k_ext;
+  ClothMaterial material;
+  // kappa: collision stiffness per vertex, N/m.
+  double collision_stiffness = 1e5;
+  // Collision terms for vertices closer to the body than this (m).
+  double collision_band = 0.03;
+  // Weight of the prior on parameter changes, J per unit squared.
+  double parameter_prior = 1e-4;
+  double gravity = 9.81;
+  double fps = 30.0;
+  int jet_order = 4;
+  // Patches: #garment vertices / vertices_per_patch (at least 1).
+  int vertices_per_patch = 40;
+  // Patches whose jet misses a vertex by more than this (m) are split in
+  // two and refitted, up to max_patch_splits rounds.
+  double max_fit_error = 2e-3;
+  int max_patch_splits = 4;
+  // Ceres Levenberg-Marquardt iterations per pass, and passes per frame.
+  int max_iterations = 8;
+  int max_passes = 3;
+  int num_threads = 2;
+
+  // Empty when valid, else the first problem.
+  std::string Validate() const;
+};
+
+struct DrapeStepReport {
+  double time_s = 0.0;        // the whole step: posing, queries, solves
+  double solve_time_s = 0.0;  // Ceres alone
+  int passes = 0;
+  int iterations = 0;
+  int collision_terms = 0;
+  double initial_cost = 0.0;
+  double final_cost = 0.0;
+  bool finite = true;
+};
+
+class DrapeSolver {
+ public:
+  // garment: triangles in the body's rest pose. Throws std::invalid_argument
+  // for invalid options and a garment that cannot be patched.
+  DrapeSolver(const SkinnedBody& body, const TriangleMesh& garment, const SkinWeights& weights,
+              const DrapeSolverOptions& options);
+  ~DrapeSolver();
+
+  // Advances one frame with the body posed by `rest_to_posed` (one
+  // transform per joint); k_ext multiplies the metric term (the schedule).
+  DrapeStepReport Step(const std::vector<Eigen::Isometry3d>& rest_to_posed, double k_ext = 1.0);
+
+  // The garment now (3 by #V): each vertex the mean of its patches' points.
+  const Eigen::Matrix3Xd& positions() const { return positions_; }
+  const Eigen::Matrix3Xd& body_vertices() const { return body_vertices_; }
+  const TriangleMesh& garment() const { return garment_; }
+  // The garment as its patches rebuild it at rest: what stretch is measured
+  // against. The fit's error against the input garment, mean and max (m).
+  const TriangleMesh& rest_garment() const { return rest_garment_; }
+  double fit_error_mean() const { return fit_error_mean_; }
+  double fit_error_max() const { return fit_error_max_; }
+  const PolyFitModel& model() const { return model_; }
+  int num_patches() const { return model_.num_patches(); }
+  // Signed distances (exact, negative inside) of the current positions.
+  Eigen::VectorXd SignedDistances() const;
+  // The same with the nearest-vertex approximation (SNUG, GAPS).
+  Eigen::VectorXd NearestVertexDistances() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  TriangleMesh garment_;
+  TriangleMesh rest_garment_;
+  double fit_error_mean_ = 0.0, fit_error_max_ = 0.0;
+  PolyFitModel model_;
+  Eigen::Matrix3Xd positions_;
+  Eigen::Matrix3Xd body_vertices_;
+};
+
+}  // namespace polyfit
+
+#endif  // POLYFIT_DRAPE_SIMULATE_DRAPE_SOLVER_H_
