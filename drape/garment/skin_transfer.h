@@ -32,7 +32,7 @@ struct SkinWeights {
 struct SkinTransferOptions {
   // Jacobi smoothing steps over the garment's edges (each vertex moves
   // half-way to its neighbours' mean), 0 for none.
-  int smoothing_iterations = 10;
+  int smoothing_iterations = 30;
   // Weights below this are dropped (then rows renormalised).
   double min_weight = 1e-3;
 };

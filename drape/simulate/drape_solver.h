@@ -9,12 +9,14 @@
 //   k_c    sum_v kappa / 2 max(eps - d_v, 0)^2          collision (eq. 3), d along the body's normal
 //   k_mi   sum_e mu A_e ((l_e - L_e) / L_e)^2           edge inextensibility (eq. 1)
 //   k_mi k_ext(t) sum_(v,p) mu A / 4 |g - g0|_F^2       metric tensor (eq. 4)
-//   k_b    sum_boundary mu A (|X_a - X_b|^2 / h^2 + |n_a - n_b|^2)   patch boundary (eq. 5)
+//   k_b    sum_boundary beta mu A (|X_a - X_b|^2 / h^2 + |n_a - n_b|^2)   patch boundary (eq. 5)
 //   k_g    sum_v m_v g (x_v . up - floor)               gravity (eq. 7)
 //   k_i    sum_v m_v / (2 dt^2) |x_v - (2 x_v^{t-1} - x_v^{t-2})|^2   inertia (eq. 8)
 // plus a small prior pulling the parameters to the previous frame's. mu is
 // the material's Lame mu, A vertex or edge areas, m_v = density A_v, h the
-// mean edge length, kappa a stiffness in N/m. Collisions are linearised at
+// mean edge length, kappa a stiffness in N/m, beta the boundary term's
+// base (1e-3: with beta = 1 the paper's k_b = 5e3 glues the patches into
+// their rest shape and the drape is plain skinning). Collisions are linearised at
 // the start of each pass (closest body point and pseudonormal) and passes
 // repeat while a vertex is inside the body.
 #ifndef POLYFIT_DRAPE_SIMULATE_DRAPE_SOLVER_H_
@@ -41,7 +43,9 @@ struct DrapeSolverOptions {
   KextSchedule k_ext;
   ClothMaterial material;
   // kappa: collision stiffness per vertex, N/m.
-  double collision_stiffness = 1e5;
+  double collision_stiffness = 3e5;
+  // beta: the boundary term's base, a fraction of mu.
+  double boundary_base = 1e-3;
   // Collision terms for vertices closer to the body than this (m).
   double collision_band = 0.03;
   // Weight of the prior on parameter changes, J per unit squared.
@@ -50,14 +54,14 @@ struct DrapeSolverOptions {
   double fps = 30.0;
   int jet_order = 4;
   // Patches: #garment vertices / vertices_per_patch (at least 1).
-  int vertices_per_patch = 40;
+  int vertices_per_patch = 60;
   // Patches whose jet misses a vertex by more than this (m) are split in
   // two and refitted, up to max_patch_splits rounds.
-  double max_fit_error = 2e-3;
+  double max_fit_error = 8e-3;
   int max_patch_splits = 4;
   // Ceres Levenberg-Marquardt iterations per pass, and passes per frame.
-  int max_iterations = 8;
-  int max_passes = 3;
+  int max_iterations = 5;
+  int max_passes = 2;
   int num_threads = 2;
 
   // Empty when valid, else the first problem.

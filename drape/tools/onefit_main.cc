@@ -35,6 +35,7 @@ int main(int argc, char** argv) {
   simulate->add_option("--render-height", options.render_height, "PNG height in pixels")->capture_default_str();
   simulate->add_flag("!--no-meshes", options.write_meshes, "do not write a PLY per frame");
   simulate->add_option("--vertices-per-patch", options.solver.vertices_per_patch, "garment vertices per patch")->capture_default_str();
+  simulate->add_option("--max-fit-error", options.solver.max_fit_error, "split patches whose jet misses a vertex by more (m)")->capture_default_str();
   simulate->add_option("--jet-order", options.solver.jet_order, "jet order n")->capture_default_str();
   simulate->add_option("--max-iterations", options.solver.max_iterations, "LM iterations per pass")->capture_default_str();
   simulate->add_option("--max-passes", options.solver.max_passes, "collision passes per frame")->capture_default_str();
@@ -45,6 +46,7 @@ int main(int argc, char** argv) {
   simulate->add_option("--k-i", options.solver.weights.inertia, "inertia weight")->capture_default_str();
   simulate->add_option("--eps", options.solver.weights.collision_margin, "collision margin (m)")->capture_default_str();
   simulate->add_option("--collision-stiffness", options.solver.collision_stiffness, "kappa (N/m)")->capture_default_str();
+  simulate->add_option("--skin-smoothing", options.skin.smoothing_iterations, "smoothing steps of the transferred skinning weights")->capture_default_str();
   simulate->add_option("--threads", options.solver.num_threads, "threads")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 

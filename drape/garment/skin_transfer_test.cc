@@ -1,0 +1,67 @@
+#include "drape/garment/skin_transfer.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "drape/body/procedural_body.h"
+
+namespace polyfit {
+namespace {
+
+// Body vertices pushed 5 mm out along their capsule's axis-normal: each
+// lies over its own vertex.
+TEST(SkinTransferTest, PointsOnTheBodyTakeItsWeights) {
+  const SkinnedBody body = MakeProceduralBody();
+  TriangleMesh garment = body.mesh;
+  SkinTransferOptions options;
+  options.smoothing_iterations = 0;
+  options.min_weight = 0.0;
+  const SkinWeights weights = TransferSkinWeights(body, garment, options);
+  ASSERT_EQ(weights.num_vertices(), body.mesh.num_vertices());
+  int checked = 0;
+  for (int v = 0; v < body.mesh.num_vertices(); v += 37, ++checked) {
+    Eigen::VectorXd expected = Eigen::VectorXd::Zero(body.skeleton.num_joints());
+    Eigen::VectorXd got = expected;
+    for (int k = body.weight_offsets[v]; k < body.weight_offsets[v + 1]; ++k) expected[body.weight_joint[k]] += body.weight_value[k];
+    for (int k = weights.offsets[v]; k < weights.offsets[v + 1]; ++k) got[weights.joint[k]] += weights.value[k];
+    // Capsules overlap, so a vertex buried in another capsule may take
+    // that one's surface; compare where the weights are a single bone's.
+    if (expected.maxCoeff() < 0.999) continue;
+    EXPECT_LT((got - expected).norm(), 1e-6) << "vertex " << v;
+  }
+  EXPECT_GT(checked, 10);
+}
+
+TEST(SkinTransferTest, RowsSumToOneAndIdentityPosesNothing) {
+  const SkinnedBody body = MakeProceduralBody();
+  TriangleMesh garment = body.mesh;
+  garment.vertices *= 1.02;
+  const SkinWeights weights = TransferSkinWeights(body, garment);
+  for (int v = 0; v < weights.num_vertices(); ++v) {
+    double sum = 0.0;
+    for (int k = weights.offsets[v]; k < weights.offsets[v + 1]; ++k) {
+      EXPECT_GE(weights.value[k], 0.0);
+      sum += weights.value[k];
+    }
+    EXPECT_NEAR(sum, 1.0, 1e-12);
+  }
+  const std::vector<Eigen::Isometry3d> identity(body.skeleton.num_joints(), Eigen::Isometry3d::Identity());
+  EXPECT_LT((SkinPoints(weights, garment.vertices, identity) - garment.vertices).cwiseAbs().maxCoeff(), 1e-12);
+  // A translation of every bone moves every point by it.
+  std::vector<Eigen::Isometry3d> moved = identity;
+  for (Eigen::Isometry3d& t : moved) t.translation() = Eigen::Vector3d(0.1, -0.2, 0.3);
+  const Eigen::Matrix3Xd x = SkinPoints(weights, garment.vertices, moved);
+  EXPECT_LT(((x - garment.vertices).colwise() - Eigen::Vector3d(0.1, -0.2, 0.3)).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+TEST(SkinTransferTest, RejectsEmptyAndNonFiniteGarments) {
+  const SkinnedBody body = MakeProceduralBody();
+  EXPECT_THROW(TransferSkinWeights(body, TriangleMesh{}), std::invalid_argument);
+  TriangleMesh garment = body.mesh;
+  garment.vertices(1, 4) = std::nan("");
+  EXPECT_THROW(TransferSkinWeights(body, garment), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace polyfit
