@@ -213,7 +213,8 @@ DrapeSimulationSummary RunDrapeSimulation(const DrapeSimulationOptions& options)
   const DrapingWeights& w = options.solver.weights;
   j["weights"] = {{"k_b", w.boundary},        {"k_mi", w.inextensibility}, {"k_g", w.gravity},
                   {"k_c", w.collision},       {"k_i", w.inertia},          {"eps_m", w.collision_margin},
-                  {"kappa_N_per_m", options.solver.collision_stiffness},
+                  {"kappa_N_per_m", options.solver.collision_stiffness}, {"boundary_base", options.solver.boundary_base},
+                  {"stretch_base", options.solver.stretch_base},
                   {"k_ext_start", options.solver.k_ext.start}, {"k_ext_ramp_steps", options.solver.k_ext.ramp_steps}};
   j["summary"] = {{"mean_time_per_frame_s", summary.mean_time_s},
                   {"max_time_per_frame_s", summary.max_time_s},

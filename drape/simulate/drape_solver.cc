@@ -156,9 +156,9 @@ std::string DrapeSolverOptions::Validate() const {
   if (jet_order < 1 || jet_order > kMaxJetOrder) return "jet_order must be in [1, " + std::to_string(kMaxJetOrder) + "]";
   if (vertices_per_patch < 3) return "vertices_per_patch must be >= 3";
   if (!(fps > 0.0)) return "fps must be positive";
-  if (max_iterations < 1 || max_passes < 1) return "max_iterations and max_passes must be >= 1";
+  if (max_iterations < 1 || max_refine_iterations < 1 || max_passes < 1) return "max_iterations, max_refine_iterations and max_passes must be >= 1";
   for (const double w : {weights.boundary, weights.inextensibility, weights.gravity, weights.collision, weights.inertia,
-                         weights.collision_margin, collision_stiffness, boundary_base, collision_band, parameter_prior, gravity,
+                         weights.collision_margin, collision_stiffness, boundary_base, stretch_base, collision_band, parameter_prior, gravity,
                          material.area_density, material.mu}) {
     if (!std::isfinite(w) || w < 0.0) return "weights, stiffnesses and material constants must be finite and >= 0";
   }
@@ -355,7 +355,7 @@ DrapeStepReport DrapeSolver::Step(const std::vector<Eigen::Isometry3d>& rest_to_
 
   const double dt = 1.0 / o.fps;
   const double mu = o.material.mu;
-  const double k_mi = o.weights.inextensibility;
+  const double k_mi = o.weights.inextensibility * o.stretch_base;
   evaluate();
   query();
   for (int pass = 0; pass < o.max_passes; ++pass) {
@@ -440,7 +440,7 @@ DrapeStepReport DrapeSolver::Step(const std::vector<Eigen::Isometry3d>& rest_to_
     solver.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
     // Measured faster than SuiteSparse here (19-wide blocks, a few hundred).
     solver.sparse_linear_algebra_library_type = ceres::EIGEN_SPARSE;
-    solver.max_num_iterations = o.max_iterations;
+    solver.max_num_iterations = pass == 0 ? o.max_iterations : o.max_refine_iterations;
     solver.num_threads = o.num_threads;
     solver.logging_type = ceres::SILENT;
     // Stretch terms are orders of magnitude stiffer than gravity and

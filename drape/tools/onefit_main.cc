@@ -38,6 +38,7 @@ int main(int argc, char** argv) {
   simulate->add_option("--max-fit-error", options.solver.max_fit_error, "split patches whose jet misses a vertex by more (m)")->capture_default_str();
   simulate->add_option("--jet-order", options.solver.jet_order, "jet order n")->capture_default_str();
   simulate->add_option("--max-iterations", options.solver.max_iterations, "LM iterations per pass")->capture_default_str();
+  simulate->add_option("--max-refine-iterations", options.solver.max_refine_iterations, "LM iterations per later pass")->capture_default_str();
   simulate->add_option("--max-passes", options.solver.max_passes, "collision passes per frame")->capture_default_str();
   simulate->add_option("--k-b", options.solver.weights.boundary, "patch boundary weight")->capture_default_str();
   simulate->add_option("--k-mi", options.solver.weights.inextensibility, "inextensibility weight")->capture_default_str();
