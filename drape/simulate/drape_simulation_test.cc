@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "polyfit/mesh/mesh_io.h"
+#include "polyfit/mesh/primitives.h"
 #include "polyfit/util/scoped_temp_dir.h"
 
 namespace polyfit {
@@ -40,27 +41,7 @@ Frame Time: 0.0666667
 )";
 
 // An open tube around the procedural torso (radius 0.14 m).
-TriangleMesh Shirt() {
-  const int segments = 24, rings = 8;
-  TriangleMesh tube;
-  tube.vertices.resize(3, segments * (rings + 1));
-  for (int r = 0; r <= rings; ++r) {
-    for (int s = 0; s < segments; ++s) {
-      const double a = 2.0 * M_PI * s / segments;
-      tube.vertices.col(r * segments + s) = Eigen::Vector3d(0.16 * std::sin(a), 0.1 + 0.3 * r / rings, 0.16 * std::cos(a));
-    }
-  }
-  tube.faces.resize(3, 2 * segments * rings);
-  int f = 0;
-  for (int r = 0; r < rings; ++r) {
-    for (int s = 0; s < segments; ++s) {
-      const int a = r * segments + s, b = r * segments + (s + 1) % segments;
-      tube.faces.col(f++) = Eigen::Vector3i(a, b, b + segments);
-      tube.faces.col(f++) = Eigen::Vector3i(a, b + segments, a + segments);
-    }
-  }
-  return tube;
-}
+TriangleMesh Shirt() { return MakeTube(0.16, 0.1, 0.4, 24, 8); }
 
 class DrapeSimulationTest : public ::testing::Test {
  protected:

@@ -459,7 +459,7 @@ DrapeStepReport DrapeSolver::Step(const std::vector<Eigen::Isometry3d>& rest_to_
     report.final_cost = summary.final_cost;
     ++report.passes;
     evaluate();
-    if (query() == 0) break;
+    if (pass + 1 == o.max_passes || query() == 0) break;
   }
   report.finite = positions_.allFinite();
   if (!report.finite) {

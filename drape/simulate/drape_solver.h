@@ -66,7 +66,7 @@ struct DrapeSolverOptions {
   // Ceres Levenberg-Marquardt iterations in the first pass and in each
   // further pass (collisions re-linearised while a vertex is inside), and
   // passes per frame.
-  int max_iterations = 4;
+  int max_iterations = 3;
   int max_refine_iterations = 2;
   int max_passes = 2;
   int num_threads = 2;

@@ -179,30 +179,6 @@ SkinWeights RigidWeights(int n, int joint) {
   return weights;
 }
 
-// An open tube around the Y axis (outward faces): a shirt for the
-// procedural body, whose torso is a capsule of radius 0.14 m.
-TriangleMesh MakeTube(double radius, double y0, double y1, int segments, int rings) {
-  TriangleMesh tube;
-  tube.vertices.resize(3, segments * (rings + 1));
-  for (int r = 0; r <= rings; ++r) {
-    for (int s = 0; s < segments; ++s) {
-      const double a = 2.0 * M_PI * s / segments;
-      tube.vertices.col(r * segments + s) = Eigen::Vector3d(radius * std::sin(a), y0 + (y1 - y0) * r / rings, radius * std::cos(a));
-    }
-  }
-  tube.faces.resize(3, 2 * segments * rings);
-  int f = 0;
-  for (int r = 0; r < rings; ++r) {
-    for (int s = 0; s < segments; ++s) {
-      const int a = r * segments + s, b = r * segments + (s + 1) % segments;
-      const int c = a + segments, d = b + segments;
-      tube.faces.col(f++) = Eigen::Vector3i(a, b, d);
-      tube.faces.col(f++) = Eigen::Vector3i(a, d, c);
-    }
-  }
-  return tube;
-}
-
 TEST(DrapeSolverTest, AFreeSheetFallsWithTheWeightsAccelerationAndKeepsItsShape) {
   const SkinnedBody body = MakeProceduralBody();
   TriangleMesh garment = MakeGrid(16, 16, 0.4);

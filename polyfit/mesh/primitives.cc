@@ -1,6 +1,7 @@
 #include "polyfit/mesh/primitives.h"
 
 #include <cmath>
+#include <stdexcept>
 
 #include "polyfit/mesh/subdivision.h"
 
@@ -73,6 +74,29 @@ TriangleMesh MakeBumpyTorus(int nu, int nv, double bumps) {
     }
   }
   return mesh;
+}
+
+TriangleMesh MakeTube(double radius, double y0, double y1, int segments, int rings) {
+  if (segments < 3 || rings < 1) throw std::invalid_argument("MakeTube: needs segments >= 3 and rings >= 1");
+  TriangleMesh tube;
+  tube.vertices.resize(3, segments * (rings + 1));
+  for (int r = 0; r <= rings; ++r) {
+    for (int s = 0; s < segments; ++s) {
+      const double a = 2.0 * M_PI * s / segments;
+      tube.vertices.col(r * segments + s) =
+          Eigen::Vector3d(radius * std::sin(a), y0 + (y1 - y0) * r / rings, radius * std::cos(a));
+    }
+  }
+  tube.faces.resize(3, 2 * segments * rings);
+  int f = 0;
+  for (int r = 0; r < rings; ++r) {
+    for (int s = 0; s < segments; ++s) {
+      const int a = r * segments + s, b = r * segments + (s + 1) % segments;
+      tube.faces.col(f++) = Eigen::Vector3i(a, b, b + segments);
+      tube.faces.col(f++) = Eigen::Vector3i(a, b + segments, a + segments);
+    }
+  }
+  return tube;
 }
 
 }  // namespace polyfit

@@ -19,6 +19,11 @@ TriangleMesh MakeGrid(int nx, int ny, double size = 1.0);
 // amplitude `bumps`, nu by nv quads split in two: 2 nu nv faces.
 TriangleMesh MakeBumpyTorus(int nu, int nv, double bumps = 0.15);
 
+// An open tube of `radius` around the y axis from y0 to y1: segments
+// around, rings along, faces oriented outwards. A shirt or a skirt for
+// draping tests.
+TriangleMesh MakeTube(double radius, double y0, double y1, int segments, int rings);
+
 }  // namespace polyfit
 
 #endif  // POLYFIT_MESH_PRIMITIVES_H_
