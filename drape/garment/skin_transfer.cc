@@ -27,10 +27,12 @@ SkinWeights TransferSkinWeights(const SkinnedBody& body, const TriangleMesh& gar
   if (!garment.vertices.allFinite()) throw std::invalid_argument("TransferSkinWeights: the garment has non-finite vertices");
   // Dense #joints by #V: the rigs have tens of joints.
   Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(num_joints, n);
+  std::vector<bool> anchored(n, false);
   const SurfaceDistance surface(body.mesh);
   for (int v = 0; v < n; ++v) {
     int face = -1;
     const Eigen::Vector3d p = surface.ClosestPoint(garment.vertices.col(v), &face);
+    anchored[v] = (p - garment.vertices.col(v)).norm() < options.anchor_distance;
     const Eigen::Vector3i corners = body.mesh.faces.col(face);
     const Eigen::Vector3d a = body.mesh.vertices.col(corners[0]), b = body.mesh.vertices.col(corners[1]),
                           c = body.mesh.vertices.col(corners[2]);
@@ -56,7 +58,7 @@ SkinWeights TransferSkinWeights(const SkinnedBody& body, const TriangleMesh& gar
     Eigen::MatrixXd next(num_joints, n);
     for (int it = 0; it < options.smoothing_iterations; ++it) {
       for (int v = 0; v < n; ++v) {
-        if (neighbours.degree(v) == 0) {
+        if (neighbours.degree(v) == 0 || anchored[v]) {
           next.col(v) = dense.col(v);
           continue;
         }

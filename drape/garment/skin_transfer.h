@@ -33,6 +33,10 @@ struct SkinTransferOptions {
   // Jacobi smoothing steps over the garment's edges (each vertex moves
   // half-way to its neighbours' mean), 0 for none.
   int smoothing_iterations = 30;
+  // Vertices closer to the body than this (m) keep the body's weights
+  // (they move with the skin under them; the smoothing flows around them).
+  // 0: every vertex is smoothed.
+  double anchor_distance = 0.0;
   // Weights below this are dropped (then rows renormalised).
   double min_weight = 1e-3;
 };
