@@ -9,10 +9,10 @@
 #include <stdexcept>
 
 #include <ceres/ceres.h>
-#include <ceres/normal_prior.h>
 
 #include "cost_functions/metric_inextensibility_residual.h"
 #include "cost_functions/patch_boundary_residual.h"
+#include <ceres/autodiff_cost_function.h>
 #include "drape/collision/signed_distance.h"
 #include "drape/simulate/skinned_patch_costs.h"
 #include "polyfit/cluster/acvd_clustering.h"
@@ -53,6 +53,52 @@ void OrientPatchesLikeFaces(const TriangleMesh& mesh, PolyFitModel* model) {
     if (flip[model->membership_patch[m]]) model->membership_uv(1, static_cast<Eigen::Index>(m)) *= -1.0;
   }
 }
+
+// The metric-tensor term (eq. 4) with the skinning Jacobian and the k_ext
+// factor read at each evaluation (they change per frame).
+class SkinnedMetricCost {
+ public:
+  SkinnedMetricCost(int order, double u, double v, const Eigen::Vector3d& rest_metric, const Eigen::Matrix3d& rotation,
+                    const Eigen::Matrix3d* skinning, double weight, const double* factor)
+      : order_(order), u_(u), v_(v), rest_(rest_metric), rotation_(rotation), skinning_(skinning), weight_(weight),
+        factor_(factor) {}
+
+  template <typename T>
+  bool operator()(const T* alpha, const T* scale, T* residual) const {
+    return MetricInextensibilityResidual(order_, u_, v_, rest_, rotation_, *skinning_, weight_ * *factor_)(alpha, scale,
+                                                                                                         residual);
+  }
+
+ private:
+  int order_;
+  double u_, v_;
+  Eigen::Vector3d rest_;
+  Eigen::Matrix3d rotation_;
+  const Eigen::Matrix3d* skinning_;
+  double weight_;
+  const double* factor_;
+};
+
+// w (x - mean), the mean read through a pointer (last frame's parameters).
+class ParameterPrior : public ceres::CostFunction {
+ public:
+  ParameterPrior(int size, double weight, const double* mean) : weight_(weight), mean_(mean) {
+    set_num_residuals(size);
+    mutable_parameter_block_sizes()->assign({size});
+  }
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const int n = num_residuals();
+    for (int i = 0; i < n; ++i) residuals[i] = weight_ * (parameters[0][i] - mean_[i]);
+    if (jacobians != nullptr && jacobians[0] != nullptr) {
+      Eigen::Map<Eigen::MatrixXd>(jacobians[0], n, n) = weight_ * Eigen::MatrixXd::Identity(n, n);
+    }
+    return true;
+  }
+
+ private:
+  double weight_;
+  const double* mean_;
+};
 
 // The distance from each membership's vertex to its patch's jet.
 std::vector<double> PatchMaxErrors(const TriangleMesh& mesh, const PolyFitModel& model) {
@@ -197,6 +243,10 @@ struct DrapeSolver::Impl {
   double floor = 0.0;
   // Collision linearisation per vertex.
   std::vector<SignedDistanceResult> contact;
+  // The problem, built once; its costs read these, updated per frame.
+  std::unique_ptr<ceres::Problem> problem;
+  std::vector<VertexTermsData> vertex_data;  // per membership
+  double metric_factor = 1.0;                // sqrt(k_ext)
 
   explicit Impl(const SkinnedBody& b) : body(b), distance(b.mesh) {}
 
@@ -208,8 +258,10 @@ struct DrapeSolver::Impl {
     const int p = model.membership_patch[m];
     const int v = membership_vertex[m];
     return SkinnedPatchPoint(options.jet_order, model.membership_uv(0, m), model.membership_uv(1, m),
-                             model.patches[p].frame.rotation, skin_linear[v], skin_translation[v]);
+                             model.patches[p].frame.rotation, &skin_linear[v], &skin_translation[v]);
   }
+
+  void BuildProblem(const PolyFitModel& model);
 };
 
 DrapeSolver::DrapeSolver(const SkinnedBody& body, const TriangleMesh& garment, const SkinWeights& weights,
@@ -317,6 +369,80 @@ DrapeSolver::DrapeSolver(const SkinnedBody& body, const TriangleMesh& garment, c
   m.history1 = positions_;
   m.history2 = positions_;
   body_vertices_ = body.mesh.vertices;
+  m.BuildProblem(model_);
+}
+
+void DrapeSolver::Impl::BuildProblem(const PolyFitModel& model) {
+  const DrapeSolverOptions& o = options;
+  const double dt = 1.0 / o.fps;
+  const double mu = o.material.mu;
+  const double k_mi = o.weights.inextensibility * o.stretch_base;
+  const int n = model.num_vertices();
+  problem = std::make_unique<ceres::Problem>();
+  for (int p = 0; p < model.num_patches(); ++p) {
+    problem->AddParameterBlock(alpha(p), num_coefficients);
+    problem->AddParameterBlock(scale(p), 1);
+    problem->AddParameterBlock(translation(p), 3);
+  }
+  // Vertex terms at every membership: collision everywhere (off while far
+  // from the body), gravity and inertia at the owner.
+  vertex_data.assign(model.membership_patch.size(), VertexTermsData{});
+  for (int v = 0; v < n; ++v) {
+    for (int k = model.membership_offsets[v]; k < model.membership_offsets[v + 1]; ++k) {
+      VertexTermsData& data = vertex_data[k];
+      data.margin = o.weights.collision_margin;
+      data.collision_weight = std::sqrt(o.weights.collision * o.collision_stiffness);
+      if (k == model.membership_offsets[v]) {
+        data.gravity_weight = o.weights.gravity * mass[v] * o.gravity;
+        data.floor = floor;
+        data.inertia_weight = std::sqrt(o.weights.inertia * mass[v]) / dt;
+      }
+      const int p = model.membership_patch[k];
+      problem->AddResidualBlock(new SkinnedVertexCost(Point(model, k), &data), nullptr, alpha(p), scale(p),
+                                translation(p));
+      const double metric_area = rest.vertex_area[v] / (model.membership_offsets[v + 1] - model.membership_offsets[v]);
+      const double metric_weight = std::sqrt(k_mi * mu * metric_area / 2.0);
+      if (metric_weight > 0.0) {
+        auto* functor = new SkinnedMetricCost(o.jet_order, model.membership_uv(0, k), model.membership_uv(1, k),
+                                              rest_metric[k], model.patches[p].frame.rotation, &skin_linear[v],
+                                              metric_weight, &metric_factor);
+        ceres::CostFunction* cost = DispatchJetCoefficients(o.jet_order, "SkinnedMetricCost", [&](auto c) -> ceres::CostFunction* {
+          return new ceres::AutoDiffCostFunction<SkinnedMetricCost, 3, decltype(c)::value, 1>(functor);
+        });
+        problem->AddResidualBlock(cost, nullptr, alpha(p), scale(p));
+      }
+    }
+  }
+  if (k_mi > 0.0) {
+    for (const PatchEdge& e : patch_edges) {
+      const int p = model.membership_patch[e.mi];
+      const double weight = std::sqrt(2.0 * k_mi * mu * edge_area[e.edge]);
+      problem->AddResidualBlock(new SkinnedEdgeCost(Point(model, e.mi), Point(model, e.mj), rest.edge_length[e.edge], weight),
+                                nullptr, alpha(p), scale(p), translation(p));
+    }
+  }
+  if (o.weights.boundary > 0.0) {
+    for (size_t i = 0; i < boundary.size(); ++i) {
+      const PatchBoundaryPoint& b = boundary[i];
+      const double w = std::sqrt(2.0 * o.weights.boundary * o.boundary_base * mu * rest.vertex_area[b.vertex]);
+      problem->AddResidualBlock(
+          PatchBoundaryResidual::Create(o.jet_order, b.uv_a, model.patches[b.patch_a].frame.rotation, b.uv_b,
+                                        model.patches[b.patch_b].frame.rotation, w / mean_edge, w,
+                                        boundary_position_gap[i], boundary_normal_gap[i]),
+          nullptr, alpha(b.patch_a), scale(b.patch_a), translation(b.patch_a), alpha(b.patch_b), scale(b.patch_b),
+          translation(b.patch_b));
+    }
+  }
+  if (o.parameter_prior > 0.0) {
+    const double w = std::sqrt(o.parameter_prior);
+    for (int p = 0; p < model.num_patches(); ++p) {
+      for (const auto& [block, size] : {std::pair<int, int>{0, num_coefficients}, {kMaxJetCoefficients, 1},
+                                        {kMaxJetCoefficients + 1, 3}}) {
+        problem->AddResidualBlock(new ParameterPrior(size, w, previous_params.data() + p * kStride + block), nullptr,
+                                  params.data() + p * kStride + block);
+      }
+    }
+  }
 }
 
 DrapeSolver::~DrapeSolver() = default;
@@ -353,87 +479,25 @@ DrapeStepReport DrapeSolver::Step(const std::vector<Eigen::Isometry3d>& rest_to_
     return inside;
   };
 
-  const double dt = 1.0 / o.fps;
-  const double mu = o.material.mu;
-  const double k_mi = o.weights.inextensibility * o.stretch_base;
   evaluate();
   query();
+  // Per-frame data of the vertex terms.
+  m.metric_factor = std::sqrt(k_ext);
+  for (int v = 0; v < n; ++v) {
+    const int owner = model_.membership_offsets[v];
+    m.vertex_data[owner].target = 2.0 * m.history1.col(v) - m.history2.col(v);
+  }
   for (int pass = 0; pass < o.max_passes; ++pass) {
-    ceres::Problem problem;
-    for (int p = 0; p < model_.num_patches(); ++p) {
-      problem.AddParameterBlock(m.alpha(p), m.num_coefficients);
-      problem.AddParameterBlock(m.scale(p), 1);
-      problem.AddParameterBlock(m.translation(p), 3);
-    }
-    // Vertex terms: every membership gets the collision term, the owner the
-    // dynamic ones.
+    // Collisions linearised at the current positions.
     report.collision_terms = 0;
     for (int v = 0; v < n; ++v) {
-      const bool near = m.contact[v].distance < o.collision_band;
+      const bool near = o.weights.collision > 0.0 && m.contact[v].distance < o.collision_band;
       for (int k = model_.membership_offsets[v]; k < model_.membership_offsets[v + 1]; ++k) {
-        const bool owner = k == model_.membership_offsets[v];
-        if (!owner && !near) continue;
-        VertexTermsData data;
-        if (near && o.weights.collision > 0.0) {
-          data.collision = true;
-          data.closest = m.contact[v].closest;
-          data.normal = m.contact[v].normal;
-          data.margin = o.weights.collision_margin;
-          data.collision_weight = std::sqrt(o.weights.collision * o.collision_stiffness);
-          ++report.collision_terms;
-        }
-        if (owner) {
-          data.gravity_weight = o.weights.gravity * m.mass[v] * o.gravity;
-          data.floor = m.floor;
-          data.inertia_weight = std::sqrt(o.weights.inertia * m.mass[v]) / dt;
-          data.target = 2.0 * m.history1.col(v) - m.history2.col(v);
-        }
-        const int p = model_.membership_patch[k];
-        problem.AddResidualBlock(new SkinnedVertexCost(m.Point(model_, k), data), nullptr, m.alpha(p), m.scale(p),
-                                 m.translation(p));
-        // Metric tensor at every membership.
-        const double metric_area = m.rest.vertex_area[v] / (model_.membership_offsets[v + 1] - model_.membership_offsets[v]);
-        const double metric_weight = std::sqrt(k_mi * k_ext * mu * metric_area / 2.0);
-        if (metric_weight > 0.0) {
-          problem.AddResidualBlock(
-              MetricInextensibilityResidual::Create(o.jet_order, model_.membership_uv(0, k), model_.membership_uv(1, k),
-                                                    m.rest_metric[k], model_.patches[p].frame.rotation,
-                                                    m.skin_linear[v], metric_weight),
-              nullptr, m.alpha(p), m.scale(p));
-        }
-      }
-    }
-    if (k_mi > 0.0) {
-      for (const Impl::PatchEdge& e : m.patch_edges) {
-        const int p = model_.membership_patch[e.mi];
-        const double weight = std::sqrt(2.0 * k_mi * mu * m.edge_area[e.edge]);
-        problem.AddResidualBlock(
-            new SkinnedEdgeCost(m.Point(model_, e.mi), m.Point(model_, e.mj), m.rest.edge_length[e.edge], weight),
-            nullptr, m.alpha(p), m.scale(p), m.translation(p));
-      }
-    }
-    if (o.weights.boundary > 0.0) {
-      for (size_t i = 0; i < m.boundary.size(); ++i) {
-        const PatchBoundaryPoint& b = m.boundary[i];
-        const double w = std::sqrt(2.0 * o.weights.boundary * o.boundary_base * mu * m.rest.vertex_area[b.vertex]);
-        problem.AddResidualBlock(
-            PatchBoundaryResidual::Create(o.jet_order, b.uv_a, model_.patches[b.patch_a].frame.rotation, b.uv_b,
-                                          model_.patches[b.patch_b].frame.rotation, w / m.mean_edge, w,
-                                          m.boundary_position_gap[i], m.boundary_normal_gap[i]),
-            nullptr, m.alpha(b.patch_a), m.scale(b.patch_a), m.translation(b.patch_a), m.alpha(b.patch_b),
-            m.scale(b.patch_b), m.translation(b.patch_b));
-      }
-    }
-    if (o.parameter_prior > 0.0) {
-      const double w = std::sqrt(o.parameter_prior);
-      for (int p = 0; p < model_.num_patches(); ++p) {
-        for (const auto& [block, size] : {std::pair<int, int>{0, m.num_coefficients}, {kMaxJetCoefficients, 1},
-                                          {kMaxJetCoefficients + 1, 3}}) {
-          const Eigen::VectorXd mean = Eigen::Map<const Eigen::VectorXd>(
-              m.previous_params.data() + p * Impl::kStride + block, size);
-          problem.AddResidualBlock(new ceres::NormalPrior(w * Eigen::MatrixXd::Identity(size, size), mean), nullptr,
-                                   m.params.data() + p * Impl::kStride + block);
-        }
+        VertexTermsData& data = m.vertex_data[k];
+        data.collision = near;
+        data.closest = m.contact[v].closest;
+        data.normal = m.contact[v].normal;
+        report.collision_terms += near ? 1 : 0;
       }
     }
     ceres::Solver::Options solver;
@@ -451,7 +515,7 @@ DrapeStepReport DrapeSolver::Step(const std::vector<Eigen::Isometry3d>& rest_to_
     solver.function_tolerance = 1e-12;
     solver.parameter_tolerance = 1e-12;
     ceres::Solver::Summary summary;
-    ceres::Solve(solver, &problem, &summary);
+    ceres::Solve(solver, m.problem.get(), &summary);
     if (std::getenv("POLYFIT_DRAPE_TRACE") != nullptr) std::fprintf(stderr, "%s\n", summary.FullReport().c_str());
     report.solve_time_s += summary.total_time_in_seconds;
     report.iterations += static_cast<int>(summary.iterations.size()) - 1;

@@ -72,7 +72,7 @@ TEST(SkinnedPatchCostsTest, VertexJacobiansMatchAutodiff) {
   for (double& a : alpha) a = uniform(rng);
   const double* parameters[3] = {alpha, &scale, offset};
 
-  SkinnedVertexCost analytic(SkinnedPatchPoint(order, f.u, f.v, f.rotation, f.linear, f.translation), f.data);
+  SkinnedVertexCost analytic(SkinnedPatchPoint(order, f.u, f.v, f.rotation, &f.linear, &f.translation), &f.data);
   ceres::AutoDiffCostFunction<VertexTermsAutodiff, 5, K, 1, 3> automatic(new VertexTermsAutodiff(f));
   double ra[5], rb[5], ja[3][5 * K], jb[3][5 * K];
   double* jacobians_a[3] = {ja[0], ja[1], ja[2]};
@@ -132,8 +132,8 @@ TEST(SkinnedPatchCostsTest, EdgeJacobiansMatchAutodiff) {
   double alpha[K], scale = 0.8, offset[3] = {0.05, -0.1, 0.2};
   for (int k = 0; k < K; ++k) alpha[k] = 0.1 * std::sin(k + 1.0);
   const double* parameters[3] = {alpha, &scale, offset};
-  SkinnedEdgeCost analytic(SkinnedPatchPoint(order, f.u[0], f.v[0], f.rotation, f.linear[0], f.translation[0]),
-                           SkinnedPatchPoint(order, f.u[1], f.v[1], f.rotation, f.linear[1], f.translation[1]), f.rest,
+  SkinnedEdgeCost analytic(SkinnedPatchPoint(order, f.u[0], f.v[0], f.rotation, &f.linear[0], &f.translation[0]),
+                           SkinnedPatchPoint(order, f.u[1], f.v[1], f.rotation, &f.linear[1], &f.translation[1]), f.rest,
                            f.weight);
   ceres::AutoDiffCostFunction<EdgeAutodiff, 1, K, 1, 3> automatic(new EdgeAutodiff(f));
   double ra, rb, ja[3][K], jb[3][K];

@@ -23,35 +23,36 @@
 
 namespace polyfit {
 
-// The posed point and its Jacobian blocks.
+// The posed point and its Jacobian blocks. The skinning map (M, b) is
+// read through pointers at each evaluation, so that a solver can keep its
+// problem across frames and only update the maps.
 class SkinnedPatchPoint {
  public:
   SkinnedPatchPoint() = default;
-  SkinnedPatchPoint(int order, double u, double v, const Eigen::Matrix3d& rotation, const Eigen::Matrix3d& skin_linear,
-                    const Eigen::Vector3d& skin_translation)
-      : num_coefficients_(NumJetCoefficients(order)), u_(u), v_(v), map_(skin_linear * rotation),
-        skin_linear_(skin_linear), skin_translation_(skin_translation) {
+  SkinnedPatchPoint(int order, double u, double v, const Eigen::Matrix3d& rotation, const Eigen::Matrix3d* skin_linear,
+                    const Eigen::Vector3d* skin_translation)
+      : num_coefficients_(NumJetCoefficients(order)), u_(u), v_(v), rotation_(rotation), skin_linear_(skin_linear),
+        skin_translation_(skin_translation) {
     JetMonomials(order, u, v, monomials_);
   }
 
   int num_coefficients() const { return num_coefficients_; }
 
   Eigen::Vector3d Position(const double* alpha, const double* scale, const double* translation) const {
-    double z = 0.0;
-    for (int k = 0; k < num_coefficients_; ++k) z += alpha[k] * monomials_[k];
-    return scale[0] * (map_ * Eigen::Vector3d(u_, v_, z)) + skin_linear_ * Eigen::Map<const Eigen::Vector3d>(translation) +
-           skin_translation_;
+    const Eigen::Vector3d canonical =
+        scale[0] * (rotation_ * Eigen::Vector3d(u_, v_, Height(alpha))) + Eigen::Map<const Eigen::Vector3d>(translation);
+    return *skin_linear_ * canonical + *skin_translation_;
   }
 
-  // jacobian (rows by the three blocks' columns, row-major per block) of
-  // r = dr_dx x: writes dr_dx * dx/dblock for the blocks asked for.
+  // Writes dr_dx * dx/dblock into the blocks asked for (row-major), or adds
+  // sign times it (accumulate).
   template <int kRows>
   void Chain(const Eigen::Matrix<double, kRows, 3>& dr_dx, const double* alpha, const double* scale,
              double** jacobians, double sign = 1.0, bool accumulate = false) const {
-    const int rows = kRows;
+    const Eigen::Matrix<double, kRows, 3> dr_dcanonical = sign * (dr_dx * *skin_linear_);
     if (jacobians[0] != nullptr) {
-      const Eigen::Matrix<double, kRows, 1> along = sign * scale[0] * (dr_dx * map_.col(2));
-      Eigen::Map<Eigen::Matrix<double, kRows, Eigen::Dynamic, Eigen::RowMajor>> j(jacobians[0], rows, num_coefficients_);
+      const Eigen::Matrix<double, kRows, 1> along = scale[0] * (dr_dcanonical * rotation_.col(2));
+      Eigen::Map<Eigen::Matrix<double, kRows, Eigen::Dynamic, Eigen::RowMajor>> j(jacobians[0], kRows, num_coefficients_);
       for (int k = 0; k < num_coefficients_; ++k) {
         if (accumulate) {
           j.col(k) += along * monomials_[k];
@@ -61,9 +62,7 @@ class SkinnedPatchPoint {
       }
     }
     if (jacobians[1] != nullptr) {
-      double z = 0.0;
-      for (int k = 0; k < num_coefficients_; ++k) z += alpha[k] * monomials_[k];
-      const Eigen::Matrix<double, kRows, 1> ds = sign * (dr_dx * (map_ * Eigen::Vector3d(u_, v_, z)));
+      const Eigen::Matrix<double, kRows, 1> ds = dr_dcanonical * (rotation_ * Eigen::Vector3d(u_, v_, Height(alpha)));
       Eigen::Map<Eigen::Matrix<double, kRows, 1>> j(jacobians[1]);
       if (accumulate) {
         j += ds;
@@ -72,23 +71,28 @@ class SkinnedPatchPoint {
       }
     }
     if (jacobians[2] != nullptr) {
-      const Eigen::Matrix<double, kRows, 3> dt = sign * (dr_dx * skin_linear_);
       Eigen::Map<Eigen::Matrix<double, kRows, 3, Eigen::RowMajor>> j(jacobians[2]);
       if (accumulate) {
-        j += dt;
+        j += dr_dcanonical;
       } else {
-        j = dt;
+        j = dr_dcanonical;
       }
     }
   }
 
  private:
+  double Height(const double* alpha) const {
+    double z = 0.0;
+    for (int k = 0; k < num_coefficients_; ++k) z += alpha[k] * monomials_[k];
+    return z;
+  }
+
   int num_coefficients_ = 0;
   double u_ = 0.0, v_ = 0.0;
   double monomials_[kMaxJetCoefficients] = {};
-  Eigen::Matrix3d map_ = Eigen::Matrix3d::Identity();  // M R
-  Eigen::Matrix3d skin_linear_ = Eigen::Matrix3d::Identity();
-  Eigen::Vector3d skin_translation_ = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d rotation_ = Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d* skin_linear_ = nullptr;
+  const Eigen::Vector3d* skin_translation_ = nullptr;
 };
 
 // The vertex terms, 5 residuals (a term that is off gives 0):
@@ -108,9 +112,10 @@ struct VertexTermsData {
   Eigen::Vector3d target = Eigen::Vector3d::Zero();
 };
 
+// The data is read through a pointer at each evaluation (updated per frame).
 class SkinnedVertexCost : public ceres::CostFunction {
  public:
-  SkinnedVertexCost(const SkinnedPatchPoint& point, const VertexTermsData& data) : point_(point), data_(data) {
+  SkinnedVertexCost(const SkinnedPatchPoint& point, const VertexTermsData* data) : point_(point), data_(*data) {
     set_num_residuals(5);
     mutable_parameter_block_sizes()->assign({point.num_coefficients(), 1, 3});
   }
@@ -140,7 +145,7 @@ class SkinnedVertexCost : public ceres::CostFunction {
 
  private:
   SkinnedPatchPoint point_;
-  VertexTermsData data_;
+  const VertexTermsData& data_;
 };
 
 // Edge inextensibility (eq. 1) between two points of one patch:
