@@ -28,11 +28,14 @@ SkinWeights TransferSkinWeights(const SkinnedBody& body, const TriangleMesh& gar
   // Dense #joints by #V: the rigs have tens of joints.
   Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(num_joints, n);
   std::vector<bool> anchored(n, false);
+  std::vector<double> step(n, 0.5);
   const SurfaceDistance surface(body.mesh);
   for (int v = 0; v < n; ++v) {
     int face = -1;
     const Eigen::Vector3d p = surface.ClosestPoint(garment.vertices.col(v), &face);
-    anchored[v] = (p - garment.vertices.col(v)).norm() < options.anchor_distance;
+    const double distance = (p - garment.vertices.col(v)).norm();
+    anchored[v] = distance < options.anchor_distance;
+    if (options.loose_distance > 0.0) step[v] = 0.5 * std::min(1.0, distance / options.loose_distance);
     const Eigen::Vector3i corners = body.mesh.faces.col(face);
     const Eigen::Vector3d a = body.mesh.vertices.col(corners[0]), b = body.mesh.vertices.col(corners[1]),
                           c = body.mesh.vertices.col(corners[2]);
@@ -64,7 +67,7 @@ SkinWeights TransferSkinWeights(const SkinnedBody& body, const TriangleMesh& gar
         }
         Eigen::VectorXd mean = Eigen::VectorXd::Zero(num_joints);
         for (const int* u = neighbours.begin(v); u != neighbours.end(v); ++u) mean += dense.col(*u);
-        next.col(v) = 0.5 * dense.col(v) + 0.5 * mean / static_cast<double>(neighbours.degree(v));
+        next.col(v) = (1.0 - step[v]) * dense.col(v) + step[v] * mean / static_cast<double>(neighbours.degree(v));
       }
       dense.swap(next);
     }

@@ -2,7 +2,9 @@
 // to: each garment vertex takes the weights at its closest point on the
 // body surface (the closest face's three vertices, blended barycentrically),
 // then the weights are diffused over the garment's edges so that loose
-// parts (a skirt between the legs) do not tear along the body's seams.
+// parts (a skirt between the legs) do not tear along the body's seams;
+// each vertex diffuses in proportion to its distance from the body (up to
+// loose_distance), so tight parts keep following the skin under them.
 #ifndef POLYFIT_DRAPE_GARMENT_SKIN_TRANSFER_H_
 #define POLYFIT_DRAPE_GARMENT_SKIN_TRANSFER_H_
 
@@ -32,11 +34,16 @@ struct SkinWeights {
 struct SkinTransferOptions {
   // Jacobi smoothing steps over the garment's edges (each vertex moves
   // half-way to its neighbours' mean), 0 for none.
-  int smoothing_iterations = 30;
+  int smoothing_iterations = 100;
   // Vertices closer to the body than this (m) keep the body's weights
   // (they move with the skin under them; the smoothing flows around them).
   // 0: every vertex is smoothed.
   double anchor_distance = 0.0;
+  // When positive, a vertex's smoothing step is scaled by min(1, d / this),
+  // d its distance to the body: loose parts diffuse fully, tight ones
+  // little. 0: every vertex takes full steps. (Measured on the walk: see
+  // docs/drape.md.)
+  double loose_distance = 0.02;
   // Weights below this are dropped (then rows renormalised).
   double min_weight = 1e-3;
 };

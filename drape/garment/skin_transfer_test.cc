@@ -55,6 +55,27 @@ TEST(SkinTransferTest, RowsSumToOneAndIdentityPosesNothing) {
   EXPECT_LT(((x - garment.vertices).colwise() - Eigen::Vector3d(0.1, -0.2, 0.3)).cwiseAbs().maxCoeff(), 1e-12);
 }
 
+TEST(SkinTransferTest, LooseDistanceKeepsVerticesOnTheBodyAndDiffusesFarOnes) {
+  const SkinnedBody body = MakeProceduralBody();
+  TriangleMesh garment = body.mesh;
+  SkinTransferOptions exact;
+  exact.smoothing_iterations = 0;
+  exact.min_weight = 0.0;
+  const SkinWeights on_body = TransferSkinWeights(body, garment, exact);
+  SkinTransferOptions loose = exact;
+  loose.smoothing_iterations = 50;
+  loose.loose_distance = 0.02;
+  const SkinWeights smoothed = TransferSkinWeights(body, garment, loose);
+  // On the body (distance 0): no step at all, the weights stay exact.
+  for (int v = 0; v < garment.num_vertices(); v += 53) {
+    ASSERT_EQ(smoothed.offsets[v + 1] - smoothed.offsets[v], on_body.offsets[v + 1] - on_body.offsets[v]);
+    for (int k = smoothed.offsets[v]; k < smoothed.offsets[v + 1]; ++k) {
+      EXPECT_EQ(smoothed.joint[k], on_body.joint[k]);
+      EXPECT_NEAR(smoothed.value[k], on_body.value[k], 1e-12);
+    }
+  }
+}
+
 TEST(SkinTransferTest, RejectsEmptyAndNonFiniteGarments) {
   const SkinnedBody body = MakeProceduralBody();
   EXPECT_THROW(TransferSkinWeights(body, TriangleMesh{}), std::invalid_argument);

@@ -49,6 +49,7 @@ int main(int argc, char** argv) {
   simulate->add_option("--collision-stiffness", options.solver.collision_stiffness, "kappa (N/m)")->capture_default_str();
   simulate->add_option("--skin-smoothing", options.skin.smoothing_iterations, "smoothing steps of the transferred skinning weights")->capture_default_str();
   simulate->add_option("--skin-anchor", options.skin.anchor_distance, "garment vertices closer to the body keep its weights (m)")->capture_default_str();
+  simulate->add_option("--skin-loose", options.skin.loose_distance, "smoothing steps scaled by distance to the body over this (m)")->capture_default_str();
   simulate->add_option("--threads", options.solver.num_threads, "threads")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
