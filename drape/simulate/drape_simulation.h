@@ -49,6 +49,10 @@ struct DrapeSimulationOptions {
   int render_every = 10;  // 0: no renders
   int render_height = 480;
   bool write_meshes = true;
+  // Post-process: move garment vertices left inside the body onto its
+  // surface (plus this offset, m) in the written meshes and renders, and
+  // measure those; the solver's own state is untouched. < 0: off.
+  double project_offset = -1.0;
 
   DrapeSolverOptions solver;
   SkinTransferOptions skin;
@@ -63,6 +67,7 @@ struct DrapeFrameRecord {
   int iterations = 0;
   int passes = 0;
   double inside_percent = 0.0;          // epsilon_c, exact signed distance
+  double inside_unprojected_percent = 0.0;  // before project_offset's post-process (= inside_percent without it)
   double inside_nearest_percent = 0.0;  // epsilon_c, nearest body vertex
   double min_distance = 0.0;            // m, negative inside
   double edge_strain_percent = 0.0;     // epsilon_e

@@ -89,6 +89,22 @@ TEST_F(DrapeSimulationTest, WritesMeshesRendersAndMetrics) {
   EXPECT_EQ(lines, 6);
 }
 
+TEST_F(DrapeSimulationTest, ProjectionMovesVerticesLeftInsideOut) {
+  // A shirt inside the torso (radius 0.12 < 0.14), held there by stiff
+  // inextensibility: the drape leaves part of it inside, the projection
+  // none.
+  WriteObj(options_.garment_path, MakeTube(0.12, 0.1, 0.4, 24, 8));
+  options_.solver.weights.inextensibility = 1e4;
+  options_.num_frames = 1;
+  const DrapeSimulationSummary raw = RunDrapeSimulation(options_);
+  EXPECT_GT(raw.records[0].inside_percent, 1.0);
+  options_.project_offset = 0.002;
+  const DrapeSimulationSummary projected = RunDrapeSimulation(options_);
+  EXPECT_NEAR(projected.records[0].inside_unprojected_percent, raw.records[0].inside_percent, 1e-9);
+  EXPECT_EQ(projected.records[0].inside_percent, 0.0);
+  EXPECT_GE(projected.records[0].min_distance, 0.0);
+}
+
 TEST_F(DrapeSimulationTest, BadInputsAreNamedBeforeAnythingIsWritten) {
   const auto expect_error = [&](const DrapeSimulationOptions& options, const std::string& needle) {
     try {

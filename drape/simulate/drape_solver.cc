@@ -537,11 +537,20 @@ DrapeStepReport DrapeSolver::Step(const std::vector<Eigen::Isometry3d>& rest_to_
   return report;
 }
 
-Eigen::VectorXd DrapeSolver::SignedDistances() const {
-  return impl_->distance.SignedDistances(positions_, impl_->options.num_threads);
+Eigen::VectorXd DrapeSolver::SignedDistances(const Eigen::Matrix3Xd& points) const {
+  return impl_->distance.SignedDistances(points, impl_->options.num_threads);
 }
 
-Eigen::VectorXd DrapeSolver::NearestVertexDistances() const {
+Eigen::Matrix3Xd DrapeSolver::ProjectedOutOfBody(double offset) const {
+  Eigen::Matrix3Xd out = positions_;
+  ParallelFor(static_cast<int>(out.cols()), impl_->options.num_threads, [&](int, int v) {
+    const SignedDistanceResult r = impl_->distance.Query(positions_.col(v));
+    if (r.distance < 0.0) out.col(v) = r.closest + offset * r.normal;
+  });
+  return out;
+}
+
+Eigen::VectorXd DrapeSolver::NearestVertexDistances(const Eigen::Matrix3Xd& points) const {
   Impl& m = *impl_;
   if (!m.nearest) {
     TriangleMesh posed = m.body.mesh;
@@ -551,8 +560,8 @@ Eigen::VectorXd DrapeSolver::NearestVertexDistances() const {
     m.nearest->SetVertices(body_vertices_);
   }
   m.nearest_stale = false;
-  Eigen::VectorXd d(positions_.cols());
-  for (int v = 0; v < positions_.cols(); ++v) d[v] = m.nearest->Query(positions_.col(v)).distance;
+  Eigen::VectorXd d(points.cols());
+  for (int v = 0; v < points.cols(); ++v) d[v] = m.nearest->Query(points.col(v)).distance;
   return d;
 }
 

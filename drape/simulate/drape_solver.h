@@ -109,10 +109,17 @@ class DrapeSolver {
   double fit_error_max() const { return fit_error_max_; }
   const PolyFitModel& model() const { return model_; }
   int num_patches() const { return model_.num_patches(); }
-  // Signed distances (exact, negative inside) of the current positions.
-  Eigen::VectorXd SignedDistances() const;
+  // Signed distances (exact, negative inside) of the current positions, or
+  // of other points (3 by N), to the body as last posed.
+  Eigen::VectorXd SignedDistances() const { return SignedDistances(positions_); }
+  Eigen::VectorXd SignedDistances(const Eigen::Matrix3Xd& points) const;
   // The same with the nearest-vertex approximation (SNUG, GAPS).
-  Eigen::VectorXd NearestVertexDistances() const;
+  Eigen::VectorXd NearestVertexDistances() const { return NearestVertexDistances(positions_); }
+  Eigen::VectorXd NearestVertexDistances(const Eigen::Matrix3Xd& points) const;
+  // The current positions with every vertex inside the body moved to its
+  // closest body point plus `offset` along the pseudonormal: a post-process
+  // for display, off the patches' surfaces. 3 by #V.
+  Eigen::Matrix3Xd ProjectedOutOfBody(double offset) const;
 
  private:
   struct Impl;

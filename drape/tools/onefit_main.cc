@@ -33,6 +33,9 @@ int main(int argc, char** argv) {
   simulate->add_option("--lead-in", options.lead_in_frames, "frames blending the rest pose into the first")->capture_default_str();
   simulate->add_option("--render-every", options.render_every, "PNG every K frames (0: none)")->capture_default_str();
   simulate->add_option("--render-height", options.render_height, "PNG height in pixels")->capture_default_str();
+  simulate->add_option("--project", options.project_offset,
+                       "move vertices left inside the body onto it plus this offset (m) in the outputs; < 0: off")
+      ->capture_default_str();
   simulate->add_flag("!--no-meshes", options.write_meshes, "do not write a PLY per frame");
   simulate->add_option("--vertices-per-patch", options.solver.vertices_per_patch, "garment vertices per patch")->capture_default_str();
   simulate->add_option("--max-fit-error", options.solver.max_fit_error, "split patches whose jet misses a vertex by more (m)")->capture_default_str();
