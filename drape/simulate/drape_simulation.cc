@@ -40,10 +40,8 @@ std::string DrapeSimulationOptions::Validate() const {
   if (num_frames == 0 || num_frames < -1) return "num_frames must be positive (or -1 for all)";
   if (lead_in_frames < 0 || render_every < 0) return "lead_in_frames and render_every must be >= 0";
   if (render_height < 32) return "render_height must be >= 32";
-  if (!body_dir.empty() || !shape.IsNeutral()) {
-    const std::string problem = shape.Validate();
-    if (!problem.empty()) return "shape: " + problem;
-  }
+  const std::string shape_problem = shape.Validate();
+  if (!shape_problem.empty()) return "shape: " + shape_problem;
   if (body_dir.empty() && !shape.IsNeutral()) return "a shape needs the MakeHuman body (body_dir)";
   const std::string problem = solver.Validate();
   if (!problem.empty()) return "solver: " + problem;

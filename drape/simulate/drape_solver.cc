@@ -254,11 +254,31 @@ struct DrapeSolver::Impl {
   double* scale(int p) { return params.data() + p * kStride + kMaxJetCoefficients; }
   double* translation(int p) { return params.data() + p * kStride + kMaxJetCoefficients + 1; }
 
-  SkinnedPatchPoint Point(const PolyFitModel& model, int m) const {
-    const int p = model.membership_patch[m];
-    const int v = membership_vertex[m];
-    return SkinnedPatchPoint(options.jet_order, model.membership_uv(0, m), model.membership_uv(1, m),
-                             model.patches[p].frame.rotation, &skin_linear[v], &skin_translation[v]);
+  // One posed point per membership, reading skin_linear and
+  // skin_translation (sized once, so the pointers stay valid).
+  std::vector<SkinnedPatchPoint> points;
+
+  void BuildPoints(const PolyFitModel& model) {
+    points.clear();
+    points.reserve(model.membership_patch.size());
+    for (size_t k = 0; k < model.membership_patch.size(); ++k) {
+      const int p = model.membership_patch[k];
+      const int v = membership_vertex[k];
+      const Eigen::Index i = static_cast<Eigen::Index>(k);
+      points.emplace_back(options.jet_order, model.membership_uv(0, i), model.membership_uv(1, i),
+                          model.patches[p].frame.rotation, &skin_linear[v], &skin_translation[v]);
+    }
+  }
+  // Each vertex the mean of its patches' posed points (3 by #V).
+  void Positions(const PolyFitModel& model, Eigen::Matrix3Xd* out) {
+    for (int v = 0; v < out->cols(); ++v) {
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      for (int k = model.membership_offsets[v]; k < model.membership_offsets[v + 1]; ++k) {
+        const int p = model.membership_patch[k];
+        sum += points[k].Position(alpha(p), scale(p), translation(p));
+      }
+      out->col(v) = sum / (model.membership_offsets[v + 1] - model.membership_offsets[v]);
+    }
   }
 
   void BuildProblem(const PolyFitModel& model);
@@ -311,15 +331,11 @@ DrapeSolver::DrapeSolver(const SkinnedBody& body, const TriangleMesh& garment, c
   // The patches' own rest shape is the garment's rest: lengths, areas and
   // boundary gaps are measured on it, so that the fit's residual is not
   // mistaken for stretch.
+  m.skin_linear.assign(n, Eigen::Matrix3d::Identity());
+  m.skin_translation.assign(n, Eigen::Vector3d::Zero());
+  m.BuildPoints(model_);
   positions_.resize(3, n);
-  for (int v = 0; v < n; ++v) {
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    for (int k = model_.membership_offsets[v]; k < model_.membership_offsets[v + 1]; ++k) {
-      const int p = model_.membership_patch[k];
-      sum += model_.patches[p].PointInWorld(model_.membership_uv(0, k), model_.membership_uv(1, k));
-    }
-    positions_.col(v) = sum / (model_.membership_offsets[v + 1] - model_.membership_offsets[v]);
-  }
+  m.Positions(model_, &positions_);  // skinned by the identity: the rest pose
   fit_error_mean_ = (positions_ - garment.vertices).colwise().norm().mean();
   fit_error_max_ = (positions_ - garment.vertices).colwise().norm().maxCoeff();
   rest_garment_ = garment;
@@ -362,8 +378,6 @@ DrapeSolver::DrapeSolver(const SkinnedBody& body, const TriangleMesh& garment, c
   m.mass.resize(n);
   for (int v = 0; v < n; ++v) m.mass[v] = options.material.area_density * m.rest.vertex_area[v];
   m.floor = body.mesh.vertices.row(1).minCoeff() - 1.0;
-  m.skin_linear.assign(n, Eigen::Matrix3d::Identity());
-  m.skin_translation.assign(n, Eigen::Vector3d::Zero());
   m.contact.assign(n, SignedDistanceResult{});
 
   m.history1 = positions_;
@@ -398,7 +412,7 @@ void DrapeSolver::Impl::BuildProblem(const PolyFitModel& model) {
         data.inertia_weight = std::sqrt(o.weights.inertia * mass[v]) / dt;
       }
       const int p = model.membership_patch[k];
-      problem->AddResidualBlock(new SkinnedVertexCost(Point(model, k), &data), nullptr, alpha(p), scale(p),
+      problem->AddResidualBlock(new SkinnedVertexCost(points[k], &data), nullptr, alpha(p), scale(p),
                                 translation(p));
       const double metric_area = rest.vertex_area[v] / (model.membership_offsets[v + 1] - model.membership_offsets[v]);
       const double metric_weight = std::sqrt(k_mi * mu * metric_area / 2.0);
@@ -417,7 +431,7 @@ void DrapeSolver::Impl::BuildProblem(const PolyFitModel& model) {
     for (const PatchEdge& e : patch_edges) {
       const int p = model.membership_patch[e.mi];
       const double weight = std::sqrt(2.0 * k_mi * mu * edge_area[e.edge]);
-      problem->AddResidualBlock(new SkinnedEdgeCost(Point(model, e.mi), Point(model, e.mj), rest.edge_length[e.edge], weight),
+      problem->AddResidualBlock(new SkinnedEdgeCost(points[e.mi], points[e.mj], rest.edge_length[e.edge], weight),
                                 nullptr, alpha(p), scale(p), translation(p));
     }
   }
@@ -462,16 +476,7 @@ DrapeStepReport DrapeSolver::Step(const std::vector<Eigen::Isometry3d>& rest_to_
   for (int v = 0; v < n; ++v) m.weights.Blend(v, rest_to_posed, &m.skin_linear[v], &m.skin_translation[v]);
   m.previous_params = m.params;
 
-  const auto evaluate = [&]() {
-    for (int v = 0; v < n; ++v) {
-      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      for (int k = model_.membership_offsets[v]; k < model_.membership_offsets[v + 1]; ++k) {
-        const int p = model_.membership_patch[k];
-        sum += m.Point(model_, k).Position(m.alpha(p), m.scale(p), m.translation(p));
-      }
-      positions_.col(v) = sum / (model_.membership_offsets[v + 1] - model_.membership_offsets[v]);
-    }
-  };
+  const auto evaluate = [&]() { m.Positions(model_, &positions_); };
   const auto query = [&]() {
     int inside = 0;
     ParallelFor(n, o.num_threads, [&](int, int v) { m.contact[v] = m.distance.Query(positions_.col(v)); });
