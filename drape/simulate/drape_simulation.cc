@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <memory>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -100,8 +101,16 @@ DrapeSimulationSummary RunDrapeSimulation(const DrapeSimulationOptions& options)
                                           : std::min(retargeter->num_frames(), options.first_frame + options.num_frames);
 
   DrapeSimulationSummary summary;
-  const SkinWeights weights = TransferSkinWeights(body, garment, options.skin);
-  DrapeSolver solver(body, garment, weights, options.solver);
+  // A garment the solver cannot take (zero-area faces, NaN) is named here,
+  // still before anything is written.
+  std::unique_ptr<DrapeSolver> solver_owner;
+  try {
+    const SkinWeights weights = TransferSkinWeights(body, garment, options.skin);
+    solver_owner = std::make_unique<DrapeSolver>(body, garment, weights, options.solver);
+  } catch (const std::invalid_argument& e) {
+    throw DrapeInputError(options.garment_path + ": " + e.what());
+  }
+  DrapeSolver& solver = *solver_owner;
   const ClothRest rest = PrepareClothRest(solver.rest_garment());
   summary.garment_vertices = garment.num_vertices();
   summary.garment_faces = static_cast<int>(garment.faces.cols());
