@@ -7,6 +7,7 @@
 #include <cmath>
 #include <map>
 #include <stdexcept>
+#include <string>
 
 #include <ceres/ceres.h>
 
@@ -203,8 +204,14 @@ std::string DrapeSolverOptions::Validate() const {
   if (vertices_per_patch < 3) return "vertices_per_patch must be >= 3";
   if (!(fps > 0.0)) return "fps must be positive";
   if (max_iterations < 1 || max_refine_iterations < 1 || max_passes < 1) return "max_iterations, max_refine_iterations and max_passes must be >= 1";
+  if (!(initial_trust_region_radius > 0.0) || !std::isfinite(initial_trust_region_radius)) {
+    return "initial_trust_region_radius must be positive and finite";
+  }
+  if (!(conjugate_gradients_tolerance > 0.0 && conjugate_gradients_tolerance < 1.0)) {
+    return "conjugate_gradients_tolerance must be in (0, 1)";
+  }
   for (const double w : {weights.boundary, weights.inextensibility, weights.gravity, weights.collision, weights.inertia,
-                         weights.collision_margin, collision_stiffness, boundary_base, stretch_base, collision_band, parameter_prior, gravity,
+                         weights.collision_margin, collision_stiffness, boundary_base, stretch_base, collision_band, parameter_prior, slide_agreement, gravity,
                          material.area_density, material.mu}) {
     if (!std::isfinite(w) || w < 0.0) return "weights, stiffnesses and material constants must be finite and >= 0";
   }
@@ -223,6 +230,8 @@ struct DrapeSolver::Impl {
   int num_coefficients = 0;
   static constexpr int kStride = kMaxJetCoefficients + 4;  // alpha, s, T per patch
   std::vector<double> params, previous_params;
+  // Per membership: its point's slide (du, dv) along its patch.
+  std::vector<double> slides, previous_slides;
   // Per membership.
   std::vector<int> membership_vertex;
   std::vector<Eigen::Vector3d> rest_metric;
@@ -247,12 +256,15 @@ struct DrapeSolver::Impl {
   std::unique_ptr<ceres::Problem> problem;
   std::vector<VertexTermsData> vertex_data;  // per membership
   double metric_factor = 1.0;                // sqrt(k_ext)
+  // Levenberg-Marquardt's trust region carried from solve to solve.
+  double trust_region_radius = 0.0;
 
   explicit Impl(const SkinnedBody& b) : body(b), distance(b.mesh) {}
 
   double* alpha(int p) { return params.data() + p * kStride; }
   double* scale(int p) { return params.data() + p * kStride + kMaxJetCoefficients; }
   double* translation(int p) { return params.data() + p * kStride + kMaxJetCoefficients + 1; }
+  double* slide(int k) { return slides.data() + 2 * k; }
 
   // One posed point per membership, reading skin_linear and
   // skin_translation (sized once, so the pointers stay valid).
@@ -275,7 +287,7 @@ struct DrapeSolver::Impl {
       Eigen::Vector3d sum = Eigen::Vector3d::Zero();
       for (int k = model.membership_offsets[v]; k < model.membership_offsets[v + 1]; ++k) {
         const int p = model.membership_patch[k];
-        sum += points[k].Position(alpha(p), scale(p), translation(p));
+        sum += points[k].Position(alpha(p), scale(p), translation(p), slide(k));
       }
       out->col(v) = sum / (model.membership_offsets[v + 1] - model.membership_offsets[v]);
     }
@@ -314,6 +326,8 @@ DrapeSolver::DrapeSolver(const SkinnedBody& body, const TriangleMesh& garment, c
     Eigen::Map<Eigen::Vector3d>(m.translation(p)) = patch.frame.translation;
   }
   m.previous_params = m.params;
+  m.slides.assign(2 * model_.membership_patch.size(), 0.0);
+  m.previous_slides = m.slides;
 
   const int num_memberships = static_cast<int>(model_.membership_patch.size());
   m.membership_vertex.resize(num_memberships);
@@ -398,6 +412,10 @@ void DrapeSolver::Impl::BuildProblem(const PolyFitModel& model) {
     problem->AddParameterBlock(scale(p), 1);
     problem->AddParameterBlock(translation(p), 3);
   }
+  for (size_t k = 0; k < model.membership_patch.size(); ++k) {
+    problem->AddParameterBlock(slide(static_cast<int>(k)), 2);
+    if (!o.slide) problem->SetParameterBlockConstant(slide(static_cast<int>(k)));
+  }
   // Vertex terms at every membership: collision everywhere (off while far
   // from the body), gravity and inertia at the owner.
   vertex_data.assign(model.membership_patch.size(), VertexTermsData{});
@@ -412,8 +430,9 @@ void DrapeSolver::Impl::BuildProblem(const PolyFitModel& model) {
         data.inertia_weight = std::sqrt(o.weights.inertia * mass[v]) / dt;
       }
       const int p = model.membership_patch[k];
-      problem->AddResidualBlock(new SkinnedVertexCost(points[k], &data), nullptr, alpha(p), scale(p),
-                                translation(p));
+      const bool owner = k == model.membership_offsets[v];
+      problem->AddResidualBlock(new SkinnedVertexCost(points[k], &data, owner), nullptr, alpha(p), scale(p),
+                                translation(p), slide(k));
       const double metric_area = rest.vertex_area[v] / (model.membership_offsets[v + 1] - model.membership_offsets[v]);
       const double metric_weight = std::sqrt(k_mi * mu * metric_area / 2.0);
       if (metric_weight > 0.0) {
@@ -432,7 +451,7 @@ void DrapeSolver::Impl::BuildProblem(const PolyFitModel& model) {
       const int p = model.membership_patch[e.mi];
       const double weight = std::sqrt(2.0 * k_mi * mu * edge_area[e.edge]);
       problem->AddResidualBlock(new SkinnedEdgeCost(points[e.mi], points[e.mj], rest.edge_length[e.edge], weight),
-                                nullptr, alpha(p), scale(p), translation(p));
+                                nullptr, alpha(p), scale(p), translation(p), slide(e.mi), slide(e.mj));
     }
   }
   if (o.weights.boundary > 0.0) {
@@ -447,6 +466,22 @@ void DrapeSolver::Impl::BuildProblem(const PolyFitModel& model) {
           translation(b.patch_b));
     }
   }
+  // A vertex's points on its patches slide apart unless held together (the
+  // boundary term above compares the jets at the rest parameters).
+  if (o.slide) {
+    for (int v = 0; v < n; ++v) {
+      const int first = model.membership_offsets[v];
+      const double w = std::sqrt(2.0 * k_mi * mu * rest.vertex_area[v]) * o.slide_agreement / mean_edge;
+      for (int k = first + 1; k < model.membership_offsets[v + 1]; ++k) {
+        const int a = model.membership_patch[first], b = model.membership_patch[k];
+        const Eigen::Vector3d gap =
+            points[first].Canonical(points[first].State(alpha(a), nullptr), scale(a), translation(a)) -
+            points[k].Canonical(points[k].State(alpha(b), nullptr), scale(b), translation(b));
+        problem->AddResidualBlock(new SkinnedAgreementCost(points[first], points[k], gap, w), nullptr, alpha(a), scale(a),
+                                  translation(a), slide(first), alpha(b), scale(b), translation(b), slide(k));
+      }
+    }
+  }
   if (o.parameter_prior > 0.0) {
     const double w = std::sqrt(o.parameter_prior);
     for (int p = 0; p < model.num_patches(); ++p) {
@@ -454,6 +489,12 @@ void DrapeSolver::Impl::BuildProblem(const PolyFitModel& model) {
                                         {kMaxJetCoefficients + 1, 3}}) {
         problem->AddResidualBlock(new ParameterPrior(size, w, previous_params.data() + p * kStride + block), nullptr,
                                   params.data() + p * kStride + block);
+      }
+    }
+    if (o.slide) {
+      for (size_t k = 0; k < model.membership_patch.size(); ++k) {
+        problem->AddResidualBlock(new ParameterPrior(2, w, previous_slides.data() + 2 * k), nullptr,
+                                  slide(static_cast<int>(k)));
       }
     }
   }
@@ -475,6 +516,7 @@ DrapeStepReport DrapeSolver::Step(const std::vector<Eigen::Isometry3d>& rest_to_
   m.nearest_stale = true;
   for (int v = 0; v < n; ++v) m.weights.Blend(v, rest_to_posed, &m.skin_linear[v], &m.skin_translation[v]);
   m.previous_params = m.params;
+  m.previous_slides = m.slides;
 
   const auto evaluate = [&]() { m.Positions(model_, &positions_); };
   const auto query = [&]() {
@@ -506,23 +548,36 @@ DrapeStepReport DrapeSolver::Step(const std::vector<Eigen::Isometry3d>& rest_to_
       }
     }
     ceres::Solver::Options solver;
-    solver.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-    // Measured faster than SuiteSparse here (19-wide blocks, a few hundred).
-    solver.sparse_linear_algebra_library_type = ceres::EIGEN_SPARSE;
+    if (o.conjugate_gradients) {
+      // Inexact steps (block-Jacobi preconditioned CG on the normal
+      // equations): half the time of a sparse Cholesky here, where forming
+      // and factoring J^T J over ~8k parameters dominates.
+      solver.linear_solver_type = ceres::CGNR;
+      solver.eta = o.conjugate_gradients_tolerance;
+    } else {
+      solver.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+      solver.sparse_linear_algebra_library_type = ceres::EIGEN_SPARSE;  // measured faster than CHOLMOD here
+    }
     solver.max_num_iterations = pass == 0 ? o.max_iterations : o.max_refine_iterations;
     solver.num_threads = o.num_threads;
-    solver.logging_type = ceres::SILENT;
-    // Stretch terms are orders of magnitude stiffer than gravity and
-    // inertia: start with a nearly Gauss-Newton step (LM's damping scales
-    // with the stiff diagonal) and do not stop on a small relative change
-    // of a cost that the constant part of gravity dominates.
-    solver.initial_trust_region_radius = 1e10;
+    const char* trace = std::getenv("POLYFIT_DRAPE_TRACE");
+    solver.logging_type = trace != nullptr && std::string(trace) == "2" ? ceres::PER_MINIMIZER_ITERATION : ceres::SILENT;
+    solver.minimizer_progress_to_stdout = solver.logging_type != ceres::SILENT;
+    // Weakly determined directions (slides, the jets of small patches) make
+    // the Gauss-Newton step huge: starting from an undamped step, LM spent
+    // about eight rejected iterations per solve shrinking its region.
+    if (m.trust_region_radius <= 0.0) m.trust_region_radius = o.initial_trust_region_radius;
+    solver.initial_trust_region_radius = m.trust_region_radius;
+    // Do not stop on a small relative change of the cost.
     solver.function_tolerance = 1e-12;
     solver.parameter_tolerance = 1e-12;
     ceres::Solver::Summary summary;
     ceres::Solve(solver, m.problem.get(), &summary);
-    if (std::getenv("POLYFIT_DRAPE_TRACE") != nullptr) std::fprintf(stderr, "%s\n", summary.FullReport().c_str());
+    if (trace != nullptr) std::fprintf(stderr, "%s\n", summary.FullReport().c_str());
     report.solve_time_s += summary.total_time_in_seconds;
+    if (!summary.iterations.empty()) {
+      m.trust_region_radius = std::clamp(summary.iterations.back().trust_region_radius, 1e-4, 1e12);
+    }
     report.iterations += static_cast<int>(summary.iterations.size()) - 1;
     if (pass == 0) report.initial_cost = summary.initial_cost;
     report.final_cost = summary.final_cost;
@@ -534,6 +589,7 @@ DrapeStepReport DrapeSolver::Step(const std::vector<Eigen::Isometry3d>& rest_to_
   if (!report.finite) {
     // Keep the last good state rather than propagate NaN.
     m.params = m.previous_params;
+    m.slides = m.previous_slides;
     evaluate();
   }
   m.history2 = m.history1;

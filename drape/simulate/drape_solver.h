@@ -1,15 +1,20 @@
 // The reference drape: OneFit's losses minimised directly, frame by frame,
 // over the garment's patch parameters (jet coefficients alpha, scale s,
 // translation T per patch, in the body's rest pose; the garment is posed by
-// skinning weights transferred from the body), with Ceres, warm-started
-// from the previous frame.
+// skinning weights transferred from the body) and each vertex's slide
+// (du, dv) along its patch, with Ceres, warm-started from the previous
+// frame. The slides keep every vertex on its patch's jet; without them a
+// patch moves its vertices only along its normal, and skinning's in-plane
+// distortion at the joints could not be undone.
 //
 // Per frame the objective (joules, so that the paper's weights multiply
 // physical energies) is
 //   k_c    sum_v kappa / 2 max(eps - d_v, 0)^2          collision (eq. 3), d along the body's normal
 //   k_mi   sum_e sigma mu A_e ((l_e - L_e) / L_e)^2     edge inextensibility (eq. 1)
-//   k_mi k_ext(t) sum_(v,p) sigma mu A / 4 |g - g0|_F^2 metric tensor (eq. 4)
+//   k_mi k_ext(t) sum_(v,p) sigma mu A / 4 |g - g0|_F^2 metric tensor (eq. 4, at the rest (u, v))
 //   k_b    sum_boundary beta mu A (|X_a - X_b|^2 / h^2 + |n_a - n_b|^2)   patch boundary (eq. 5)
+//   k_mi   sum_(v, p != p0) sigma mu A_v |X_p - X_p0 - g|^2 / h^2   a vertex's slid points on its
+//                                                        patches kept together (g: their rest gap)
 //   k_g    sum_v m_v g (x_v . up - floor)               gravity (eq. 7)
 //   k_i    sum_v m_v / (2 dt^2) |x_v - (2 x_v^{t-1} - x_v^{t-2})|^2   inertia (eq. 8)
 // plus a small prior pulling the parameters to the previous frame's. mu is
@@ -43,7 +48,7 @@ struct DrapeSolverOptions {
   KextSchedule k_ext;
   ClothMaterial material;
   // kappa: collision stiffness per vertex, N/m.
-  double collision_stiffness = 3e5;
+  double collision_stiffness = 1e6;
   // beta: the boundary term's base, a fraction of mu.
   double boundary_base = 1e-3;
   // sigma: the inextensibility terms' base, a multiple of mu (measured on
@@ -52,6 +57,12 @@ struct DrapeSolverOptions {
   double stretch_base = 5.0;
   // Collision terms for vertices closer to the body than this (m).
   double collision_band = 0.03;
+  // Let each vertex slide along its patch (its (u, v) a parameter too);
+  // false keeps the rest (u, v). A vertex's points on several patches are
+  // held together by a term slide_agreement times as stiff as stretch over
+  // the mean edge length.
+  bool slide = true;
+  double slide_agreement = 1.0;
   // Weight of the prior on parameter changes, J per unit squared.
   double parameter_prior = 1e-4;
   double gravity = 9.81;
@@ -66,9 +77,15 @@ struct DrapeSolverOptions {
   // Ceres Levenberg-Marquardt iterations in the first pass and in each
   // further pass (collisions re-linearised while a vertex is inside), and
   // passes per frame.
-  int max_iterations = 3;
+  int max_iterations = 4;
   int max_refine_iterations = 2;
   int max_passes = 2;
+  // Levenberg-Marquardt's first trust region, and the linear solver: CG on
+  // the normal equations (inexact, faster here), each step's system solved
+  // to this relative residual (Ceres' eta), or sparse Cholesky.
+  double initial_trust_region_radius = 100.0;
+  bool conjugate_gradients = true;
+  double conjugate_gradients_tolerance = 0.3;
   int num_threads = 2;
 
   // Empty when valid, else the first problem.

@@ -39,9 +39,15 @@ int main(int argc, char** argv) {
   simulate->add_flag("!--no-meshes", options.write_meshes, "do not write a PLY per frame");
   simulate->add_option("--vertices-per-patch", options.solver.vertices_per_patch, "garment vertices per patch")->capture_default_str();
   simulate->add_option("--max-fit-error", options.solver.max_fit_error, "split patches whose jet misses a vertex by more (m)")->capture_default_str();
+  bool no_slide = false;
+  simulate->add_flag("--no-slide", no_slide, "keep every vertex at its rest (u, v) on its patch");
+  simulate->add_option("--slide-agreement", options.solver.slide_agreement, "stiffness holding a vertex's points on its patches together")->capture_default_str();
   simulate->add_option("--jet-order", options.solver.jet_order, "jet order n")->capture_default_str();
   simulate->add_option("--max-iterations", options.solver.max_iterations, "LM iterations per pass")->capture_default_str();
   simulate->add_option("--max-refine-iterations", options.solver.max_refine_iterations, "LM iterations per later pass")->capture_default_str();
+  bool cholesky = false;
+  simulate->add_flag("--cholesky", cholesky, "sparse Cholesky instead of CG for the steps");
+  simulate->add_option("--trust-region", options.solver.initial_trust_region_radius, "Levenberg-Marquardt's first trust region")->capture_default_str();
   simulate->add_option("--max-passes", options.solver.max_passes, "collision passes per frame")->capture_default_str();
   simulate->add_option("--k-b", options.solver.weights.boundary, "patch boundary weight")->capture_default_str();
   simulate->add_option("--k-mi", options.solver.weights.inextensibility, "inextensibility weight")->capture_default_str();
@@ -58,6 +64,8 @@ int main(int argc, char** argv) {
 
   try {
     if (!shape.empty()) options.shape = polyfit::BodyShape::Parse(shape);
+    options.solver.slide = !no_slide;
+    options.solver.conjugate_gradients = !cholesky;
     const polyfit::DrapeSimulationSummary summary = polyfit::RunDrapeSimulation(options);
     for (const std::string& warning : summary.warnings) std::cerr << "warning: " << warning << '\n';
     std::printf("%d frames, %d vertices in %d patches: %.1f ms per frame (max %.1f), epsilon_c %.2f%% (max %.2f%%), "
