@@ -81,10 +81,11 @@ struct DrapeSolverOptions {
   int max_refine_iterations = 2;
   int max_passes = 2;
   // Levenberg-Marquardt's first trust region, and the linear solver: CG on
-  // the normal equations (inexact, faster here), each step's system solved
-  // to this relative residual (Ceres' eta), or sparse Cholesky.
+  // the normal equations (inexact, faster on large garments; each step's
+  // system solved to this relative residual, Ceres' eta) for garments of at
+  // least conjugate_gradients_min_vertices vertices, else sparse Cholesky.
   double initial_trust_region_radius = 100.0;
-  bool conjugate_gradients = true;
+  int conjugate_gradients_min_vertices = 1500;
   double conjugate_gradients_tolerance = 0.3;
   int num_threads = 2;
 

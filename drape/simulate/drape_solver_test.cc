@@ -267,7 +267,7 @@ TEST(DrapeSolverTest, AFreeSheetFallsWithTheWeightsAccelerationAndKeepsItsShape)
     DrapeSolverOptions options;
     options.parameter_prior = 0.0;
     options.max_iterations = 20;
-    options.conjugate_gradients = cg;
+    options.conjugate_gradients_min_vertices = cg ? 0 : garment.num_vertices() + 1;
     DrapeSolver solver(body, garment, RigidWeights(garment.num_vertices(), 0), options);
     const std::vector<Eigen::Isometry3d> rest(body.skeleton.num_joints(), Eigen::Isometry3d::Identity());
     const ClothRest cloth = PrepareClothRest(solver.rest_garment());
@@ -312,7 +312,7 @@ TEST(DrapeSolverTest, SlidesUndoInPlaneSkinningDistortion) {
     options.slide = slide;
     options.weights.gravity = 0.0;
     options.max_iterations = 20;
-    options.conjugate_gradients = false;
+    options.conjugate_gradients_min_vertices = sheet.num_vertices() + 1;
     DrapeSolver solver(body, sheet, weights, options);
     for (int step = 0; step < 3; ++step) ASSERT_TRUE(solver.Step(pose).finite);
     strain[slide] = MeasureCloth(PrepareClothRest(solver.rest_garment()), solver.positions()).edge_strain_percent;

@@ -9,6 +9,7 @@
 // this file maps flags onto them and makes one library call.
 #include <cstdio>
 #include <iostream>
+#include <limits>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -46,7 +47,7 @@ int main(int argc, char** argv) {
   simulate->add_option("--max-iterations", options.solver.max_iterations, "LM iterations per pass")->capture_default_str();
   simulate->add_option("--max-refine-iterations", options.solver.max_refine_iterations, "LM iterations per later pass")->capture_default_str();
   bool cholesky = false;
-  simulate->add_flag("--cholesky", cholesky, "sparse Cholesky instead of CG for the steps");
+  simulate->add_flag("--cholesky", cholesky, "sparse Cholesky steps at any size (default: CG from 1500 garment vertices)");
   simulate->add_option("--trust-region", options.solver.initial_trust_region_radius, "Levenberg-Marquardt's first trust region")->capture_default_str();
   simulate->add_option("--max-passes", options.solver.max_passes, "collision passes per frame")->capture_default_str();
   simulate->add_option("--k-b", options.solver.weights.boundary, "patch boundary weight")->capture_default_str();
@@ -65,7 +66,7 @@ int main(int argc, char** argv) {
   try {
     if (!shape.empty()) options.shape = polyfit::BodyShape::Parse(shape);
     options.solver.slide = !no_slide;
-    options.solver.conjugate_gradients = !cholesky;
+    if (cholesky) options.solver.conjugate_gradients_min_vertices = std::numeric_limits<int>::max();
     const polyfit::DrapeSimulationSummary summary = polyfit::RunDrapeSimulation(options);
     for (const std::string& warning : summary.warnings) std::cerr << "warning: " << warning << '\n';
     std::printf("%d frames, %d vertices in %d patches: %.1f ms per frame (max %.1f), epsilon_c %.2f%% (max %.2f%%), "
