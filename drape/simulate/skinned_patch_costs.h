@@ -47,7 +47,6 @@ class SkinnedPatchPoint {
         skin_linear_(skin_linear), skin_translation_(skin_translation) {}
 
   int num_coefficients() const { return num_coefficients_; }
-  const Eigen::Matrix3d& skin_linear() const { return *skin_linear_; }
 
   // slide: (du, dv), or nullptr for none.
   PatchPointState State(const double* alpha, const double* slide) const {
