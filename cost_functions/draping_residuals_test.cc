@@ -88,6 +88,26 @@ TEST(GravityInertiaTest, InertiaPredictsConstantVelocity) {
   EXPECT_LT(JacobianError(*inertia, {{1.2, 0.3, -0.1}}), 1e-6);
 }
 
+TEST(GravityInertiaTest, FoldedGravityHasTheLinearEnergysGradient) {
+  // k_i m / (2 dt^2) |x - x_pred + shift|^2 - (k_i m / (2 dt^2) |x - x_pred|^2 + k_g m g x . up) is constant in x.
+  const double mass = 0.03, dt = 1.0 / 30, k_i = 0.5, k_g = 1.2, g = 9.81;
+  const Eigen::Vector3d previous(0.1, 0.5, -0.2), before(0.05, 0.52, -0.2), up(0, 1, 0);
+  std::unique_ptr<ceres::CostFunction> folded(InertiaResidual::Create(previous, before, mass, dt, k_i, k_g, g, up));
+  std::unique_ptr<ceres::CostFunction> inertia(InertiaResidual::Create(previous, before, mass, dt, k_i));
+  double difference[2];
+  for (int i = 0; i < 2; ++i) {
+    const std::vector<double> x = {0.3 * i, -0.2 + 0.5 * i, 0.1};
+    double rf = 0.0, ri = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      rf += std::pow(Residual(*folded, {x}, k), 2);
+      ri += std::pow(Residual(*inertia, {x}, k), 2);
+    }
+    difference[i] = 0.5 * rf - (0.5 * ri + k_g * mass * g * x[1]);
+  }
+  EXPECT_NEAR(difference[0], difference[1], 1e-12);
+  EXPECT_THROW(InertiaResidual::Create(previous, before, mass, dt, 0.0, k_g), std::invalid_argument);
+}
+
 TEST(MetricInextensibilityTest, FlatPatchAndParabola) {
   const Eigen::Matrix3d identity = Eigen::Matrix3d::Identity();
   std::unique_ptr<ceres::CostFunction> flat(

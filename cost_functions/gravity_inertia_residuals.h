@@ -6,9 +6,17 @@
 // gives r^2 / 2 = E + const and the same gradient, for any floor below
 // every point (h0 drops out; x . up must stay above the floor).
 //
+// Gravity below the floor is not defined: the functor returns false there
+// (Ceres rejects the step). Pick the floor well below any reachable point,
+// or fold gravity into inertia (below), which is defined everywhere.
+//
 // Inertia keeps a vertex on its momentum:
 //   r = sqrt(k_i m) / dt (x - (2 x_{t-1} - x_{t-2}))       (3 residuals)
 // so r^2 / 2 = k_i m / (2 dt^2) |x - x_pred|^2 (an implicit-Euler step).
+// With gravity folded in (completing the square), the target moves down by
+// k_g g dt^2 / k_i:
+//   r^2 / 2 = k_i m / (2 dt^2) |x - x_pred|^2 + k_g m g x . up + const,
+// gravity's exact energy and gradient with no floor.
 //
 // Parameter block of both: x (3). Everything else is data.
 #ifndef COST_FUNCTIONS_GRAVITY_INERTIA_RESIDUALS_H_
@@ -54,9 +62,14 @@ class GravityResidual {
 
 class InertiaResidual {
  public:
+  // gravity_weight: k_g, 0 for inertia alone; up: unit vector against
+  // gravity; g in m/s^2.
   InertiaResidual(const Eigen::Vector3d& previous, const Eigen::Vector3d& before_previous, double mass, double dt,
-                  double weight)
-      : predicted_(2.0 * previous - before_previous), scale_(std::sqrt(weight * mass) / dt) {}
+                  double weight, double gravity_weight = 0.0, double gravity = 9.81,
+                  const Eigen::Vector3d& up = Eigen::Vector3d::UnitY())
+      : predicted_(2.0 * previous - before_previous), scale_(std::sqrt(weight * mass) / dt) {
+    if (gravity_weight > 0.0 && weight > 0.0) predicted_ -= (gravity_weight * gravity * dt * dt / weight) * up;
+  }
 
   template <typename T>
   bool operator()(const T* x, T* residual) const {
@@ -65,13 +78,21 @@ class InertiaResidual {
   }
 
   static ceres::CostFunction* Create(const Eigen::Vector3d& previous, const Eigen::Vector3d& before_previous,
-                                     double mass, double dt, double weight = 1.0) {
-    if (!(mass > 0.0) || !(dt > 0.0) || !(weight >= 0.0)) {
-      throw std::invalid_argument("InertiaResidual: mass > 0, dt > 0 and weight >= 0 are needed");
+                                     double mass, double dt, double weight = 1.0, double gravity_weight = 0.0,
+                                     double gravity = 9.81, const Eigen::Vector3d& up = Eigen::Vector3d::UnitY()) {
+    if (!(mass > 0.0) || !(dt > 0.0) || !(weight >= 0.0) || !(gravity_weight >= 0.0) || !(up.norm() > 0.0)) {
+      throw std::invalid_argument(
+          "InertiaResidual: mass > 0, dt > 0, weights >= 0 and a non-zero up vector are needed");
     }
-    return new ceres::AutoDiffCostFunction<InertiaResidual, 3, 3>(
-        new InertiaResidual(previous, before_previous, mass, dt, weight));
+    if (gravity_weight > 0.0 && !(weight > 0.0)) {
+      throw std::invalid_argument("InertiaResidual: gravity folds into inertia only with an inertia weight > 0");
+    }
+    return new ceres::AutoDiffCostFunction<InertiaResidual, 3, 3>(new InertiaResidual(
+        previous, before_previous, mass, dt, weight, gravity_weight, gravity, up.normalized()));
   }
+
+  // The target x_pred (gravity's shift included).
+  const Eigen::Vector3d& predicted() const { return predicted_; }
 
  private:
   Eigen::Vector3d predicted_;

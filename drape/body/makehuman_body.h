@@ -16,12 +16,13 @@
 #include <Eigen/Geometry>
 
 #include "polyfit/mesh/triangle_mesh.h"
+#include "polyfit/util/status.h"
 
 namespace polyfit {
 
-class BodyError : public std::runtime_error {
+class BodyError : public Error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit BodyError(const std::string& message, ErrorKind kind = ErrorKind::kInput) : Error(kind, message) {}
 };
 
 struct Skeleton {

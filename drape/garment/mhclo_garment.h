@@ -16,12 +16,13 @@
 #include <Eigen/Core>
 
 #include "polyfit/mesh/triangle_mesh.h"
+#include "polyfit/util/status.h"
 
 namespace polyfit {
 
-class GarmentError : public std::runtime_error {
+class GarmentError : public Error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit GarmentError(const std::string& message, ErrorKind kind = ErrorKind::kInput) : Error(kind, message) {}
 };
 
 struct ClothesBinding {

@@ -10,12 +10,13 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include "polyfit/util/status.h"
 
 namespace polyfit {
 
-class BvhError : public std::runtime_error {
+class BvhError : public Error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit BvhError(const std::string& message, ErrorKind kind = ErrorKind::kInput) : Error(kind, message) {}
 };
 
 struct MotionJoint {

@@ -4,7 +4,8 @@
 //   meshes/frame_NNNN.ply   the garment per clip frame (atomically)
 //   renders/frame_NNNN.png  body and garment, front and side, every k frames
 //   frames.csv              per-frame metrics and times
-//   metrics.json            options, sizes, per-frame metrics, their summary
+//   metrics.json            options, sizes, termination, per-frame metrics,
+//                           their summary
 // Metrics per frame: epsilon_c (% of garment vertices inside the body, exact
 // signed distance; and with the nearest-vertex approximation), epsilon_e and
 // epsilon_a (mean % edge-length and area change against the garment at rest
@@ -20,12 +21,13 @@
 #include "drape/body/body_shape.h"
 #include "drape/garment/skin_transfer.h"
 #include "drape/simulate/drape_solver.h"
+#include "polyfit/util/status.h"
 
 namespace polyfit {
 
-class DrapeInputError : public std::runtime_error {
+class DrapeInputError : public Error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit DrapeInputError(const std::string& message, ErrorKind kind = ErrorKind::kInput) : Error(kind, message) {}
 };
 
 struct DrapeSimulationOptions {
@@ -60,8 +62,9 @@ struct DrapeSimulationOptions {
   std::string Validate() const;
 };
 
-struct DrapeFrameRecord {
+struct DrapeFrameSummary {
   int frame = 0;
+  TerminationType termination_type = TerminationType::kConvergence;
   double time_s = 0.0;
   double solve_time_s = 0.0;
   int iterations = 0;
@@ -76,10 +79,15 @@ struct DrapeFrameRecord {
   double stretch_energy = 0.0;
   double bending_energy = 0.0;
   double cost = 0.0;
-  bool finite = true;
+  bool finite = true;  // false: the solver failed and the previous state was kept
 };
 
 struct DrapeSimulationSummary {
+  // kFailure when a frame's solve was not finite (those frames kept the
+  // previous state); else kNoConvergence when a frame's iteration budget
+  // ran out (the normal case), kConvergence when every solve converged.
+  TerminationType termination_type = TerminationType::kConvergence;
+  std::string message;
   int garment_vertices = 0;
   int garment_faces = 0;
   int patches = 0;
@@ -88,7 +96,7 @@ struct DrapeSimulationSummary {
   double fit_error_mean = 0.0;
   double fit_error_max = 0.0;
   int frames = 0;
-  std::vector<DrapeFrameRecord> records;
+  std::vector<DrapeFrameSummary> records;
   double mean_time_s = 0.0;  // per clip frame
   double max_time_s = 0.0;
   double mean_inside_percent = 0.0;
@@ -99,10 +107,12 @@ struct DrapeSimulationSummary {
   bool all_finite = true;
   double total_time_s = 0.0;
   std::vector<std::string> warnings;
+
+  std::string BriefReport() const;
 };
 
 // Throws DrapeInputError naming the file or option before anything is
-// written; std::runtime_error when an output cannot be written.
+// written; Error (kOutput) when an output cannot be written.
 DrapeSimulationSummary RunDrapeSimulation(const DrapeSimulationOptions& options);
 
 }  // namespace polyfit

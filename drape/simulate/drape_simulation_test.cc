@@ -55,7 +55,7 @@ class DrapeSimulationTest : public ::testing::Test {
     options_.lead_in_frames = 2;
     options_.render_every = 2;
     options_.render_height = 64;
-    options_.solver.vertices_per_patch = 30;
+    options_.solver.patching.vertices_per_patch = 30;
   }
   ScopedTempDir dir_;
   DrapeSimulationOptions options_;
@@ -94,7 +94,7 @@ TEST_F(DrapeSimulationTest, ProjectionMovesVerticesLeftInsideOut) {
   // inextensibility: the drape leaves part of it inside, the projection
   // none.
   WriteObj(options_.garment_path, MakeTube(0.12, 0.1, 0.4, 24, 8));
-  options_.solver.weights.inextensibility = 1e4;
+  options_.solver.physics.weights.inextensibility = 1e4;
   options_.num_frames = 1;
   const DrapeSimulationSummary raw = RunDrapeSimulation(options_);
   EXPECT_GT(raw.records[0].inside_percent, 1.0);
@@ -109,8 +109,9 @@ TEST_F(DrapeSimulationTest, BadInputsAreNamedBeforeAnythingIsWritten) {
   const auto expect_error = [&](const DrapeSimulationOptions& options, const std::string& needle) {
     try {
       RunDrapeSimulation(options);
-      ADD_FAILURE() << "expected DrapeInputError mentioning " << needle;
-    } catch (const DrapeInputError& e) {
+      ADD_FAILURE() << "expected an input error mentioning " << needle;
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::kInput) << e.what();
       EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
     }
     EXPECT_FALSE(fs::exists(options.out_dir));
@@ -161,7 +162,7 @@ TEST_F(SharedDataDrapeTest, DanceStaysFiniteAndOnTheBody) {
   // legs split upside down; bounds that catch a blow-up, not a target.
   EXPECT_LT(summary.max_inside_percent, 35.0);
   EXPECT_LT(summary.max_edge_strain_percent, 70.0);
-  for (const DrapeFrameRecord& r : summary.records) EXPECT_GT(r.min_distance, -0.2) << "frame " << r.frame;
+  for (const DrapeFrameSummary& r : summary.records) EXPECT_GT(r.min_distance, -0.2) << "frame " << r.frame;
 }
 
 TEST_F(SharedDataDrapeTest, GarmentStartingInsideTheBodyIsPushedOut) {

@@ -2,22 +2,22 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cstdio>
-#include <cstdlib>
 #include <cmath>
-#include <map>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 
+#include <ceres/autodiff_cost_function.h>
 #include <ceres/ceres.h>
 
-#include "cost_functions/metric_inextensibility_residual.h"
+#include "cost_functions/jet_order_dispatch.h"
 #include "cost_functions/patch_boundary_residual.h"
-#include <ceres/autodiff_cost_function.h>
 #include "drape/collision/signed_distance.h"
-#include "drape/simulate/skinned_patch_costs.h"
-#include "polyfit/cluster/acvd_clustering.h"
-#include "polyfit/pipeline/fit_mesh.h"
+#include "drape/losses/skinned_patch_costs.h"
+#include "polyfit/jet/jet_surface.h"
+#include "polyfit/mesh/unique_edges.h"
+#include "polyfit/model/orient_patches.h"
+#include "polyfit/pipeline/adaptive_patches.h"
 #include "polyfit/util/parallel_for.h"
 
 namespace polyfit {
@@ -27,198 +27,83 @@ double Seconds(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-// PCA leaves each patch's normal axis with an arbitrary sign; the boundary
-// term compares normals, so every patch is turned (180 degrees about its u
-// axis: v -> -v, z -> -z) to agree with its faces' orientation.
-void OrientPatchesLikeFaces(const TriangleMesh& mesh, PolyFitModel* model) {
-  std::vector<Eigen::Vector3d> normal(model->num_patches(), Eigen::Vector3d::Zero());
-  for (int f = 0; f < mesh.faces.cols(); ++f) {
-    const Eigen::Vector3d a = mesh.vertices.col(mesh.faces(0, f)), b = mesh.vertices.col(mesh.faces(1, f)),
-                          c = mesh.vertices.col(mesh.faces(2, f));
-    normal[model->face_patch[f]] += (b - a).cross(c - a);
-  }
-  std::vector<bool> flip(model->num_patches(), false);
-  for (int p = 0; p < model->num_patches(); ++p) {
-    JetPatch& patch = model->patches[p];
-    if (normal[p].dot(patch.frame.rotation.col(2)) >= 0.0) continue;
-    flip[p] = true;
-    patch.frame.rotation.col(1) *= -1.0;
-    patch.frame.rotation.col(2) *= -1.0;
-    // z'(u, v') = -z(u, -v'): alpha'_(a, b) = -(-1)^b alpha_(a, b).
-    int k = 0;
-    for (int d = 0; d <= patch.order; ++d) {
-      for (int b = 0; b <= d; ++b, ++k) patch.coefficients[k] *= (b % 2 == 0) ? -1.0 : 1.0;
-    }
-  }
-  for (size_t m = 0; m < model->membership_patch.size(); ++m) {
-    if (flip[model->membership_patch[m]]) model->membership_uv(1, static_cast<Eigen::Index>(m)) *= -1.0;
+TerminationType FromCeres(ceres::TerminationType type) {
+  switch (type) {
+    case ceres::CONVERGENCE:
+    case ceres::USER_SUCCESS: return TerminationType::kConvergence;
+    case ceres::NO_CONVERGENCE: return TerminationType::kNoConvergence;
+    default: return TerminationType::kFailure;
   }
 }
 
-// The metric-tensor term (eq. 4) with the skinning Jacobian and the k_ext
-// factor read at each evaluation (they change per frame).
-class SkinnedMetricCost {
- public:
-  SkinnedMetricCost(int order, double u, double v, const Eigen::Vector3d& rest_metric, const Eigen::Matrix3d& rotation,
-                    const Eigen::Matrix3d* skinning, double weight, const double* factor)
-      : order_(order), u_(u), v_(v), rest_(rest_metric), rotation_(rotation), skinning_(skinning), weight_(weight),
-        factor_(factor) {}
-
-  template <typename T>
-  bool operator()(const T* alpha, const T* scale, T* residual) const {
-    return MetricInextensibilityResidual(order_, u_, v_, rest_, rotation_, *skinning_, weight_ * *factor_)(alpha, scale,
-                                                                                                         residual);
-  }
-
- private:
-  int order_;
-  double u_, v_;
-  Eigen::Vector3d rest_;
-  Eigen::Matrix3d rotation_;
-  const Eigen::Matrix3d* skinning_;
-  double weight_;
-  const double* factor_;
-};
-
-// w (x - mean), the mean read through a pointer (last frame's parameters).
-class ParameterPrior : public ceres::CostFunction {
- public:
-  ParameterPrior(int size, double weight, const double* mean) : weight_(weight), mean_(mean) {
-    set_num_residuals(size);
-    mutable_parameter_block_sizes()->assign({size});
-  }
-  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
-    const int n = num_residuals();
-    for (int i = 0; i < n; ++i) residuals[i] = weight_ * (parameters[0][i] - mean_[i]);
-    if (jacobians != nullptr && jacobians[0] != nullptr) {
-      Eigen::Map<Eigen::MatrixXd>(jacobians[0], n, n) = weight_ * Eigen::MatrixXd::Identity(n, n);
-    }
-    return true;
-  }
-
- private:
-  double weight_;
-  const double* mean_;
-};
-
-// The distance from each membership's vertex to its patch's jet.
-std::vector<double> PatchMaxErrors(const TriangleMesh& mesh, const PolyFitModel& model) {
-  std::vector<double> error(model.num_patches(), 0.0);
-  for (int v = 0; v < mesh.num_vertices(); ++v) {
-    for (int k = model.membership_offsets[v]; k < model.membership_offsets[v + 1]; ++k) {
-      const int p = model.membership_patch[k];
-      const double e = (model.patches[p].PointInWorld(model.membership_uv(0, k), model.membership_uv(1, k)) -
-                        mesh.vertices.col(v)).norm();
-      error[p] = std::max(error[p], e);
-    }
-  }
-  return error;
-}
-
-// Patches for a garment without subdividing it (one point per vertex):
-// ACVD clusters, then every patch whose jet misses one of its vertices by
-// more than max_error (a fold, a cuff: no height field) is split in two by
-// 2-means on its faces' normals and scaled positions, and all are refitted.
-PolyFitModel PatchGarment(const TriangleMesh& mesh, const DrapeSolverOptions& options) {
-  ClusteringOptions clustering;
-  clustering.num_patches = std::max(1, mesh.num_vertices() / options.vertices_per_patch);
-  PolyFitModel model;
-  model.face_patch = ClusterMeshFaces(clustering, mesh);
-  model.faces = mesh.faces;
-  JetFitOptions jet;
-  jet.order = options.jet_order;
-  jet.num_threads = options.num_threads;
-  const int nf = static_cast<int>(mesh.faces.cols());
-  std::vector<Eigen::Vector3d> normal(nf), centroid(nf);
-  for (int f = 0; f < nf; ++f) {
-    const Eigen::Vector3d a = mesh.vertices.col(mesh.faces(0, f)), b = mesh.vertices.col(mesh.faces(1, f)),
-                          c = mesh.vertices.col(mesh.faces(2, f));
-    normal[f] = (b - a).cross(c - a).normalized();
-    if (!normal[f].allFinite()) normal[f].setZero();
-    centroid[f] = (a + b + c) / 3.0;
-  }
-  for (int round = 0;; ++round) {
-    BuildPatchMemberships(mesh, model.face_patch, &model);
-    FitPatchJets(jet, mesh, &model);
-    if (round == options.max_patch_splits) break;
-    const std::vector<double> error = PatchMaxErrors(mesh, model);
-    std::vector<std::vector<int>> faces(model.num_patches());
-    for (int f = 0; f < nf; ++f) faces[model.face_patch[f]].push_back(f);
-    int next = model.num_patches();
-    bool split = false;
-    for (int p = 0; p < model.num_patches(); ++p) {
-      if (error[p] <= options.max_fit_error || faces[p].size() < 4) continue;
-      // Features: the normal and the position over the patch's radius.
-      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-      for (int f : faces[p]) mean += centroid[f] / static_cast<double>(faces[p].size());
-      double radius = 0.0;
-      for (int f : faces[p]) radius = std::max(radius, (centroid[f] - mean).norm());
-      const auto feature = [&](int f) {
-        Eigen::Matrix<double, 6, 1> x;
-        x << normal[f], (centroid[f] - mean) / std::max(radius, 1e-12);
-        return x;
-      };
-      // Seeds: a face far from the first, then the face farthest from it.
-      int s0 = faces[p][0], s1 = s0;
-      for (int pass = 0; pass < 2; ++pass) {
-        double best = -1.0;
-        for (int f : faces[p]) {
-          const double d = (feature(f) - feature(s0)).squaredNorm();
-          if (d > best) best = d, s1 = f;
-        }
-        if (pass == 0) std::swap(s0, s1);
-      }
-      Eigen::Matrix<double, 6, 1> c0 = feature(s0), c1 = feature(s1);
-      std::vector<int> side(faces[p].size(), 0);
-      for (int it = 0; it < 10; ++it) {
-        Eigen::Matrix<double, 6, 1> sum0 = Eigen::Matrix<double, 6, 1>::Zero(), sum1 = sum0;
-        int n0 = 0, n1 = 0;
-        for (size_t i = 0; i < faces[p].size(); ++i) {
-          const Eigen::Matrix<double, 6, 1> x = feature(faces[p][i]);
-          side[i] = (x - c0).squaredNorm() <= (x - c1).squaredNorm() ? 0 : 1;
-          if (side[i] == 0) sum0 += x, ++n0;
-          else sum1 += x, ++n1;
-        }
-        if (n0 == 0 || n1 == 0) break;
-        c0 = sum0 / n0;
-        c1 = sum1 / n1;
-      }
-      int moved = 0;
-      for (size_t i = 0; i < faces[p].size(); ++i) moved += side[i];
-      if (moved == 0 || moved == static_cast<int>(faces[p].size())) continue;
-      for (size_t i = 0; i < faces[p].size(); ++i) {
-        if (side[i] == 1) model.face_patch[faces[p][i]] = next;
-      }
-      ++next;
-      split = true;
-    }
-    if (!split) break;
-  }
+// The garment's patches: ACVD clusters sized by vertex count, split where a
+// jet cannot hold them, oriented like their faces (the boundary term
+// compares normals).
+PolyFitModel PatchGarment(const TriangleMesh& mesh, const GarmentPatchOptions& patching, int num_threads) {
+  AdaptivePatchOptions options;
+  options.clustering.num_patches = std::max(1, mesh.num_vertices() / patching.vertices_per_patch);
+  options.jet.order = patching.jet_order;
+  options.jet.num_threads = num_threads;
+  options.max_fit_error = patching.max_fit_error;
+  options.max_splits = patching.max_splits;
+  PolyFitModel model = FitAdaptivePatches(options, mesh);
+  OrientPatchesLikeFaces(mesh, &model);
   return model;
 }
 
 }  // namespace
 
+DrapeSolveOptions::DrapeSolveOptions() {
+  // Each solve is a few iterations of a warm-started frame: never stop on
+  // a small relative change of the cost.
+  ceres.function_tolerance = 1e-12;
+  ceres.parameter_tolerance = 1e-12;
+  ceres.logging_type = ceres::SILENT;
+  // Measured faster than CHOLMOD on the garments' normal equations.
+  ceres.sparse_linear_algebra_library_type = ceres::EIGEN_SPARSE;
+}
+
 std::string DrapeSolverOptions::Validate() const {
-  if (jet_order < 1 || jet_order > kMaxJetOrder) return "jet_order must be in [1, " + std::to_string(kMaxJetOrder) + "]";
-  if (vertices_per_patch < 3) return "vertices_per_patch must be >= 3";
-  if (!(fps > 0.0)) return "fps must be positive";
-  if (max_iterations < 1 || max_refine_iterations < 1 || max_passes < 1) return "max_iterations, max_refine_iterations and max_passes must be >= 1";
-  if (!(initial_trust_region_radius > 0.0) || !std::isfinite(initial_trust_region_radius)) {
-    return "initial_trust_region_radius must be positive and finite";
+  const DrapePhysicsOptions& p = physics;
+  if (patching.jet_order < 1 || patching.jet_order > kMaxJetOrder) {
+    return "patching.jet_order must be in [1, " + std::to_string(kMaxJetOrder) + "]";
   }
-  if (!(conjugate_gradients_tolerance > 0.0 && conjugate_gradients_tolerance < 1.0)) {
-    return "conjugate_gradients_tolerance must be in (0, 1)";
+  if (patching.vertices_per_patch < 3) return "patching.vertices_per_patch must be >= 3";
+  if (!(patching.max_fit_error > 0.0) || patching.max_splits < 0) {
+    return "patching.max_fit_error must be > 0 and patching.max_splits >= 0";
   }
-  for (const double w : {weights.boundary, weights.inextensibility, weights.gravity, weights.collision, weights.inertia,
-                         weights.collision_margin, collision_stiffness, boundary_base, stretch_base, collision_band, parameter_prior, slide_agreement, gravity,
-                         material.area_density, material.mu}) {
+  if (!(p.fps > 0.0) || !std::isfinite(p.fps)) return "physics.fps must be positive";
+  if (solve.max_iterations < 1 || solve.max_refine_iterations < 1 || solve.max_passes < 1) {
+    return "solve.max_iterations, solve.max_refine_iterations and solve.max_passes must be >= 1";
+  }
+  if (!(solve.initial_trust_region_radius > 0.0) || !std::isfinite(solve.initial_trust_region_radius)) {
+    return "solve.initial_trust_region_radius must be positive and finite";
+  }
+  if (!(solve.conjugate_gradients_tolerance > 0.0 && solve.conjugate_gradients_tolerance < 1.0)) {
+    return "solve.conjugate_gradients_tolerance must be in (0, 1)";
+  }
+  if (solve.max_conjugate_gradients_iterations < 1) return "solve.max_conjugate_gradients_iterations must be >= 1";
+  if (num_threads < 1) return "num_threads must be >= 1";
+  for (const double w :
+       {p.weights.boundary, p.weights.inextensibility, p.weights.gravity, p.weights.collision, p.weights.inertia,
+        p.weights.collision_margin, p.collision_stiffness, p.boundary_base, p.stretch_base, p.collision_band,
+        solve.parameter_prior, slide.agreement, p.gravity, p.material.area_density, p.material.mu}) {
     if (!std::isfinite(w) || w < 0.0) return "weights, stiffnesses and material constants must be finite and >= 0";
   }
-  if (!(material.area_density > 0.0)) return "material.area_density must be positive";
+  if (!(p.material.area_density > 0.0)) return "physics.material.area_density must be positive";
   return {};
 }
 
+std::string DrapeStepSummary::BriefReport() const {
+  char line[256];
+  std::snprintf(line, sizeof(line), "%s: %d passes, %d iterations, cost %.4g -> %.4g, %d collision terms, %.1f ms%s%s",
+                TerminationTypeToString(termination_type), passes, iterations, initial_cost, final_cost,
+                collision_terms, 1e3 * time_s, message.empty() ? "" : ": ", message.c_str());
+  return line;
+}
+
+// The solver's state: parameters, per-frame data the costs read through
+// pointers, and the Ceres problem built once over them.
 struct DrapeSolver::Impl {
   SkinnedBody body;
   SkinWeights weights;
@@ -235,6 +120,9 @@ struct DrapeSolver::Impl {
   // Per membership.
   std::vector<int> membership_vertex;
   std::vector<Eigen::Vector3d> rest_metric;
+  // One posed point per membership, reading skin_linear and
+  // skin_translation (sized once, so the pointers stay valid).
+  std::vector<SkinnedPatchPoint> points;
   // Per vertex.
   std::vector<double> mass;
   std::vector<Eigen::Matrix3d> skin_linear;
@@ -245,7 +133,7 @@ struct DrapeSolver::Impl {
     int edge, mi, mj;
   };
   std::vector<PatchEdge> patch_edges;
-  std::vector<double> edge_area;
+  std::vector<double> edge_area;  // per unique edge of `rest`
   std::vector<PatchBoundaryPoint> boundary;
   std::vector<Eigen::Vector3d> boundary_position_gap, boundary_normal_gap;
   double mean_edge = 0.0;
@@ -259,89 +147,354 @@ struct DrapeSolver::Impl {
   // Levenberg-Marquardt's trust region carried from solve to solve.
   double trust_region_radius = 0.0;
 
-  explicit Impl(const SkinnedBody& b) : body(b), distance(b.mesh) {}
+  Impl(const SkinnedBody& b, const SkinWeights& w, const DrapeSolverOptions& o)
+      : body(b), weights(w), options(o), distance(b.mesh) {}
 
   double* alpha(int p) { return params.data() + p * kStride; }
   double* scale(int p) { return params.data() + p * kStride + kMaxJetCoefficients; }
   double* translation(int p) { return params.data() + p * kStride + kMaxJetCoefficients + 1; }
   double* slide(int k) { return slides.data() + 2 * k; }
 
-  // One posed point per membership, reading skin_linear and
-  // skin_translation (sized once, so the pointers stay valid).
-  std::vector<SkinnedPatchPoint> points;
-
-  void BuildPoints(const PolyFitModel& model) {
-    points.clear();
-    points.reserve(model.membership_patch.size());
-    for (size_t k = 0; k < model.membership_patch.size(); ++k) {
-      const int p = model.membership_patch[k];
-      const int v = membership_vertex[k];
-      const Eigen::Index i = static_cast<Eigen::Index>(k);
-      points.emplace_back(options.jet_order, model.membership_uv(0, i), model.membership_uv(1, i),
-                          model.patches[p].frame.rotation, &skin_linear[v], &skin_translation[v]);
-    }
-  }
-  // Each vertex the mean of its patches' posed points (3 by #V).
-  void Positions(const PolyFitModel& model, Eigen::Matrix3Xd* out) {
-    for (int v = 0; v < out->cols(); ++v) {
-      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      for (int k = model.membership_offsets[v]; k < model.membership_offsets[v + 1]; ++k) {
-        const int p = model.membership_patch[k];
-        sum += points[k].Position(alpha(p), scale(p), translation(p), slide(k));
-      }
-      out->col(v) = sum / (model.membership_offsets[v + 1] - model.membership_offsets[v]);
-    }
-  }
-
+  // Set-up phases, in order.
+  void InitializeParameters(const PolyFitModel& model);
+  void ComputeRestMetrics(const PolyFitModel& model);
+  void BuildPoints(const PolyFitModel& model);
+  void CollectPatchEdges(const PolyFitModel& model);
+  void CollectBoundary(const PolyFitModel& model);
+  // The problem, by term.
   void BuildProblem(const PolyFitModel& model);
+  void AddVertexTerms(const PolyFitModel& model);
+  void AddEdgeTerms(const PolyFitModel& model);
+  void AddBoundaryTerms(const PolyFitModel& model);
+  void AddSlideTerms(const PolyFitModel& model);
+  void AddPriors(const PolyFitModel& model);
+  // Per frame.
+  void PoseBodyAndGarment(const std::vector<Eigen::Isometry3d>& rest_to_posed, Eigen::Matrix3Xd* body_vertices);
+  void SetMotionTargets(const PolyFitModel& model);
+  int LinearizeCollisions(const PolyFitModel& model);
+  ceres::Solver::Options SolverOptions(int pass, int num_vertices) const;
+  // Each vertex the mean of its patches' posed points (3 by #V).
+  void Positions(const PolyFitModel& model, Eigen::Matrix3Xd* out);
+  // Closest body points of `positions`; returns how many are inside.
+  int QueryContacts(const Eigen::Matrix3Xd& positions);
+
+  double stretch_weight() const { return options.physics.weights.inextensibility * options.physics.stretch_base; }
 };
+
+void DrapeSolver::Impl::InitializeParameters(const PolyFitModel& model) {
+  num_coefficients = NumJetCoefficients(options.patching.jet_order);
+  params.assign(static_cast<size_t>(model.num_patches()) * kStride, 0.0);
+  for (int p = 0; p < model.num_patches(); ++p) {
+    const JetPatch& patch = model.patches[p];
+    for (int k = 0; k < NumJetCoefficients(patch.order); ++k) alpha(p)[k] = patch.coefficients[k];
+    scale(p)[0] = patch.frame.scale;
+    Eigen::Map<Eigen::Vector3d>(translation(p)) = patch.frame.translation;
+  }
+  previous_params = params;
+  slides.assign(2 * model.num_memberships(), 0.0);
+  previous_slides = slides;
+  membership_vertex.resize(model.num_memberships());
+  for (int v = 0; v < model.num_vertices(); ++v) {
+    for (int k : model.memberships(v)) membership_vertex[k] = v;
+  }
+}
+
+// g0 = s^2 (E, F, G) at each membership's rest (u, v).
+void DrapeSolver::Impl::ComputeRestMetrics(const PolyFitModel& model) {
+  rest_metric.resize(model.num_memberships());
+  for (int k = 0; k < model.num_memberships(); ++k) {
+    const int p = model.membership_patch[k];
+    const FundamentalForm<double> I = JetFirstFundamentalForm(
+        EvaluateJetDerivatives(options.patching.jet_order, alpha(p), model.membership_uv(0, k), model.membership_uv(1, k)));
+    const double s2 = scale(p)[0] * scale(p)[0];
+    rest_metric[k] = s2 * Eigen::Vector3d(I.e, I.f, I.g);
+  }
+}
+
+void DrapeSolver::Impl::BuildPoints(const PolyFitModel& model) {
+  points.clear();
+  points.reserve(model.num_memberships());
+  for (int k = 0; k < model.num_memberships(); ++k) {
+    const int v = membership_vertex[k];
+    points.emplace_back(options.patching.jet_order, model.membership_uv(0, k), model.membership_uv(1, k),
+                        model.patches[model.membership_patch[k]].frame.rotation, &skin_linear[v],
+                        &skin_translation[v]);
+  }
+}
+
+// Every edge once per patch that holds it (both ends on the patch), and
+// each unique edge's area: a third of its faces'.
+void DrapeSolver::Impl::CollectPatchEdges(const PolyFitModel& model) {
+  const Eigen::Matrix2Xi edges = UniqueEdges(rest.faces);
+  // The same order as rest.edges (both sorted by (i, j)): edge_length reads it.
+  if (edges.cols() != static_cast<Eigen::Index>(rest.edges.size())) {
+    throw std::logic_error("DrapeSolver: the rest garment's edges disagree");
+  }
+  edge_area.assign(edges.cols(), 0.0);
+  std::vector<std::pair<int, int>> seen;  // (edge, patch)
+  for (int f = 0; f < rest.faces.cols(); ++f) {
+    const int p = model.face_patch[f];
+    for (int c = 0; c < 3; ++c) {
+      const int e = FindEdge(edges, rest.faces(c, f), rest.faces((c + 1) % 3, f));
+      edge_area[e] += rest.face_area[f] / 3.0;
+      seen.emplace_back(e, p);
+    }
+  }
+  // In order of first appearance (the term order is the problem's).
+  std::vector<std::pair<int, int>> sorted = seen;
+  std::sort(sorted.begin(), sorted.end());
+  std::vector<bool> taken(sorted.size(), false);
+  patch_edges.clear();
+  for (const auto& [e, p] : seen) {
+    const size_t i = std::lower_bound(sorted.begin(), sorted.end(), std::make_pair(e, p)) - sorted.begin();
+    if (taken[i]) continue;
+    taken[i] = true;
+    const int mi = model.FindMembership(edges(0, e), p), mj = model.FindMembership(edges(1, e), p);
+    if (mi >= 0 && mj >= 0) patch_edges.push_back({e, mi, mj});
+  }
+  mean_edge = 0.0;
+  for (double length : rest.edge_length) mean_edge += length / static_cast<double>(rest.edge_length.size());
+}
+
+// Boundary points and the gaps the fits leave there at rest, kept rather
+// than closed (PatchBoundaryResidual's d_x, d_n).
+void DrapeSolver::Impl::CollectBoundary(const PolyFitModel& model) {
+  boundary = model.BoundaryPoints();
+  for (const PatchBoundaryPoint& b : boundary) {
+    const JetPatch& pa = model.patches[b.patch_a];
+    const JetPatch& pb = model.patches[b.patch_b];
+    boundary_position_gap.push_back(pa.PointInWorld(b.uv_a.x(), b.uv_a.y()) - pb.PointInWorld(b.uv_b.x(), b.uv_b.y()));
+    boundary_normal_gap.push_back(pa.NormalInWorld(b.uv_a.x(), b.uv_a.y()) -
+                                  pb.NormalInWorld(b.uv_b.x(), b.uv_b.y()));
+  }
+}
+
+void DrapeSolver::Impl::BuildProblem(const PolyFitModel& model) {
+  problem = std::make_unique<ceres::Problem>();
+  for (int p = 0; p < model.num_patches(); ++p) {
+    problem->AddParameterBlock(alpha(p), num_coefficients);
+    problem->AddParameterBlock(scale(p), 1);
+    problem->AddParameterBlock(translation(p), 3);
+  }
+  for (int k = 0; k < model.num_memberships(); ++k) {
+    problem->AddParameterBlock(slide(k), 2);
+    if (!options.slide.enabled) problem->SetParameterBlockConstant(slide(k));
+  }
+  AddVertexTerms(model);
+  AddEdgeTerms(model);
+  AddBoundaryTerms(model);
+  AddSlideTerms(model);
+  AddPriors(model);
+}
+
+// At every membership: collision (off while far from the body) and the
+// metric tensor; at the owner also the motion (inertia with gravity folded
+// in, or gravity alone).
+void DrapeSolver::Impl::AddVertexTerms(const PolyFitModel& model) {
+  const DrapePhysicsOptions& o = options.physics;
+  const int order = options.patching.jet_order;
+  const VertexMotion motion = o.weights.inertia > 0.0 ? VertexMotion::kInertia : VertexMotion::kGravity;
+  vertex_data.assign(model.num_memberships(), VertexTermsData{});
+  for (int v = 0; v < model.num_vertices(); ++v) {
+    const IndexRange range = model.memberships(v);
+    for (int k : range) {
+      const int p = model.membership_patch[k];
+      problem->AddResidualBlock(
+          new SkinnedVertexCost(points[k], &vertex_data[k], k == range.front() ? motion : VertexMotion::kNone), nullptr,
+          alpha(p), scale(p), translation(p), slide(k));
+      const double metric_area = rest.vertex_area[v] / range.size();
+      const double metric_weight = std::sqrt(stretch_weight() * o.material.mu * metric_area / 2.0);
+      if (metric_weight > 0.0) {
+        auto* functor = new SkinnedMetricFunctor(order, model.membership_uv(0, k), model.membership_uv(1, k),
+                                                 rest_metric[k], model.patches[p].frame.rotation, &skin_linear[v],
+                                                 metric_weight, &metric_factor);
+        ceres::CostFunction* cost =
+            DispatchJetCoefficients(order, "SkinnedMetricFunctor", [&](auto c) -> ceres::CostFunction* {
+              return new ceres::AutoDiffCostFunction<SkinnedMetricFunctor, 3, decltype(c)::value, 1>(functor);
+            });
+        problem->AddResidualBlock(cost, nullptr, alpha(p), scale(p));
+      }
+    }
+  }
+}
+
+void DrapeSolver::Impl::AddEdgeTerms(const PolyFitModel& model) {
+  if (!(stretch_weight() > 0.0)) return;
+  for (const PatchEdge& e : patch_edges) {
+    const int p = model.membership_patch[e.mi];
+    const double weight = std::sqrt(2.0 * stretch_weight() * options.physics.material.mu * edge_area[e.edge]);
+    problem->AddResidualBlock(new SkinnedEdgeCost(points[e.mi], points[e.mj], rest.edge_length[e.edge], weight),
+                              nullptr, alpha(p), scale(p), translation(p), slide(e.mi), slide(e.mj));
+  }
+}
+
+void DrapeSolver::Impl::AddBoundaryTerms(const PolyFitModel& model) {
+  const DrapePhysicsOptions& o = options.physics;
+  if (!(o.weights.boundary > 0.0)) return;
+  for (size_t i = 0; i < boundary.size(); ++i) {
+    const PatchBoundaryPoint& b = boundary[i];
+    const double w = std::sqrt(2.0 * o.weights.boundary * o.boundary_base * o.material.mu * rest.vertex_area[b.vertex]);
+    problem->AddResidualBlock(
+        PatchBoundaryResidual::Create(options.patching.jet_order, b.uv_a, model.patches[b.patch_a].frame.rotation,
+                                      b.uv_b, model.patches[b.patch_b].frame.rotation, w / mean_edge, w,
+                                      boundary_position_gap[i], boundary_normal_gap[i]),
+        nullptr, alpha(b.patch_a), scale(b.patch_a), translation(b.patch_a), alpha(b.patch_b), scale(b.patch_b),
+        translation(b.patch_b));
+  }
+}
+
+// A vertex's points on its patches slide apart unless held together (the
+// boundary term compares the jets at the rest parameters).
+void DrapeSolver::Impl::AddSlideTerms(const PolyFitModel& model) {
+  if (!options.slide.enabled) return;
+  for (int v = 0; v < model.num_vertices(); ++v) {
+    const IndexRange range = model.memberships(v);
+    const int first = range.front();
+    const double w = std::sqrt(2.0 * stretch_weight() * options.physics.material.mu * rest.vertex_area[v]) *
+                     options.slide.agreement / mean_edge;
+    for (int k : range) {
+      if (k == first) continue;
+      const int a = model.membership_patch[first], b = model.membership_patch[k];
+      const Eigen::Vector3d gap =
+          points[first].Canonical(points[first].State(alpha(a), nullptr), scale(a), translation(a)) -
+          points[k].Canonical(points[k].State(alpha(b), nullptr), scale(b), translation(b));
+      problem->AddResidualBlock(new SkinnedAgreementCost(points[first], points[k], gap, w), nullptr, alpha(a), scale(a),
+                                translation(a), slide(first), alpha(b), scale(b), translation(b), slide(k));
+    }
+  }
+}
+
+void DrapeSolver::Impl::AddPriors(const PolyFitModel& model) {
+  if (!(options.solve.parameter_prior > 0.0)) return;
+  const double w = std::sqrt(options.solve.parameter_prior);
+  for (int p = 0; p < model.num_patches(); ++p) {
+    for (const auto& [block, size] :
+         {std::pair<int, int>{0, num_coefficients}, {kMaxJetCoefficients, 1}, {kMaxJetCoefficients + 1, 3}}) {
+      problem->AddResidualBlock(new ParameterPrior(size, w, previous_params.data() + p * kStride + block), nullptr,
+                                params.data() + p * kStride + block);
+    }
+  }
+  if (!options.slide.enabled) return;
+  for (int k = 0; k < model.num_memberships(); ++k) {
+    problem->AddResidualBlock(new ParameterPrior(2, w, previous_slides.data() + 2 * k), nullptr, slide(k));
+  }
+}
+
+void DrapeSolver::Impl::Positions(const PolyFitModel& model, Eigen::Matrix3Xd* out) {
+  for (int v = 0; v < out->cols(); ++v) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    const IndexRange range = model.memberships(v);
+    for (int k : range) {
+      const int p = model.membership_patch[k];
+      sum += points[k].Position(alpha(p), scale(p), translation(p), slide(k));
+    }
+    out->col(v) = sum / range.size();
+  }
+}
+
+int DrapeSolver::Impl::QueryContacts(const Eigen::Matrix3Xd& positions) {
+  const int n = static_cast<int>(positions.cols());
+  ParallelFor(n, options.num_threads, [&](int, int v) { contact[v] = distance.Query(positions.col(v)); });
+  int inside = 0;
+  for (int v = 0; v < n; ++v) inside += contact[v].distance < 0.0 ? 1 : 0;
+  return inside;
+}
+
+void DrapeSolver::Impl::PoseBodyAndGarment(const std::vector<Eigen::Isometry3d>& rest_to_posed,
+                                           Eigen::Matrix3Xd* body_vertices) {
+  *body_vertices = SkinVertices(body, rest_to_posed);
+  distance.SetVertices(*body_vertices);
+  nearest_stale = true;
+  for (int v = 0; v < static_cast<int>(skin_linear.size()); ++v) {
+    weights.Blend(v, rest_to_posed, &skin_linear[v], &skin_translation[v]);
+  }
+}
+
+// Inertia's target (constant velocity over the last two frames, gravity
+// folded in) at each vertex's owner membership.
+void DrapeSolver::Impl::SetMotionTargets(const PolyFitModel& model) {
+  const DrapePhysicsOptions& o = options.physics;
+  const double dt = 1.0 / o.fps;
+  for (int v = 0; v < model.num_vertices(); ++v) {
+    VertexTermsData& data = vertex_data[model.memberships(v).front()];
+    if (o.weights.inertia > 0.0) {
+      data.inertia.emplace(history1.col(v), history2.col(v), mass[v], dt, o.weights.inertia, o.weights.gravity,
+                           o.gravity, Eigen::Vector3d::UnitY());
+    } else if (o.weights.gravity > 0.0) {
+      data.gravity.emplace(mass[v], o.gravity, Eigen::Vector3d::UnitY(), floor, o.weights.gravity);
+    }
+  }
+}
+
+// Collision terms at the vertices within the band, linearised at their
+// closest body points; returns how many membership terms are on.
+int DrapeSolver::Impl::LinearizeCollisions(const PolyFitModel& model) {
+  const DrapePhysicsOptions& o = options.physics;
+  const double weight = std::sqrt(o.weights.collision * o.collision_stiffness);
+  int terms = 0;
+  for (int v = 0; v < model.num_vertices(); ++v) {
+    const bool near = o.weights.collision > 0.0 && contact[v].distance < o.collision_band;
+    for (int k : model.memberships(v)) {
+      VertexTermsData& data = vertex_data[k];
+      if (near) {
+        data.collision.emplace(contact[v].closest, contact[v].normal, o.weights.collision_margin, weight, 2);
+      } else {
+        data.collision.reset();
+      }
+      terms += near ? 1 : 0;
+    }
+  }
+  return terms;
+}
+
+ceres::Solver::Options DrapeSolver::Impl::SolverOptions(int pass, int num_vertices) const {
+  const DrapeSolveOptions& o = options.solve;
+  ceres::Solver::Options solver = o.ceres;
+  const bool cg = o.linear_solver == DrapeLinearSolver::kConjugateGradients ||
+                  (o.linear_solver == DrapeLinearSolver::kAuto && num_vertices >= o.conjugate_gradients_min_vertices);
+  if (cg) {
+    // Inexact steps: half the time of a sparse Cholesky on the 2k-vertex
+    // suit, where forming and factoring J^T J over ~8k parameters
+    // dominates. CG resolves the soft, rigid-like modes last.
+    solver.linear_solver_type = ceres::CGNR;
+    solver.eta = o.conjugate_gradients_tolerance;
+    solver.max_linear_solver_iterations = o.max_conjugate_gradients_iterations;
+  } else {
+    solver.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  }
+  solver.max_num_iterations = pass == 0 ? o.max_iterations : o.max_refine_iterations;
+  solver.num_threads = options.num_threads;
+  solver.logging_type = o.trace >= 2 ? ceres::PER_MINIMIZER_ITERATION : ceres::SILENT;
+  solver.minimizer_progress_to_stdout = o.trace >= 2;
+  // Weakly determined directions (slides, the jets of small patches) make
+  // the Gauss-Newton step huge: starting undamped, LM spent about eight
+  // rejected iterations per solve shrinking its region.
+  solver.initial_trust_region_radius = trust_region_radius;
+  return solver;
+}
 
 DrapeSolver::DrapeSolver(const SkinnedBody& body, const TriangleMesh& garment, const SkinWeights& weights,
                          const DrapeSolverOptions& options)
     : garment_(garment) {
   const std::string problem = options.Validate();
   if (!problem.empty()) throw std::invalid_argument("DrapeSolverOptions: " + problem);
-  if (garment.num_vertices() < 3 || garment.faces.cols() == 0) throw std::invalid_argument("DrapeSolver: the garment has no face");
+  if (garment.num_vertices() < 3 || garment.faces.cols() == 0) {
+    throw std::invalid_argument("DrapeSolver: the garment has no face");
+  }
   if (!garment.vertices.allFinite()) throw std::invalid_argument("DrapeSolver: the garment has non-finite vertices");
   if (weights.num_vertices() != garment.num_vertices()) {
     throw std::invalid_argument("DrapeSolver: skinning weights for " + std::to_string(weights.num_vertices()) +
                                 " vertices, the garment has " + std::to_string(garment.num_vertices()));
   }
-  impl_ = std::make_unique<Impl>(body);
+  impl_ = std::make_unique<Impl>(body, weights, options);
   Impl& m = *impl_;
-  m.weights = weights;
-  m.options = options;
   const int n = garment.num_vertices();
 
-  model_ = PatchGarment(garment, options);
+  model_ = PatchGarment(garment, options.patching, options.num_threads);
   if (model_.num_vertices() != n) throw std::invalid_argument("DrapeSolver: patching changed the garment's vertices");
-  OrientPatchesLikeFaces(garment, &model_);
+  m.InitializeParameters(model_);
+  m.ComputeRestMetrics(model_);
 
-  m.num_coefficients = NumJetCoefficients(options.jet_order);
-  m.params.assign(static_cast<size_t>(model_.num_patches()) * Impl::kStride, 0.0);
-  for (int p = 0; p < model_.num_patches(); ++p) {
-    const JetPatch& patch = model_.patches[p];
-    for (int k = 0; k < NumJetCoefficients(patch.order); ++k) m.alpha(p)[k] = patch.coefficients[k];
-    m.scale(p)[0] = patch.frame.scale;
-    Eigen::Map<Eigen::Vector3d>(m.translation(p)) = patch.frame.translation;
-  }
-  m.previous_params = m.params;
-  m.slides.assign(2 * model_.membership_patch.size(), 0.0);
-  m.previous_slides = m.slides;
-
-  const int num_memberships = static_cast<int>(model_.membership_patch.size());
-  m.membership_vertex.resize(num_memberships);
-  m.rest_metric.resize(num_memberships);
-  for (int v = 0; v < n; ++v) {
-    for (int k = model_.membership_offsets[v]; k < model_.membership_offsets[v + 1]; ++k) {
-      m.membership_vertex[k] = v;
-      const int p = model_.membership_patch[k];
-      const auto d = EvaluateJetDerivatives(options.jet_order, m.alpha(p), model_.membership_uv(0, k),
-                                            model_.membership_uv(1, k));
-      const double s2 = m.scale(p)[0] * m.scale(p)[0];
-      m.rest_metric[k] = s2 * Eigen::Vector3d(1.0 + d.z_u * d.z_u, d.z_u * d.z_v, 1.0 + d.z_v * d.z_v);
-    }
-  }
   // The patches' own rest shape is the garment's rest: lengths, areas and
   // boundary gaps are measured on it, so that the fit's residual is not
   // mistaken for stretch.
@@ -355,252 +508,70 @@ DrapeSolver::DrapeSolver(const SkinnedBody& body, const TriangleMesh& garment, c
   rest_garment_ = garment;
   rest_garment_.vertices = positions_;
   m.rest = PrepareClothRest(rest_garment_);
-
-  const auto membership_in = [&](int v, int p) {
-    for (int k = model_.membership_offsets[v]; k < model_.membership_offsets[v + 1]; ++k) {
-      if (model_.membership_patch[k] == p) return k;
-    }
-    return -1;
-  };
-
-  // Edges, each in the patches of its faces.
-  std::map<std::pair<int, int>, int> edge_index;
-  for (size_t e = 0; e < m.rest.edges.size(); ++e) edge_index[{m.rest.edges[e][0], m.rest.edges[e][1]}] = static_cast<int>(e);
-  m.edge_area.assign(m.rest.edges.size(), 0.0);
-  std::map<std::pair<int, int>, bool> seen;  // (edge, patch)
-  for (int f = 0; f < garment.faces.cols(); ++f) {
-    const int p = model_.face_patch[f];
-    for (int c = 0; c < 3; ++c) {
-      const int a = garment.faces(c, f), b = garment.faces((c + 1) % 3, f);
-      const int e = edge_index.at({std::min(a, b), std::max(a, b)});
-      m.edge_area[e] += m.rest.face_area[f] / 3.0;
-      if (seen.emplace(std::make_pair(e, p), true).second) {
-        const int mi = membership_in(m.rest.edges[e][0], p), mj = membership_in(m.rest.edges[e][1], p);
-        if (mi >= 0 && mj >= 0) m.patch_edges.push_back({e, mi, mj});
-      }
-    }
-  }
-  for (double length : m.rest.edge_length) m.mean_edge += length / static_cast<double>(m.rest.edge_length.size());
-  m.boundary = model_.BoundaryPoints();
-  for (const PatchBoundaryPoint& b : m.boundary) {
-    const JetPatch& pa = model_.patches[b.patch_a];
-    const JetPatch& pb = model_.patches[b.patch_b];
-    m.boundary_position_gap.push_back(pa.PointInWorld(b.uv_a.x(), b.uv_a.y()) - pb.PointInWorld(b.uv_b.x(), b.uv_b.y()));
-    m.boundary_normal_gap.push_back(pa.NormalInWorld(b.uv_a.x(), b.uv_a.y()) - pb.NormalInWorld(b.uv_b.x(), b.uv_b.y()));
-  }
+  m.CollectPatchEdges(model_);
+  m.CollectBoundary(model_);
 
   m.mass.resize(n);
-  for (int v = 0; v < n; ++v) m.mass[v] = options.material.area_density * m.rest.vertex_area[v];
+  for (int v = 0; v < n; ++v) m.mass[v] = options.physics.material.area_density * m.rest.vertex_area[v];
   m.floor = body.mesh.vertices.row(1).minCoeff() - 1.0;
   m.contact.assign(n, SignedDistanceResult{});
-
   m.history1 = positions_;
   m.history2 = positions_;
+  m.trust_region_radius = options.solve.initial_trust_region_radius;
   body_vertices_ = body.mesh.vertices;
   m.BuildProblem(model_);
 }
 
-void DrapeSolver::Impl::BuildProblem(const PolyFitModel& model) {
-  const DrapeSolverOptions& o = options;
-  const double dt = 1.0 / o.fps;
-  const double mu = o.material.mu;
-  const double k_mi = o.weights.inextensibility * o.stretch_base;
-  const int n = model.num_vertices();
-  problem = std::make_unique<ceres::Problem>();
-  for (int p = 0; p < model.num_patches(); ++p) {
-    problem->AddParameterBlock(alpha(p), num_coefficients);
-    problem->AddParameterBlock(scale(p), 1);
-    problem->AddParameterBlock(translation(p), 3);
-  }
-  for (size_t k = 0; k < model.membership_patch.size(); ++k) {
-    problem->AddParameterBlock(slide(static_cast<int>(k)), 2);
-    if (!o.slide) problem->SetParameterBlockConstant(slide(static_cast<int>(k)));
-  }
-  // Vertex terms at every membership: collision everywhere (off while far
-  // from the body), gravity and inertia at the owner.
-  vertex_data.assign(model.membership_patch.size(), VertexTermsData{});
-  for (int v = 0; v < n; ++v) {
-    for (int k = model.membership_offsets[v]; k < model.membership_offsets[v + 1]; ++k) {
-      VertexTermsData& data = vertex_data[k];
-      data.margin = o.weights.collision_margin;
-      data.collision_weight = std::sqrt(o.weights.collision * o.collision_stiffness);
-      if (k == model.membership_offsets[v]) {
-        data.gravity_weight = o.weights.gravity * mass[v] * o.gravity;
-        data.floor = floor;
-        data.inertia_weight = std::sqrt(o.weights.inertia * mass[v]) / dt;
-      }
-      const int p = model.membership_patch[k];
-      const bool owner = k == model.membership_offsets[v];
-      problem->AddResidualBlock(new SkinnedVertexCost(points[k], &data, owner), nullptr, alpha(p), scale(p),
-                                translation(p), slide(k));
-      const double metric_area = rest.vertex_area[v] / (model.membership_offsets[v + 1] - model.membership_offsets[v]);
-      const double metric_weight = std::sqrt(k_mi * mu * metric_area / 2.0);
-      if (metric_weight > 0.0) {
-        auto* functor = new SkinnedMetricCost(o.jet_order, model.membership_uv(0, k), model.membership_uv(1, k),
-                                              rest_metric[k], model.patches[p].frame.rotation, &skin_linear[v],
-                                              metric_weight, &metric_factor);
-        ceres::CostFunction* cost = DispatchJetCoefficients(o.jet_order, "SkinnedMetricCost", [&](auto c) -> ceres::CostFunction* {
-          return new ceres::AutoDiffCostFunction<SkinnedMetricCost, 3, decltype(c)::value, 1>(functor);
-        });
-        problem->AddResidualBlock(cost, nullptr, alpha(p), scale(p));
-      }
-    }
-  }
-  if (k_mi > 0.0) {
-    for (const PatchEdge& e : patch_edges) {
-      const int p = model.membership_patch[e.mi];
-      const double weight = std::sqrt(2.0 * k_mi * mu * edge_area[e.edge]);
-      problem->AddResidualBlock(new SkinnedEdgeCost(points[e.mi], points[e.mj], rest.edge_length[e.edge], weight),
-                                nullptr, alpha(p), scale(p), translation(p), slide(e.mi), slide(e.mj));
-    }
-  }
-  if (o.weights.boundary > 0.0) {
-    for (size_t i = 0; i < boundary.size(); ++i) {
-      const PatchBoundaryPoint& b = boundary[i];
-      const double w = std::sqrt(2.0 * o.weights.boundary * o.boundary_base * mu * rest.vertex_area[b.vertex]);
-      problem->AddResidualBlock(
-          PatchBoundaryResidual::Create(o.jet_order, b.uv_a, model.patches[b.patch_a].frame.rotation, b.uv_b,
-                                        model.patches[b.patch_b].frame.rotation, w / mean_edge, w,
-                                        boundary_position_gap[i], boundary_normal_gap[i]),
-          nullptr, alpha(b.patch_a), scale(b.patch_a), translation(b.patch_a), alpha(b.patch_b), scale(b.patch_b),
-          translation(b.patch_b));
-    }
-  }
-  // A vertex's points on its patches slide apart unless held together (the
-  // boundary term above compares the jets at the rest parameters).
-  if (o.slide) {
-    for (int v = 0; v < n; ++v) {
-      const int first = model.membership_offsets[v];
-      const double w = std::sqrt(2.0 * k_mi * mu * rest.vertex_area[v]) * o.slide_agreement / mean_edge;
-      for (int k = first + 1; k < model.membership_offsets[v + 1]; ++k) {
-        const int a = model.membership_patch[first], b = model.membership_patch[k];
-        const Eigen::Vector3d gap =
-            points[first].Canonical(points[first].State(alpha(a), nullptr), scale(a), translation(a)) -
-            points[k].Canonical(points[k].State(alpha(b), nullptr), scale(b), translation(b));
-        problem->AddResidualBlock(new SkinnedAgreementCost(points[first], points[k], gap, w), nullptr, alpha(a), scale(a),
-                                  translation(a), slide(first), alpha(b), scale(b), translation(b), slide(k));
-      }
-    }
-  }
-  if (o.parameter_prior > 0.0) {
-    const double w = std::sqrt(o.parameter_prior);
-    for (int p = 0; p < model.num_patches(); ++p) {
-      for (const auto& [block, size] : {std::pair<int, int>{0, num_coefficients}, {kMaxJetCoefficients, 1},
-                                        {kMaxJetCoefficients + 1, 3}}) {
-        problem->AddResidualBlock(new ParameterPrior(size, w, previous_params.data() + p * kStride + block), nullptr,
-                                  params.data() + p * kStride + block);
-      }
-    }
-    if (o.slide) {
-      for (size_t k = 0; k < model.membership_patch.size(); ++k) {
-        problem->AddResidualBlock(new ParameterPrior(2, w, previous_slides.data() + 2 * k), nullptr,
-                                  slide(static_cast<int>(k)));
-      }
-    }
-  }
-}
-
 DrapeSolver::~DrapeSolver() = default;
 
-DrapeStepReport DrapeSolver::Step(const std::vector<Eigen::Isometry3d>& rest_to_posed, double k_ext) {
+DrapeStepSummary DrapeSolver::Step(const std::vector<Eigen::Isometry3d>& rest_to_posed, double k_ext) {
   const auto start = std::chrono::steady_clock::now();
   Impl& m = *impl_;
-  const DrapeSolverOptions& o = m.options;
-  const int n = garment_.num_vertices();
+  const DrapeSolveOptions& o = m.options.solve;
   if (static_cast<int>(rest_to_posed.size()) != m.body.skeleton.num_joints()) {
     throw std::invalid_argument("DrapeSolver::Step: one transform per joint is needed");
   }
-  DrapeStepReport report;
-  body_vertices_ = SkinVertices(m.body, rest_to_posed);
-  m.distance.SetVertices(body_vertices_);
-  m.nearest_stale = true;
-  for (int v = 0; v < n; ++v) m.weights.Blend(v, rest_to_posed, &m.skin_linear[v], &m.skin_translation[v]);
+  DrapeStepSummary summary;
+  m.PoseBodyAndGarment(rest_to_posed, &body_vertices_);
   m.previous_params = m.params;
   m.previous_slides = m.slides;
-
-  const auto evaluate = [&]() { m.Positions(model_, &positions_); };
-  const auto query = [&]() {
-    int inside = 0;
-    ParallelFor(n, o.num_threads, [&](int, int v) { m.contact[v] = m.distance.Query(positions_.col(v)); });
-    for (int v = 0; v < n; ++v) inside += m.contact[v].distance < 0.0 ? 1 : 0;
-    return inside;
-  };
-
-  evaluate();
-  query();
-  // Per-frame data of the vertex terms.
+  m.Positions(model_, &positions_);
+  m.QueryContacts(positions_);
   m.metric_factor = std::sqrt(k_ext);
-  for (int v = 0; v < n; ++v) {
-    const int owner = model_.membership_offsets[v];
-    m.vertex_data[owner].target = 2.0 * m.history1.col(v) - m.history2.col(v);
-  }
+  m.SetMotionTargets(model_);
+
+  ceres::TerminationType last = ceres::CONVERGENCE;
   for (int pass = 0; pass < o.max_passes; ++pass) {
-    // Collisions linearised at the current positions.
-    report.collision_terms = 0;
-    for (int v = 0; v < n; ++v) {
-      const bool near = o.weights.collision > 0.0 && m.contact[v].distance < o.collision_band;
-      for (int k = model_.membership_offsets[v]; k < model_.membership_offsets[v + 1]; ++k) {
-        VertexTermsData& data = m.vertex_data[k];
-        data.collision = near;
-        data.closest = m.contact[v].closest;
-        data.normal = m.contact[v].normal;
-        report.collision_terms += near ? 1 : 0;
-      }
+    summary.collision_terms = m.LinearizeCollisions(model_);
+    ceres::Solver::Summary solve;
+    ceres::Solve(m.SolverOptions(pass, garment_.num_vertices()), m.problem.get(), &solve);
+    if (o.trace >= 1) std::fprintf(stderr, "%s\n", solve.FullReport().c_str());
+    last = solve.termination_type;
+    summary.solve_time_s += solve.total_time_in_seconds;
+    if (!solve.iterations.empty()) {
+      m.trust_region_radius = std::clamp(solve.iterations.back().trust_region_radius, 1e-4, 1e12);
     }
-    ceres::Solver::Options solver;
-    if (n >= o.conjugate_gradients_min_vertices) {
-      // Inexact steps (block-Jacobi preconditioned CG on the normal
-      // equations): half the time of a sparse Cholesky on the 2k-vertex
-      // suit, where forming and factoring J^T J over ~8k parameters
-      // dominates; smaller garments get exact steps.
-      solver.linear_solver_type = ceres::CGNR;
-      solver.eta = o.conjugate_gradients_tolerance;
-      // Fewer (50) left a free-falling sheet at 7% of its drop: CG resolves
-      // the soft, rigid-like modes last.
-      solver.max_linear_solver_iterations = 200;
-    } else {
-      solver.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-      solver.sparse_linear_algebra_library_type = ceres::EIGEN_SPARSE;  // measured faster than CHOLMOD here
-    }
-    solver.max_num_iterations = pass == 0 ? o.max_iterations : o.max_refine_iterations;
-    solver.num_threads = o.num_threads;
-    const char* trace = std::getenv("POLYFIT_DRAPE_TRACE");
-    solver.logging_type = trace != nullptr && std::string(trace) == "2" ? ceres::PER_MINIMIZER_ITERATION : ceres::SILENT;
-    solver.minimizer_progress_to_stdout = solver.logging_type != ceres::SILENT;
-    // Weakly determined directions (slides, the jets of small patches) make
-    // the Gauss-Newton step huge: starting from an undamped step, LM spent
-    // about eight rejected iterations per solve shrinking its region.
-    if (m.trust_region_radius <= 0.0) m.trust_region_radius = o.initial_trust_region_radius;
-    solver.initial_trust_region_radius = m.trust_region_radius;
-    // Do not stop on a small relative change of the cost.
-    solver.function_tolerance = 1e-12;
-    solver.parameter_tolerance = 1e-12;
-    ceres::Solver::Summary summary;
-    ceres::Solve(solver, m.problem.get(), &summary);
-    if (trace != nullptr) std::fprintf(stderr, "%s\n", summary.FullReport().c_str());
-    report.solve_time_s += summary.total_time_in_seconds;
-    if (!summary.iterations.empty()) {
-      m.trust_region_radius = std::clamp(summary.iterations.back().trust_region_radius, 1e-4, 1e12);
-    }
-    report.iterations += static_cast<int>(summary.iterations.size()) - 1;
-    if (pass == 0) report.initial_cost = summary.initial_cost;
-    report.final_cost = summary.final_cost;
-    ++report.passes;
-    evaluate();
-    if (pass + 1 == o.max_passes || query() == 0) break;
+    summary.iterations += static_cast<int>(solve.iterations.size()) - 1;
+    if (pass == 0) summary.initial_cost = solve.initial_cost;
+    summary.final_cost = solve.final_cost;
+    ++summary.passes;
+    m.Positions(model_, &positions_);
+    if (pass + 1 == o.max_passes || m.QueryContacts(positions_) == 0) break;
   }
-  report.finite = positions_.allFinite();
-  if (!report.finite) {
+  summary.termination_type = FromCeres(last);
+  if (!positions_.allFinite()) {
     // Keep the last good state rather than propagate NaN.
     m.params = m.previous_params;
     m.slides = m.previous_slides;
     m.trust_region_radius = o.initial_trust_region_radius;
-    evaluate();
+    m.Positions(model_, &positions_);
+    summary.termination_type = TerminationType::kFailure;
+    summary.message = "non-finite garment positions; the previous frame's state is kept";
   }
   m.history2 = m.history1;
   m.history1 = positions_;
-  report.time_s = Seconds(start);
-  return report;
+  summary.time_s = Seconds(start);
+  return summary;
 }
 
 Eigen::VectorXd DrapeSolver::SignedDistances(const Eigen::Matrix3Xd& points) const {

@@ -11,19 +11,19 @@
 // physical energies) is
 //   k_c    sum_v kappa / 2 max(eps - d_v, 0)^2          collision (eq. 3), d along the body's normal
 //   k_mi   sum_e sigma mu A_e ((l_e - L_e) / L_e)^2     edge inextensibility (eq. 1)
-//   k_mi k_ext(t) sum_(v,p) sigma mu A / 4 |g - g0|_F^2 metric tensor (eq. 4, at the rest (u, v))
+//   k_mi k_ext sum_(v,p) sigma mu A / 4 |g - g0|_F^2    metric tensor (eq. 4, at the rest (u, v))
 //   k_b    sum_boundary beta mu A (|X_a - X_b|^2 / h^2 + |n_a - n_b|^2)   patch boundary (eq. 5)
 //   k_mi   sum_(v, p != p0) sigma mu A_v |X_p - X_p0 - g|^2 / h^2   a vertex's slid points on its
 //                                                        patches kept together (g: their rest gap)
-//   k_g    sum_v m_v g (x_v . up - floor)               gravity (eq. 7)
+//   k_g    sum_v m_v g (x_v . up)                       gravity (eq. 7), folded into inertia
 //   k_i    sum_v m_v / (2 dt^2) |x_v - (2 x_v^{t-1} - x_v^{t-2})|^2   inertia (eq. 8)
 // plus a small prior pulling the parameters to the previous frame's. mu is
 // the material's Lame mu, A vertex or edge areas, m_v = density A_v, h the
-// mean edge length, kappa a stiffness in N/m, beta the boundary term's
-// base (1e-3: with beta = 1 the paper's k_b = 5e3 glues the patches into
-// their rest shape and the drape is plain skinning). Collisions are linearised at
-// the start of each pass (closest body point and pseudonormal) and passes
-// repeat while a vertex is inside the body.
+// mean edge length, kappa a stiffness in N/m, sigma and beta the stretch and
+// boundary bases (DrapePhysicsOptions). Collisions are linearised at the
+// start of each pass (closest body point and pseudonormal) and passes
+// repeat while a vertex is inside the body. The terms are the costs of
+// drape/losses/skinned_patch_costs.h and cost_functions/.
 #ifndef POLYFIT_DRAPE_SIMULATE_DRAPE_SOLVER_H_
 #define POLYFIT_DRAPE_SIMULATE_DRAPE_SOLVER_H_
 
@@ -31,6 +31,7 @@
 #include <string>
 #include <vector>
 
+#include <ceres/solver.h>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
@@ -38,62 +39,102 @@
 #include "drape/eval/cloth_energy.h"
 #include "drape/garment/skin_transfer.h"
 #include "drape/losses/draping_weights.h"
-#include "polyfit/model/polyfit_model.h"
 #include "polyfit/mesh/triangle_mesh.h"
+#include "polyfit/model/polyfit_model.h"
+#include "polyfit/util/status.h"
 
 namespace polyfit {
 
-struct DrapeSolverOptions {
+// What the cloth is and what acts on it.
+struct DrapePhysicsOptions {
   DrapingWeights weights;
   KextSchedule k_ext;
   ClothMaterial material;
   // kappa: collision stiffness per vertex, N/m.
   double collision_stiffness = 1e6;
-  // beta: the boundary term's base, a fraction of mu.
+  // beta: the boundary term's base, a fraction of mu (with 1 the paper's
+  // k_b = 5e3 glues every patch to its rest shape; docs/drape.md).
   double boundary_base = 1e-3;
-  // sigma: the inextensibility terms' base, a multiple of mu (measured on
-  // the walk: 1 leaves 9.1% edge strain and 3.1% of the garment inside, 5
-  // gives 7.3% and 2.4%, 15 gives 7.0% and 3.4%).
+  // sigma: the inextensibility terms' base, a multiple of mu (measured in
+  // docs/drape.md).
   double stretch_base = 5.0;
   // Collision terms for vertices closer to the body than this (m).
   double collision_band = 0.03;
-  // Let each vertex slide along its patch (its (u, v) a parameter too);
-  // false keeps the rest (u, v). A vertex's points on several patches are
-  // held together by a term slide_agreement times as stiff as stretch over
-  // the mean edge length.
-  bool slide = true;
-  double slide_agreement = 1.0;
-  // Weight of the prior on parameter changes, J per unit squared.
-  double parameter_prior = 1e-4;
-  double gravity = 9.81;
+  double gravity = 9.81;  // m/s^2
   double fps = 30.0;
+};
+
+// How the garment becomes patches (polyfit/pipeline/adaptive_patches.h).
+struct GarmentPatchOptions {
   int jet_order = 4;
-  // Patches: #garment vertices / vertices_per_patch (at least 1).
+  // Initial patches: #garment vertices / vertices_per_patch (at least 1).
   int vertices_per_patch = 60;
-  // Patches whose jet misses a vertex by more than this (m) are split in
-  // two and refitted, up to max_patch_splits rounds.
+  // Patches whose jet misses a vertex by more (m) are split, up to
+  // max_splits rounds.
   double max_fit_error = 8e-3;
-  int max_patch_splits = 4;
-  // Ceres Levenberg-Marquardt iterations in the first pass and in each
-  // further pass (collisions re-linearised while a vertex is inside), and
-  // passes per frame.
+  int max_splits = 4;
+};
+
+// Each vertex's slide along its patch ((u, v) a parameter too); disabled,
+// vertices keep their rest (u, v). A vertex's points on several patches are
+// held together by a term `agreement` times as stiff as stretch over the
+// mean edge length.
+struct DrapeSlideOptions {
+  bool enabled = true;
+  double agreement = 1.0;
+};
+
+enum class DrapeLinearSolver {
+  kAuto,               // CG from conjugate_gradients_min_vertices, else Cholesky
+  kSparseCholesky,     // exact steps
+  kConjugateGradients  // inexact steps (CGNR, block Jacobi)
+};
+
+// The per-frame minimisation.
+struct DrapeSolveOptions {
+  DrapeSolveOptions();
+
+  // Levenberg-Marquardt iterations in the first pass and in each further
+  // pass (collisions re-linearised while a vertex is inside), and passes.
   int max_iterations = 4;
   int max_refine_iterations = 2;
   int max_passes = 2;
-  // Levenberg-Marquardt's first trust region, and the linear solver: CG on
-  // the normal equations (inexact, faster on large garments; each step's
-  // system solved to this relative residual, Ceres' eta) for garments of at
-  // least conjugate_gradients_min_vertices vertices, else sparse Cholesky.
+  // Weight of the prior on parameter changes, J per unit squared.
+  double parameter_prior = 1e-4;
+  // The first solve's trust region; later solves carry the last one over.
   double initial_trust_region_radius = 100.0;
+  DrapeLinearSolver linear_solver = DrapeLinearSolver::kAuto;
   int conjugate_gradients_min_vertices = 1500;
+  // CG's relative residual per step (Ceres' eta) and its iteration cap
+  // (docs/drape.md: 50 left a free-falling sheet at 7% of its drop).
   double conjugate_gradients_tolerance = 0.3;
+  int max_conjugate_gradients_iterations = 200;
+  // 0: silent; 1: Ceres' full report per solve on stderr; 2: also per
+  // iteration.
+  int trace = 0;
+  // Everything else about Ceres (tolerances, ...). Per solve the fields
+  // above override max_num_iterations, initial_trust_region_radius, the
+  // linear solver, logging and num_threads.
+  ceres::Solver::Options ceres;
+};
+
+struct DrapeSolverOptions {
+  DrapePhysicsOptions physics;
+  GarmentPatchOptions patching;
+  DrapeSlideOptions slide;
+  DrapeSolveOptions solve;
   int num_threads = 2;
 
   // Empty when valid, else the first problem.
   std::string Validate() const;
 };
 
-struct DrapeStepReport {
+struct DrapeStepSummary {
+  // kConvergence: Ceres converged; kNoConvergence: the iteration budget
+  // ran out (the normal case at a fixed cost per frame); kFailure: the
+  // result was not finite and the previous frame's state is kept.
+  TerminationType termination_type = TerminationType::kConvergence;
+  std::string message;
   double time_s = 0.0;        // the whole step: posing, queries, solves
   double solve_time_s = 0.0;  // Ceres alone
   int passes = 0;
@@ -101,7 +142,9 @@ struct DrapeStepReport {
   int collision_terms = 0;
   double initial_cost = 0.0;
   double final_cost = 0.0;
-  bool finite = true;
+
+  bool IsSolutionUsable() const { return termination_type != TerminationType::kFailure; }
+  std::string BriefReport() const;
 };
 
 class DrapeSolver {
@@ -114,7 +157,7 @@ class DrapeSolver {
 
   // Advances one frame with the body posed by `rest_to_posed` (one
   // transform per joint); k_ext multiplies the metric term (the schedule).
-  DrapeStepReport Step(const std::vector<Eigen::Isometry3d>& rest_to_posed, double k_ext = 1.0);
+  DrapeStepSummary Step(const std::vector<Eigen::Isometry3d>& rest_to_posed, double k_ext = 1.0);
 
   // The garment now (3 by #V): each vertex the mean of its patches' points.
   const Eigen::Matrix3Xd& positions() const { return positions_; }

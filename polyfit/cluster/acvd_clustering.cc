@@ -11,7 +11,10 @@
 
 #include <Eigen/Geometry>
 
+#include "polyfit/cluster/kmeans.h"
 #include "polyfit/eval/kd_tree.h"
+#include "polyfit/mesh/face_centroids.h"
+#include "polyfit/mesh/per_face_normals.h"
 #include "polyfit/mesh/mesh_topology.h"
 
 namespace polyfit {
@@ -166,26 +169,253 @@ bool CanLeave(int f, int cell, const TriangleMesh& mesh, const AdjacencyList& fa
 }
 
 // Lloyd iterations on face centroids: the fallback for triangle soups.
-void KMeansCells(const std::vector<int>& faces, const std::vector<int>& seeds,
-                 const Eigen::Matrix3Xd& centroids, const Eigen::VectorXd& areas,
-                 std::vector<int>* labels, int first_label) {
+void KMeansCells(const std::vector<int>& faces, const std::vector<int>& seeds, const Eigen::Matrix3Xd& centroids,
+                 const Eigen::VectorXd& areas, std::vector<int>* labels) {
+  Eigen::Matrix3Xd points(3, faces.size());
+  Eigen::VectorXd weights(faces.size());
+  for (size_t i = 0; i < faces.size(); ++i) {
+    points.col(i) = centroids.col(faces[i]);
+    weights[i] = areas[faces[i]];
+  }
   Eigen::Matrix3Xd centres(3, seeds.size());
   for (size_t k = 0; k < seeds.size(); ++k) centres.col(k) = centroids.col(seeds[k]);
-  for (int iteration = 0; iteration < 10; ++iteration) {
-    KdTree3 tree(centres);
-    Eigen::Matrix3Xd sums = Eigen::Matrix3Xd::Zero(3, centres.cols());
-    Eigen::VectorXd mass = Eigen::VectorXd::Zero(centres.cols());
-    for (int f : faces) {
-      double d2;
-      const int k = tree.Nearest(centroids.col(f), &d2);
-      (*labels)[f] = first_label + k;
-      sums.col(k) += areas[f] * centroids.col(f);
-      mass[k] += areas[f];
-    }
-    for (Eigen::Index k = 0; k < centres.cols(); ++k) {
-      if (mass[k] > 0.0) centres.col(k) = sums.col(k) / mass[k];
+  std::vector<int> local;
+  LloydKMeans<3>(points, weights, &centres, &local, 10);
+  for (size_t i = 0; i < faces.size(); ++i) (*labels)[faces[i]] = local[i];
+}
+
+}  // namespace
+
+namespace {
+
+// What every phase reads: the faces' masses, centroids and adjacency.
+struct FaceGraph {
+  const TriangleMesh& mesh;
+  Eigen::VectorXd raw_areas;  // #F
+  Eigen::VectorXd areas;      // #F, zero areas raised to a tiny positive mass
+  double total_area = 0.0;
+  Eigen::Matrix3Xd centroids;  // 3 by #F, relative to their mean
+  AdjacencyList face_faces, vertex_faces;
+  std::vector<int> component;  // #F
+  std::vector<double> component_area;
+  std::vector<std::vector<int>> component_faces;
+
+  int num_faces() const { return mesh.num_faces(); }
+};
+
+FaceGraph BuildFaceGraph(const TriangleMesh& mesh) {
+  FaceGraph g{mesh};
+  const int num_faces = mesh.num_faces();
+  g.raw_areas = FaceAreas(mesh);
+  g.total_area = g.raw_areas.sum();
+  // Zero-area faces still need a positive mass for the cell ratios.
+  g.areas = g.raw_areas.array().max(1e-12 * g.total_area / num_faces + 1e-300);
+  // Centroids relative to the mesh's mean keep the moment sums well scaled.
+  g.centroids = FaceCentroids(mesh);
+  const Eigen::Vector3d mean = g.centroids.rowwise().mean();
+  g.centroids.colwise() -= mean;
+  g.face_faces = FaceFaceAdjacency(mesh);
+  g.vertex_faces = VertexFaceAdjacency(mesh);
+  const int num_components = ConnectedComponents(g.face_faces, &g.component);
+  g.component_area.assign(num_components, 0.0);
+  g.component_faces.resize(num_components);
+  for (int f = 0; f < num_faces; ++f) {
+    g.component_area[g.component[f]] += g.raw_areas[f];
+    g.component_faces[g.component[f]].push_back(f);
+  }
+  return g;
+}
+
+// Components large enough for patches of their own.
+std::vector<int> KeptComponents(const FaceGraph& g, double debris_area, double* kept_area) {
+  std::vector<int> kept;
+  *kept_area = 0.0;
+  for (int c = 0; c < static_cast<int>(g.component_area.size()); ++c) {
+    if (g.component_area[c] >= debris_area && g.component_area[c] > 0.0) {
+      kept.push_back(c);
+      *kept_area += g.component_area[c];
     }
   }
+  return kept;
+}
+
+// Seeds apportioned to the kept components by area, then region growing
+// from every seed at once (Dijkstra over face centroids). Faces of other
+// components stay -1. Returns the number of cells.
+int GrowCells(const FaceGraph& g, const std::vector<int>& kept, int requested, std::mt19937_64& rng,
+              std::vector<int>* labels) {
+  std::vector<double> weights;
+  for (int c : kept) weights.push_back(g.component_area[c]);
+  const std::vector<int> per_component = Apportion(requested, weights);
+  using Entry = std::pair<double, std::pair<int, int>>;  // distance, (face, cell)
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> queue;
+  std::vector<double> distance(g.num_faces(), std::numeric_limits<double>::infinity());
+  int num_cells = 0;
+  for (size_t k = 0; k < kept.size(); ++k) {
+    const std::vector<int>& faces = g.component_faces[kept[k]];
+    const int wanted = std::min<int>(per_component[k], static_cast<int>(faces.size()));
+    for (int seed : FarthestPointSeeds(faces, wanted, g.centroids, g.areas, rng)) {
+      distance[seed] = 0.0;
+      queue.push({0.0, {seed, num_cells++}});
+    }
+  }
+  while (!queue.empty()) {
+    const auto [d, fc] = queue.top();
+    queue.pop();
+    const auto [f, cell] = fc;
+    if ((*labels)[f] >= 0) continue;
+    (*labels)[f] = cell;
+    for (const int* h = g.face_faces.begin(f); h != g.face_faces.end(f); ++h) {
+      if ((*labels)[*h] >= 0) continue;
+      const double dh = d + (g.centroids.col(*h) - g.centroids.col(f)).norm();
+      if (dh < distance[*h]) {
+        distance[*h] = dh;
+        queue.push({dh, {*h, cell}});
+      }
+    }
+  }
+  return num_cells;
+}
+
+// Greedy boundary moves lowering the energy, in the space of positions and
+// (weighted) normals: the weight is relative to the mean patch's size, so
+// that the normal term means the same at every scale. Fills the summary's
+// energies, iterations and moves.
+void RefineCellBoundaries(const FaceGraph& g, const ClusteringOptions& options, int requested, int num_cells,
+                          std::vector<int>* labels_out, ClusteringSummary* local) {
+  std::vector<int>& labels = *labels_out;
+  const int num_faces = g.num_faces();
+  const double normal_scale = options.normal_weight * std::sqrt(g.total_area / requested);
+  Eigen::Matrix<double, 9, Eigen::Dynamic> features(9, num_faces);
+  const Eigen::Matrix3Xd normals = PerFaceNormals(g.mesh);
+  const double r2 = std::sqrt(2.0);
+  for (int f = 0; f < num_faces; ++f) {
+    const Eigen::Vector3d n = normals.col(f);
+    features.col(f) << g.centroids.col(f), normal_scale * n.x() * n.x(), normal_scale * n.y() * n.y(),
+        normal_scale * n.z() * n.z(), normal_scale * r2 * n.x() * n.y(), normal_scale * r2 * n.x() * n.z(),
+        normal_scale * r2 * n.y() * n.z();
+  }
+  std::vector<Cell> cells(num_cells);
+  for (int f = 0; f < num_faces; ++f) {
+    if (labels[f] < 0) continue;
+    Cell& c = cells[labels[f]];
+    c.mass += g.areas[f];
+    c.moment += g.areas[f] * features.col(f);
+    ++c.count;
+  }
+  local->initial_energy = TotalEnergy(cells);
+  const double tolerance = 1e-13 * std::abs(local->initial_energy) / num_faces;
+  // Only faces on a cell boundary can move: keep a list of them, updated
+  // around each move, so a pass costs the boundary's size, not the mesh's.
+  const auto on_boundary = [&](int f) {
+    const int a = labels[f];
+    if (a < 0) return false;
+    for (const int* h = g.face_faces.begin(f); h != g.face_faces.end(f); ++h) {
+      if (labels[*h] != a && labels[*h] >= 0) return true;
+    }
+    return false;
+  };
+  std::vector<int> boundary, touched;
+  std::vector<int> stamp(num_faces, -1);
+  for (int f = 0; f < num_faces; ++f) {
+    if (on_boundary(f)) boundary.push_back(f);
+  }
+  for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
+    long long moves = 0;
+    touched.clear();
+    for (const int f : boundary) {
+      const int a = labels[f];
+      if (a < 0 || cells[a].count <= 1) continue;
+      const double rho = g.areas[f];
+      const Feature s = rho * features.col(f);
+      const double leave_a = -(cells[a].moment - s).squaredNorm() / (cells[a].mass - rho) - cells[a].Energy();
+      double best = -tolerance;
+      int best_cell = -1;
+      for (const int* h = g.face_faces.begin(f); h != g.face_faces.end(f); ++h) {
+        const int b = labels[*h];
+        if (b == a || b < 0 || b == best_cell) continue;
+        const double delta = leave_a - (cells[b].moment + s).squaredNorm() / (cells[b].mass + rho) - cells[b].Energy();
+        if (delta < best) {
+          best = delta;
+          best_cell = b;
+        }
+      }
+      if (best_cell < 0 || !CanLeave(f, a, g.mesh, g.face_faces, g.vertex_faces, labels)) continue;
+      cells[a].mass -= rho;
+      cells[a].moment -= s;
+      --cells[a].count;
+      cells[best_cell].mass += rho;
+      cells[best_cell].moment += s;
+      ++cells[best_cell].count;
+      labels[f] = best_cell;
+      ++moves;
+      for (const int* h = g.face_faces.begin(f); h != g.face_faces.end(f); ++h) touched.push_back(*h);
+    }
+    local->iterations = iteration + 1;
+    local->num_moves += moves;
+    if (moves == 0) break;
+    // The next boundary: this one and the neighbours of moved faces.
+    std::vector<int> next;
+    next.reserve(boundary.size() + touched.size());
+    for (const std::vector<int>* list : {&boundary, &touched}) {
+      for (const int f : *list) {
+        if (stamp[f] == iteration || !on_boundary(f)) continue;
+        stamp[f] = iteration;
+        next.push_back(f);
+      }
+    }
+    boundary.swap(next);
+  }
+  local->final_energy = TotalEnergy(cells);
+}
+
+// Faces still unlabelled (debris) join the cell of the nearest labelled
+// face. Returns how many joined.
+int AssignDebris(const FaceGraph& g, std::vector<int>* labels) {
+  std::vector<int> kept_faces;
+  for (int f = 0; f < g.num_faces(); ++f) {
+    if ((*labels)[f] >= 0) kept_faces.push_back(f);
+  }
+  if (static_cast<int>(kept_faces.size()) == g.num_faces()) return 0;
+  Eigen::Matrix3Xd kept_centroids(3, kept_faces.size());
+  for (size_t i = 0; i < kept_faces.size(); ++i) kept_centroids.col(i) = g.centroids.col(kept_faces[i]);
+  const KdTree3 tree(kept_centroids);
+  int joined = 0;
+  for (int f = 0; f < g.num_faces(); ++f) {
+    if ((*labels)[f] >= 0) continue;
+    double d2;
+    (*labels)[f] = (*labels)[kept_faces[tree.Nearest(g.centroids.col(f), &d2)]];
+    ++joined;
+  }
+  return joined;
+}
+
+// Renumbers labels 0.. in order of first appearance (k-means can leave a
+// centre with no face); returns the number of patches.
+int CompactLabels(int num_cells, std::vector<int>* labels) {
+  std::vector<int> compact(num_cells, -1);
+  int num_patches = 0;
+  for (int& label : *labels) {
+    if (compact[label] < 0) compact[label] = num_patches++;
+    label = compact[label];
+  }
+  return num_patches;
+}
+
+void SummarizePatchAreas(const FaceGraph& g, const std::vector<int>& labels, int num_patches,
+                         ClusteringSummary* local) {
+  std::vector<double> patch_area(num_patches, 0.0);
+  for (int f = 0; f < g.num_faces(); ++f) patch_area[labels[f]] += g.raw_areas[f];
+  const double mean_area = g.total_area / num_patches;
+  double min_area = std::numeric_limits<double>::infinity(), max_area = 0.0, var = 0.0;
+  for (double a : patch_area) {
+    min_area = std::min(min_area, a);
+    max_area = std::max(max_area, a);
+    var += (a - mean_area) * (a - mean_area);
+  }
+  local->min_relative_area = min_area / mean_area;
+  local->max_relative_area = max_area / mean_area;
+  local->relative_area_stddev = std::sqrt(var / num_patches) / mean_area;
 }
 
 }  // namespace
@@ -199,42 +429,13 @@ std::vector<int> ClusterMeshFaces(const ClusteringOptions& options, const Triang
   if (const std::string problem = mesh.Validate(); !problem.empty()) {
     throw std::invalid_argument("ClusterMeshFaces: " + problem);
   }
+  const FaceGraph graph = BuildFaceGraph(mesh);
   const int num_faces = mesh.num_faces();
-  const Eigen::VectorXd raw_areas = FaceAreas(mesh);
-  const double total_area = raw_areas.sum();
-  // Zero-area faces still need a positive mass for the cell ratios.
-  const Eigen::VectorXd areas = raw_areas.array().max(1e-12 * total_area / num_faces + 1e-300);
-  // Centroids relative to the mesh's mean keep the moment sums well scaled.
-  Eigen::Matrix3Xd centroids(3, num_faces);
-  for (int f = 0; f < num_faces; ++f) {
-    centroids.col(f) = (mesh.vertices.col(mesh.faces(0, f)) + mesh.vertices.col(mesh.faces(1, f)) +
-                        mesh.vertices.col(mesh.faces(2, f))) / 3.0;
-  }
-  const Eigen::Vector3d mean = centroids.rowwise().mean();
-  centroids.colwise() -= mean;
-
-  const AdjacencyList face_faces = FaceFaceAdjacency(mesh);
-  const AdjacencyList vertex_faces = VertexFaceAdjacency(mesh);
-  std::vector<int> component;
-  const int num_components = ConnectedComponents(face_faces, &component);
-  std::vector<double> component_area(num_components, 0.0);
-  std::vector<std::vector<int>> component_faces(num_components);
-  for (int f = 0; f < num_faces; ++f) {
-    component_area[component[f]] += raw_areas[f];
-    component_faces[component[f]].push_back(f);
-  }
-
-  const int requested = std::min(options.ResolveNumPatches(total_area), num_faces);
-  const double debris_area = options.debris_fraction * total_area / requested;
-  std::vector<int> kept;  // components that get patches
+  const int requested = std::min(options.ResolveNumPatches(graph.total_area), num_faces);
   double kept_area = 0.0;
-  for (int c = 0; c < num_components; ++c) {
-    if (component_area[c] >= debris_area && component_area[c] > 0.0) {
-      kept.push_back(c);
-      kept_area += component_area[c];
-    }
-  }
-  const bool soup = kept.empty() || kept_area < 0.5 * total_area;
+  const std::vector<int> kept =
+      KeptComponents(graph, options.debris_fraction * graph.total_area / requested, &kept_area);
+  const bool soup = kept.empty() || kept_area < 0.5 * graph.total_area;
 
   std::mt19937_64 rng(options.seed);
   std::vector<int> labels(num_faces, -1);
@@ -243,171 +444,20 @@ std::vector<int> ClusterMeshFaces(const ClusteringOptions& options, const Triang
   if (soup) {
     std::vector<int> all(num_faces);
     std::iota(all.begin(), all.end(), 0);
-    const std::vector<int> seeds = FarthestPointSeeds(all, requested, centroids, areas, rng);
-    KMeansCells(all, seeds, centroids, areas, &labels, 0);
+    const std::vector<int> seeds = FarthestPointSeeds(all, requested, graph.centroids, graph.areas, rng);
+    KMeansCells(all, seeds, graph.centroids, graph.areas, &labels);
     num_cells = static_cast<int>(seeds.size());
   } else {
-    std::vector<double> weights;
-    for (int c : kept) weights.push_back(component_area[c]);
-    const std::vector<int> per_component = Apportion(requested, weights);
-    // Region growing from every seed at once (Dijkstra over face centroids).
-    using Entry = std::pair<double, std::pair<int, int>>;  // distance, (face, cell)
-    std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> queue;
-    std::vector<double> distance(num_faces, std::numeric_limits<double>::infinity());
-    for (size_t k = 0; k < kept.size(); ++k) {
-      const int wanted = std::min<int>(per_component[k], static_cast<int>(component_faces[kept[k]].size()));
-      for (int seed : FarthestPointSeeds(component_faces[kept[k]], wanted, centroids, areas, rng)) {
-        distance[seed] = 0.0;
-        queue.push({0.0, {seed, num_cells++}});
-      }
-    }
-    while (!queue.empty()) {
-      const auto [d, fc] = queue.top();
-      queue.pop();
-      const auto [f, cell] = fc;
-      if (labels[f] >= 0) continue;
-      labels[f] = cell;
-      for (const int* g = face_faces.begin(f); g != face_faces.end(f); ++g) {
-        if (labels[*g] >= 0) continue;
-        const double dg = d + (centroids.col(*g) - centroids.col(f)).norm();
-        if (dg < distance[*g]) {
-          distance[*g] = dg;
-          queue.push({dg, {*g, cell}});
-        }
-      }
-    }
-
-    // Greedy boundary moves, in the space of positions and (weighted)
-    // normals: the weight is relative to the mean patch's size, so that the
-    // normal term means the same at every scale.
-    const double normal_scale = options.normal_weight * std::sqrt(total_area / requested);
-    Eigen::Matrix<double, 9, Eigen::Dynamic> features(9, num_faces);
-    for (int f = 0; f < num_faces; ++f) {
-      const Eigen::Vector3d a = mesh.vertices.col(mesh.faces(0, f));
-      Eigen::Vector3d n = (mesh.vertices.col(mesh.faces(1, f)) - a).cross(mesh.vertices.col(mesh.faces(2, f)) - a);
-      const double norm = n.norm();
-      n = norm > 0.0 ? Eigen::Vector3d(n / norm) : Eigen::Vector3d::Zero();
-      const double r2 = std::sqrt(2.0);
-      features.col(f) << centroids.col(f), normal_scale * n.x() * n.x(), normal_scale * n.y() * n.y(),
-          normal_scale * n.z() * n.z(), normal_scale * r2 * n.x() * n.y(), normal_scale * r2 * n.x() * n.z(),
-          normal_scale * r2 * n.y() * n.z();
-    }
-    std::vector<Cell> cells(num_cells);
-    for (int f = 0; f < num_faces; ++f) {
-      if (labels[f] < 0) continue;
-      Cell& c = cells[labels[f]];
-      c.mass += areas[f];
-      c.moment += areas[f] * features.col(f);
-      ++c.count;
-    }
-    local.initial_energy = TotalEnergy(cells);
-    const double tolerance = 1e-13 * std::abs(local.initial_energy) / num_faces;
-    // Only faces on a cell boundary can move: keep a list of them, updated
-    // around each move, so a pass costs the boundary's size, not the mesh's.
-    auto on_boundary = [&](int f) {
-      const int a = labels[f];
-      if (a < 0) return false;
-      for (const int* g = face_faces.begin(f); g != face_faces.end(f); ++g) {
-        if (labels[*g] != a && labels[*g] >= 0) return true;
-      }
-      return false;
-    };
-    std::vector<int> boundary, touched;
-    std::vector<int> stamp(num_faces, -1);
-    for (int f = 0; f < num_faces; ++f) {
-      if (on_boundary(f)) boundary.push_back(f);
-    }
-    for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
-      long long moves = 0;
-      touched.clear();
-      for (const int f : boundary) {
-        const int a = labels[f];
-        if (a < 0 || cells[a].count <= 1) continue;
-        const double rho = areas[f];
-        const Feature s = rho * features.col(f);
-        const double leave_a = -(cells[a].moment - s).squaredNorm() / (cells[a].mass - rho) - cells[a].Energy();
-        double best = -tolerance;
-        int best_cell = -1;
-        for (const int* g = face_faces.begin(f); g != face_faces.end(f); ++g) {
-          const int b = labels[*g];
-          if (b == a || b < 0 || b == best_cell) continue;
-          const double delta =
-              leave_a - (cells[b].moment + s).squaredNorm() / (cells[b].mass + rho) - cells[b].Energy();
-          if (delta < best) {
-            best = delta;
-            best_cell = b;
-          }
-        }
-        if (best_cell < 0 || !CanLeave(f, a, mesh, face_faces, vertex_faces, labels)) continue;
-        cells[a].mass -= rho;
-        cells[a].moment -= s;
-        --cells[a].count;
-        cells[best_cell].mass += rho;
-        cells[best_cell].moment += s;
-        ++cells[best_cell].count;
-        labels[f] = best_cell;
-        ++moves;
-        for (const int* g = face_faces.begin(f); g != face_faces.end(f); ++g) touched.push_back(*g);
-      }
-      local.iterations = iteration + 1;
-      local.num_moves += moves;
-      if (moves == 0) break;
-      // The next boundary: this one and the neighbours of moved faces.
-      std::vector<int> next;
-      next.reserve(boundary.size() + touched.size());
-      for (const std::vector<int>* list : {&boundary, &touched}) {
-        for (const int f : *list) {
-          if (stamp[f] == iteration || !on_boundary(f)) continue;
-          stamp[f] = iteration;
-          next.push_back(f);
-        }
-      }
-      boundary.swap(next);
-    }
-    local.final_energy = TotalEnergy(cells);
-
-    // Debris joins the patch of the nearest kept face.
-    std::vector<int> kept_faces;
-    for (int f = 0; f < num_faces; ++f) {
-      if (labels[f] >= 0) kept_faces.push_back(f);
-    }
-    if (static_cast<int>(kept_faces.size()) < num_faces) {
-      Eigen::Matrix3Xd kept_centroids(3, kept_faces.size());
-      for (size_t i = 0; i < kept_faces.size(); ++i) kept_centroids.col(i) = centroids.col(kept_faces[i]);
-      const KdTree3 tree(kept_centroids);
-      for (int f = 0; f < num_faces; ++f) {
-        if (labels[f] >= 0) continue;
-        double d2;
-        labels[f] = labels[kept_faces[tree.Nearest(centroids.col(f), &d2)]];
-        ++local.num_debris_faces;
-      }
-    }
+    num_cells = GrowCells(graph, kept, requested, rng, &labels);
+    RefineCellBoundaries(graph, options, requested, num_cells, &labels, &local);
+    local.num_debris_faces = AssignDebris(graph, &labels);
   }
-
-  // Compact labels (k-means can leave a centre with no face).
-  std::vector<int> compact(num_cells, -1);
-  int num_patches = 0;
-  for (int f = 0; f < num_faces; ++f) {
-    if (compact[labels[f]] < 0) compact[labels[f]] = num_patches++;
-    labels[f] = compact[labels[f]];
-  }
-
-  std::vector<double> patch_area(num_patches, 0.0);
-  for (int f = 0; f < num_faces; ++f) patch_area[labels[f]] += raw_areas[f];
-  const double mean_area = total_area / num_patches;
-  double min_area = std::numeric_limits<double>::infinity(), max_area = 0.0, var = 0.0;
-  for (double a : patch_area) {
-    min_area = std::min(min_area, a);
-    max_area = std::max(max_area, a);
-    var += (a - mean_area) * (a - mean_area);
-  }
+  const int num_patches = CompactLabels(num_cells, &labels);
+  SummarizePatchAreas(graph, labels, num_patches, &local);
   local.requested_patches = requested;
   local.num_patches = num_patches;
-  local.num_components = num_components;
+  local.num_components = static_cast<int>(graph.component_area.size());
   local.soup_fallback = soup;
-  local.min_relative_area = min_area / mean_area;
-  local.max_relative_area = max_area / mean_area;
-  local.relative_area_stddev = std::sqrt(var / num_patches) / mean_area;
   local.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
   if (summary != nullptr) *summary = local;
   return labels;

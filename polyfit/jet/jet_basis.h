@@ -48,6 +48,26 @@ inline void JetMonomials(int order, const T& u, const T& v, T* monomials) {
   }
 }
 
+// The monomials m_k = u^a v^b and their partial derivatives
+// m_k,u = a u^(a-1) v^b and m_k,v = b u^a v^(b-1), each NumJetCoefficients
+// values in coefficient order: z = alpha . m, z_u = alpha . m_u,
+// z_v = alpha . m_v, and d(z, z_u, z_v)/d alpha = (m, m_u, m_v).
+template <typename T>
+inline void JetMonomialGradients(int order, const T& u, const T& v, T* monomials, T* monomials_u, T* monomials_v) {
+  T u_pow[kMaxJetOrder + 1];
+  T v_pow[kMaxJetOrder + 1];
+  JetPowers(order, u, v, u_pow, v_pow);
+  int k = 0;
+  for (int d = 0; d <= order; ++d) {
+    for (int b = 0; b <= d; ++b, ++k) {
+      const int a = d - b;
+      monomials[k] = u_pow[a] * v_pow[b];
+      monomials_u[k] = a >= 1 ? T(double(a)) * u_pow[a - 1] * v_pow[b] : T(0.0);
+      monomials_v[k] = b >= 1 ? T(double(b)) * u_pow[a] * v_pow[b - 1] : T(0.0);
+    }
+  }
+}
+
 }  // namespace polyfit
 
 #endif  // POLYFIT_JET_JET_BASIS_H_

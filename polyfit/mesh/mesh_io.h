@@ -10,13 +10,14 @@
 #include <Eigen/Core>
 
 #include "polyfit/mesh/triangle_mesh.h"
+#include "polyfit/util/status.h"
 
 namespace polyfit {
 
 // Every reading or writing failure: what() names the file and the reason.
-class MeshIoError : public std::runtime_error {
+class MeshIoError : public Error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit MeshIoError(const std::string& message, ErrorKind kind = ErrorKind::kInput) : Error(kind, message) {}
 };
 
 struct MeshReadSummary {

@@ -61,8 +61,9 @@ class Reader {
 std::vector<PatchBoundaryPoint> PolyFitModel::BoundaryPoints() const {
   std::vector<PatchBoundaryPoint> points;
   for (int v = 0; v < num_vertices(); ++v) {
-    for (int i = membership_offsets[v]; i < membership_offsets[v + 1]; ++i) {
-      for (int j = i + 1; j < membership_offsets[v + 1]; ++j) {
+    const IndexRange range = memberships(v);
+    for (int i : range) {
+      for (int j = i + 1; j < range.front() + range.size(); ++j) {
         PatchBoundaryPoint p;
         p.vertex = v;
         int a = i, b = j;
@@ -81,8 +82,8 @@ std::vector<PatchBoundaryPoint> PolyFitModel::BoundaryPoints() const {
 std::vector<std::vector<int>> PolyFitModel::PatchAdjacency() const {
   std::vector<std::vector<int>> adjacency(patches.size());
   for (int v = 0; v < num_vertices(); ++v) {
-    for (int i = membership_offsets[v]; i < membership_offsets[v + 1]; ++i) {
-      for (int j = membership_offsets[v]; j < membership_offsets[v + 1]; ++j) {
+    for (int i : memberships(v)) {
+      for (int j : memberships(v)) {
         if (i != j) adjacency[membership_patch[i]].push_back(membership_patch[j]);
       }
     }
@@ -92,12 +93,6 @@ std::vector<std::vector<int>> PolyFitModel::PatchAdjacency() const {
     list.erase(std::unique(list.begin(), list.end()), list.end());
   }
   return adjacency;
-}
-
-std::vector<int> PolyFitModel::VertexPatch() const {
-  std::vector<int> owners(num_vertices());
-  for (int v = 0; v < num_vertices(); ++v) owners[v] = owner(v);
-  return owners;
 }
 
 std::string PolyFitModel::Validate() const {
@@ -138,7 +133,7 @@ std::string PolyFitModel::Validate() const {
 
 void SavePolyFitModel(const std::string& path, const PolyFitModel& model) {
   if (const std::string problem = model.Validate(); !problem.empty()) {
-    throw ModelIoError(path + ": refusing to save an invalid model: " + problem);
+    throw ModelIoError(path + ": refusing to save an invalid model: " + problem, ErrorKind::kInvalidArgument);
   }
   Writer w;
   w.PutBytes(kMagic, sizeof(kMagic));
@@ -171,8 +166,8 @@ void SavePolyFitModel(const std::string& path, const PolyFitModel& model) {
     WriteFileAtomically(path, [&](std::ostream& out) {
       out.write(w.buffer().data(), static_cast<std::streamsize>(w.buffer().size()));
     });
-  } catch (const std::runtime_error& e) {
-    throw ModelIoError(e.what());
+  } catch (const Error& e) {
+    throw ModelIoError(e.what(), ErrorKind::kOutput);
   }
 }
 

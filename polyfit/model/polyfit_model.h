@@ -12,6 +12,8 @@
 #include <Eigen/Core>
 
 #include "polyfit/patch/jet_patch.h"
+#include "polyfit/util/index_range.h"
+#include "polyfit/util/status.h"
 
 namespace polyfit {
 
@@ -43,25 +45,38 @@ struct PolyFitModel {
 
   int num_vertices() const { return membership_offsets.empty() ? 0 : static_cast<int>(membership_offsets.size()) - 1; }
   int num_patches() const { return static_cast<int>(patches.size()); }
+  int num_memberships() const { return static_cast<int>(membership_patch.size()); }
+  // The memberships of vertex v, owner first: `for (int k : memberships(v))`.
+  IndexRange memberships(int v) const { return {membership_offsets[v], membership_offsets[v + 1]}; }
   int owner(int v) const { return membership_patch[membership_offsets[v]]; }
   bool is_boundary(int v) const { return membership_offsets[v + 1] - membership_offsets[v] > 1; }
+  // Membership k's (u, v) in its patch, and its point in the world.
+  Eigen::Vector2d uv(int k) const { return membership_uv.col(k); }
+  Eigen::Vector3d MembershipPoint(int k) const {
+    return patches[membership_patch[k]].PointInWorld(membership_uv(0, k), membership_uv(1, k));
+  }
+  // The membership of vertex v in patch p, or -1.
+  int FindMembership(int v, int p) const {
+    for (int k : memberships(v)) {
+      if (membership_patch[k] == p) return k;
+    }
+    return -1;
+  }
 
   // Every (vertex, pair of its patches), ordered by vertex.
   std::vector<PatchBoundaryPoint> BoundaryPoints() const;
   // Patches sharing a vertex with each patch: neighbours of p are
   // adjacency[p], sorted.
   std::vector<std::vector<int>> PatchAdjacency() const;
-  // #V owner patches.
-  std::vector<int> VertexPatch() const;
 
   // Empty when consistent (sizes, indices in range, finite numbers), else
   // the first problem found.
   std::string Validate() const;
 };
 
-class ModelIoError : public std::runtime_error {
+class ModelIoError : public Error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit ModelIoError(const std::string& message, ErrorKind kind = ErrorKind::kInput) : Error(kind, message) {}
 };
 
 // Throws ModelIoError naming the file; writes atomically.

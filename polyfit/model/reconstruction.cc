@@ -27,13 +27,11 @@ Eigen::Matrix3Xd ReconstructVertices(const PolyFitModel& model, const Reconstruc
   ReconstructionSummary local;
   double sum_gap = 0.0;
   for (int v = 0; v < num_vertices; ++v) {
-    const int begin = model.membership_offsets[v], end = model.membership_offsets[v + 1];
-    auto point_on = [&model](int m) {
-      const Eigen::Vector2d uv = model.membership_uv.col(m);
-      return model.patches[model.membership_patch[m]].PointInWorld(uv.x(), uv.y());
-    };
+    const IndexRange range = model.memberships(v);
+    const int begin = range.front(), end = begin + range.size();
+    const auto point_on = [&model](int m) { return model.MembershipPoint(m); };
     const Eigen::Vector3d own = point_on(begin);
-    if (end - begin == 1) {
+    if (range.size() == 1) {
       positions.col(v) = own;
       continue;
     }

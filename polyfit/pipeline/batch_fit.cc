@@ -17,6 +17,7 @@
 #include "polyfit/mesh/mesh_io.h"
 #include "polyfit/util/atomic_file.h"
 #include "polyfit/util/parallel_for.h"
+#include "polyfit/util/json_number.h"
 
 namespace polyfit {
 namespace {
@@ -31,13 +32,11 @@ bool IsMeshFile(const fs::path& path) {
   return kExtensions.count(ext) > 0;
 }
 
-// NaN is not JSON: null instead.
-json Number(double x) { return std::isfinite(x) ? json(x) : json(nullptr); }
 double NumberOr(const json& j, const char* key) {
   return j.contains(key) && j[key].is_number() ? j[key].get<double>() : std::numeric_limits<double>::quiet_NaN();
 }
 
-json SummaryToJson(const BatchFitItem& item) {
+json SummaryToJson(const BatchFitItemSummary& item) {
   const MeshFitSummary& s = item.summary;
   return json{{"input", item.input},
               {"name", item.name},
@@ -50,28 +49,28 @@ json SummaryToJson(const BatchFitItem& item) {
               {"requested_patches", s.clustering.requested_patches},
               {"components", s.clustering.num_components},
               {"soup_fallback", s.clustering.soup_fallback},
-              {"patch_area_min_rel", Number(s.clustering.min_relative_area)},
-              {"patch_area_max_rel", Number(s.clustering.max_relative_area)},
-              {"patch_area_std_rel", Number(s.clustering.relative_area_stddev)},
+              {"patch_area_min_rel", JsonNumber(s.clustering.min_relative_area)},
+              {"patch_area_max_rel", JsonNumber(s.clustering.max_relative_area)},
+              {"patch_area_std_rel", JsonNumber(s.clustering.relative_area_stddev)},
               {"cluster_iterations", s.clustering.iterations},
               {"not_height_field_patches", s.jet_fit.num_not_height_field},
               {"reduced_order_patches", s.jet_fit.num_reduced_order},
-              {"read_s", Number(item.read_time_s)},
-              {"subdivide_s", Number(s.subdivide_time_s)},
-              {"cluster_s", Number(s.cluster_time_s)},
-              {"fit_s", Number(s.fit_time_s)},
-              {"reconstruct_s", Number(s.reconstruct_time_s)},
-              {"time_s", Number(s.total_time_s)},
-              {"chamfer", Number(s.chamfer)},
-              {"chamfer_x1e3", Number(1e3 * s.chamfer)},
-              {"chamfer_floor", Number(s.chamfer_floor)},
-              {"surface_chamfer", Number(s.surface_chamfer)},
-              {"height_rmse", Number(s.height_rmse)},
-              {"normal_error_deg", Number(s.normal_error_deg)},
-              {"mean_seam_gap", Number(s.reconstruction.mean_seam_gap)}};
+              {"read_s", JsonNumber(item.read_time_s)},
+              {"subdivide_s", JsonNumber(s.subdivide_time_s)},
+              {"cluster_s", JsonNumber(s.cluster_time_s)},
+              {"fit_s", JsonNumber(s.fit_time_s)},
+              {"reconstruct_s", JsonNumber(s.reconstruct_time_s)},
+              {"time_s", JsonNumber(s.total_time_s)},
+              {"chamfer", JsonNumber(s.chamfer)},
+              {"chamfer_x1e3", JsonNumber(1e3 * s.chamfer)},
+              {"chamfer_floor", JsonNumber(s.chamfer_floor)},
+              {"surface_chamfer", JsonNumber(s.surface_chamfer)},
+              {"height_rmse", JsonNumber(s.height_rmse)},
+              {"normal_error_deg", JsonNumber(s.normal_error_deg)},
+              {"mean_seam_gap", JsonNumber(s.reconstruction.mean_seam_gap)}};
 }
 
-void SummaryFromJson(const json& j, BatchFitItem* item) {
+void SummaryFromJson(const json& j, BatchFitItemSummary* item) {
   MeshFitSummary& s = item->summary;
   s.input_vertices = j.value("input_vertices", 0);
   s.input_faces = j.value("input_faces", 0);
@@ -121,7 +120,7 @@ std::string CsvField(const std::string& s) {
   return quoted + "\"";
 }
 
-std::string CsvNumber(double x) {
+std::string CsvJsonNumber(double x) {
   if (!std::isfinite(x)) return "";
   char buffer[32];
   std::snprintf(buffer, sizeof(buffer), "%.6g", x);
@@ -156,19 +155,19 @@ void WriteReports(const std::string& dir, const BatchFitSummary& summary) {
   WriteFileAtomically((fs::path(dir) / "report.csv").string(), [&](std::ostream& out) {
     out << "name,input,status,input_vertices,input_faces,fitted_faces,subdivision_levels,patches,"
            "time_s,cluster_s,fit_s,chamfer_x1e3,chamfer_floor_x1e3,surface_chamfer_x1e3,height_rmse,normal_error_deg,not_height_field_patches,error\n";
-    for (const BatchFitItem& item : summary.items) {
+    for (const BatchFitItemSummary& item : summary.items) {
       const MeshFitSummary& s = item.summary;
       out << CsvField(item.name) << ',' << CsvField(item.input) << ',' << StatusName(item.status) << ','
           << s.input_vertices << ',' << s.input_faces << ',' << s.fitted_faces << ',' << s.subdivision.levels << ','
-          << s.clustering.num_patches << ',' << CsvNumber(s.total_time_s) << ',' << CsvNumber(s.cluster_time_s)
-          << ',' << CsvNumber(s.fit_time_s) << ',' << CsvNumber(1e3 * s.chamfer) << ','
-          << CsvNumber(1e3 * s.chamfer_floor) << ',' << CsvNumber(1e3 * s.surface_chamfer) << ','
-          << CsvNumber(s.height_rmse) << ',' << CsvNumber(s.normal_error_deg) << ','
+          << s.clustering.num_patches << ',' << CsvJsonNumber(s.total_time_s) << ',' << CsvJsonNumber(s.cluster_time_s)
+          << ',' << CsvJsonNumber(s.fit_time_s) << ',' << CsvJsonNumber(1e3 * s.chamfer) << ','
+          << CsvJsonNumber(1e3 * s.chamfer_floor) << ',' << CsvJsonNumber(1e3 * s.surface_chamfer) << ','
+          << CsvJsonNumber(s.height_rmse) << ',' << CsvJsonNumber(s.normal_error_deg) << ','
           << s.jet_fit.num_not_height_field << ',' << CsvField(item.error) << '\n';
     }
   });
   json items = json::array();
-  for (const BatchFitItem& item : summary.items) {
+  for (const BatchFitItemSummary& item : summary.items) {
     json j = item.status == BatchItemStatus::kFailed ? json{{"input", item.input}, {"name", item.name}}
                                                      : SummaryToJson(item);
     j["status"] = StatusName(item.status);
@@ -241,7 +240,7 @@ BatchFitSummary FitMeshFiles(const BatchFitOptions& options, const std::vector<s
   for (const std::string& input : inputs) ++stem_count[fs::path(input).stem().string()];
   std::map<std::string, std::string> names;
   for (size_t i = 0; i < inputs.size(); ++i) {
-    BatchFitItem& item = summary.items[i];
+    BatchFitItemSummary& item = summary.items[i];
     item.input = inputs[i];
     const fs::path path(inputs[i]);
     item.name = path.stem().string();
@@ -269,7 +268,7 @@ BatchFitSummary FitMeshFiles(const BatchFitOptions& options, const std::vector<s
   int done = 0;
 
   auto process = [&](int, int i) {
-    BatchFitItem& item = summary.items[i];
+    BatchFitItemSummary& item = summary.items[i];
     const fs::path stem = fs::path(options.output_dir) / item.name;
     const std::string model_path = stem.string() + ".pfm";
     const std::string recon_path = stem.string() + ".recon.ply";
@@ -311,7 +310,7 @@ BatchFitSummary FitMeshFiles(const BatchFitOptions& options, const std::vector<s
   };
   ParallelFor(static_cast<int>(inputs.size()), across_inputs ? threads : 1, process, 1);
 
-  for (const BatchFitItem& item : summary.items) {
+  for (const BatchFitItemSummary& item : summary.items) {
     summary.num_fitted += item.status == BatchItemStatus::kFitted;
     summary.num_skipped += item.status == BatchItemStatus::kSkipped;
     summary.num_failed += item.status == BatchItemStatus::kFailed;

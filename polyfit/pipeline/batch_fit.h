@@ -25,7 +25,7 @@ struct BatchFitOptions {
 
 enum class BatchItemStatus { kFitted, kSkipped, kFailed };
 
-struct BatchFitItem {
+struct BatchFitItemSummary {
   std::string input;
   // Output stem: <name>.pfm, <name>.recon.ply, <name>.summary.json. The
   // input's stem, with its extension (pig_off) when two inputs share a stem.
@@ -38,7 +38,7 @@ struct BatchFitItem {
 };
 
 struct BatchFitSummary {
-  std::vector<BatchFitItem> items;
+  std::vector<BatchFitItemSummary> items;
   int num_fitted = 0;
   int num_skipped = 0;
   int num_failed = 0;
@@ -47,7 +47,7 @@ struct BatchFitSummary {
 
 // Called after each input, from the thread that fitted it but never from
 // two threads at once.
-using BatchProgressCallback = std::function<void(int done, int total, const BatchFitItem& item)>;
+using BatchProgressCallback = std::function<void(int done, int total, const BatchFitItemSummary& item)>;
 
 // Files as they are; directories give their mesh files (obj, ply, off,
 // stl, gltf, glb; not recursive); anything else is a glob pattern. Sorted,

@@ -42,7 +42,7 @@ class BatchFitTest : public ::testing::Test {
 TEST_F(BatchFitTest, FitsEveryInputReportsFailuresAndResumes) {
   int calls = 0;
   const BatchFitSummary first =
-      FitMeshFiles(options_, {(dir_ / "in").string()}, [&calls](int done, int total, const BatchFitItem&) {
+      FitMeshFiles(options_, {(dir_ / "in").string()}, [&calls](int done, int total, const BatchFitItemSummary&) {
         ++calls;
         EXPECT_EQ(total, 3);
         EXPECT_EQ(done, calls);
@@ -50,7 +50,7 @@ TEST_F(BatchFitTest, FitsEveryInputReportsFailuresAndResumes) {
   EXPECT_EQ(calls, 3);
   EXPECT_EQ(first.num_fitted, 2);
   EXPECT_EQ(first.num_failed, 1);
-  for (const BatchFitItem& item : first.items) {
+  for (const BatchFitItemSummary& item : first.items) {
     if (item.name == "broken") {
       EXPECT_EQ(item.status, BatchItemStatus::kFailed);
       EXPECT_NE(item.error.find("broken.off"), std::string::npos) << item.error;

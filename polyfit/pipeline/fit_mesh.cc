@@ -85,7 +85,7 @@ JetFitSummary FitPatchJets(const JetFitOptions& options, const TriangleMesh& mes
   std::vector<double> weights(num_memberships);
   const Eigen::VectorXd vertex_areas = VertexAreas(mesh);
   for (int v = 0; v < mesh.num_vertices(); ++v) {
-    for (int m = model->membership_offsets[v]; m < model->membership_offsets[v + 1]; ++m) {
+    for (int m : model->memberships(v)) {
       const int s = slot[model->membership_patch[m]]++;
       points.col(s) = mesh.vertices.col(v);
       weights[s] = vertex_areas[v];
@@ -93,7 +93,7 @@ JetFitSummary FitPatchJets(const JetFitOptions& options, const TriangleMesh& mes
   }
   const JetFitSummary summary = FitJetPatches(options, points, patch_offsets, &weights, &model->patches);
   for (int v = 0; v < mesh.num_vertices(); ++v) {
-    for (int m = model->membership_offsets[v]; m < model->membership_offsets[v + 1]; ++m) {
+    for (int m : model->memberships(v)) {
       model->membership_uv.col(m) =
           model->patches[model->membership_patch[m]].frame.PointToPatch(mesh.vertices.col(v)).head<2>();
     }

@@ -26,7 +26,7 @@ class Progress {
  public:
   Progress() : terminal_(::isatty(STDERR_FILENO) != 0) {}
 
-  void operator()(int done, int total, const polyfit::BatchFitItem& item) {
+  void operator()(int done, int total, const polyfit::BatchFitItemSummary& item) {
     const char* status = item.status == polyfit::BatchItemStatus::kFitted    ? "fitted"
                          : item.status == polyfit::BatchItemStatus::kSkipped ? "skipped (outputs exist)"
                                                                              : "FAILED";
@@ -127,7 +127,7 @@ int main(int argc, char** argv) {
       batch.fit.evaluate = !no_eval;
       Progress progress;
       const polyfit::BatchFitSummary summary = polyfit::FitMeshFiles(
-          batch, inputs, [&progress](int done, int total, const polyfit::BatchFitItem& item) {
+          batch, inputs, [&progress](int done, int total, const polyfit::BatchFitItemSummary& item) {
             progress(done, total, item);
           });
       std::printf("%d fitted, %d skipped, %d failed in %.2f s; report: %s/report.csv\n", summary.num_fitted,

@@ -1,7 +1,7 @@
 // WriteFileAtomically(path, write): write(stream) fills a temporary file
 // beside path, which then replaces path by rename, so readers never see a
-// half-written file and a failure leaves nothing behind. Throws
-// std::runtime_error naming the file when anything fails.
+// half-written file and a failure leaves nothing behind. Throws Error
+// (kOutput) naming the file when anything fails.
 #ifndef POLYFIT_UTIL_ATOMIC_FILE_H_
 #define POLYFIT_UTIL_ATOMIC_FILE_H_
 
@@ -12,6 +12,8 @@
 #include <string>
 #include <system_error>
 #include <thread>
+
+#include "polyfit/util/status.h"
 
 namespace polyfit {
 
@@ -28,14 +30,14 @@ void WriteFileAtomically(const std::string& path, WriteFn&& write) {
   };
   try {
     std::ofstream out(temp, std::ios::binary | std::ios::trunc);
-    if (!out) throw std::runtime_error(path + ": cannot be opened for writing");
+    if (!out) throw Error(ErrorKind::kOutput, path + ": cannot be opened for writing");
     write(out);
     out.flush();
-    if (!out) throw std::runtime_error(path + ": writing failed (disk full?)");
+    if (!out) throw Error(ErrorKind::kOutput, path + ": writing failed (disk full?)");
     out.close();
     std::error_code ec;
     fs::rename(temp, path, ec);
-    if (ec) throw std::runtime_error(path + ": cannot be replaced: " + ec.message());
+    if (ec) throw Error(ErrorKind::kOutput, path + ": cannot be replaced: " + ec.message());
   } catch (...) {
     remove_temp();
     throw;

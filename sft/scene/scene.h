@@ -13,13 +13,14 @@
 #include <opencv2/core.hpp>
 
 #include "polyfit/mesh/triangle_mesh.h"
+#include "polyfit/util/status.h"
 
 namespace polyfit {
 
 // Every problem with a scene: what() names the key or the file.
-class SceneError : public std::runtime_error {
+class SceneError : public Error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit SceneError(const std::string& message, ErrorKind kind = ErrorKind::kInput) : Error(kind, message) {}
 };
 
 // OpenCV pinhole: x right, y down, z forward; pixel (0, 0) is the centre of

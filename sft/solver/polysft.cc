@@ -40,12 +40,12 @@ struct FrameData {
 // less than the tolerance, and records the trace.
 class WindowCallback : public ceres::IterationCallback {
  public:
-  WindowCallback(const PolySftOptions& options, std::vector<SftTraceRow>* trace, SftTraceRow row,
+  WindowCallback(const PolySftOptions& options, std::vector<SftIterationSummary>* trace, SftIterationSummary row,
                  Clock::time_point start, std::function<double()> e3d)
       : options_(options), trace_(trace), row_(row), start_(start), e3d_(std::move(e3d)) {}
 
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
-    SftTraceRow row = row_;
+    SftIterationSummary row = row_;
     row.iteration = iterations_++;
     row.time_s = Seconds(start_);
     row.cost = s.cost;
@@ -62,8 +62,8 @@ class WindowCallback : public ceres::IterationCallback {
 
  private:
   const PolySftOptions& options_;
-  std::vector<SftTraceRow>* trace_;
-  SftTraceRow row_;
+  std::vector<SftIterationSummary>* trace_;
+  SftIterationSummary row_;
   Clock::time_point start_;
   std::function<double()> e3d_;
   double last_cost_ = 0.0;
@@ -93,10 +93,10 @@ cv::Rect RegionOfInterest(const ScreenMesh& screen, const cv::Mat& mask, int wid
   return box & cv::Rect(0, 0, width, height);
 }
 
-double Mean(const std::vector<SftFrameResult>& frames, double SftFrameResult::*field) {
+double Mean(const std::vector<SftFrameSummary>& frames, double SftFrameSummary::*field) {
   double sum = 0.0;
   int count = 0;
-  for (const SftFrameResult& f : frames) {
+  for (const SftFrameSummary& f : frames) {
     if (std::isfinite(f.*field)) {
       sum += f.*field;
       ++count;
@@ -291,7 +291,7 @@ PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene
                     data.frame.index, cost, cost / std::max(first_cost, 1e-12));
       summary.warnings.emplace_back(buffer);
     }
-    SftFrameResult result;
+    SftFrameSummary result;
     result.index = data.frame.index;
     model.Evaluate(data.theta.data(), &result.vertices);
     result.time_s = time_s;
@@ -406,7 +406,7 @@ PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene
       solver.num_threads = window.size() > 1 ? ResolveNumThreads(options.num_threads) : 1;
       solver.logging_type = ceres::SILENT;
       solver.update_state_every_iteration = true;
-      SftTraceRow row;
+      SftIterationSummary row;
       row.frame = window.back()->frame.index;
       row.window = window.front()->frame.index;
       std::function<double()> e3d;
@@ -447,10 +447,10 @@ PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene
   }
   summary.total_time_s = Seconds(start);
   summary.mean_time_per_frame_s = summary.frames.empty() ? 0.0 : summary.total_time_s / summary.frames.size();
-  summary.mean_e3d = Mean(summary.frames, &SftFrameResult::e3d);
-  summary.mean_normal_error_deg = Mean(summary.frames, &SftFrameResult::normal_error_deg);
-  summary.mean_rmse_mm = Mean(summary.frames, &SftFrameResult::rmse_mm);
-  summary.mean_chamfer_1e4 = Mean(summary.frames, &SftFrameResult::chamfer_1e4);
+  summary.mean_e3d = Mean(summary.frames, &SftFrameSummary::e3d);
+  summary.mean_normal_error_deg = Mean(summary.frames, &SftFrameSummary::normal_error_deg);
+  summary.mean_rmse_mm = Mean(summary.frames, &SftFrameSummary::rmse_mm);
+  summary.mean_chamfer_1e4 = Mean(summary.frames, &SftFrameSummary::chamfer_1e4);
   if (std::isfinite(summary.template_e3d) && !summary.frames.empty()) {
     summary.template_e3d /= summary.frames.size();
     summary.template_rmse_mm /= summary.frames.size();
@@ -464,7 +464,7 @@ void WriteSftOutputs(const std::string& directory, const SftScene& scene, const 
   fs::create_directories(fs::path(directory) / "meshes");
   TriangleMesh mesh;
   mesh.faces = scene.template_mesh.faces;
-  for (const SftFrameResult& frame : summary.frames) {
+  for (const SftFrameSummary& frame : summary.frames) {
     char name[32];
     std::snprintf(name, sizeof(name), "%06d.ply", frame.index);
     mesh.vertices = frame.vertices;
@@ -474,7 +474,7 @@ void WriteSftOutputs(const std::string& directory, const SftScene& scene, const 
   {
     std::ofstream trace(fs::path(directory) / "trace.csv");
     trace << "frame,window,iteration,time_s,cost,e3d\n";
-    for (const SftTraceRow& r : summary.trace) {
+    for (const SftIterationSummary& r : summary.trace) {
       trace << r.frame << ',' << r.window << ',' << r.iteration << ',' << r.time_s << ',' << r.cost << ',';
       if (std::isfinite(r.e3d)) trace << r.e3d;
       trace << '\n';
@@ -482,7 +482,7 @@ void WriteSftOutputs(const std::string& directory, const SftScene& scene, const 
     if (!trace) throw std::runtime_error((fs::path(directory) / "trace.csv").string() + ": cannot be written");
   }
   nlohmann::json frames = nlohmann::json::array();
-  for (const SftFrameResult& f : summary.frames) {
+  for (const SftFrameSummary& f : summary.frames) {
     frames.push_back({{"frame", f.index},
                       {"time_s", f.time_s},
                       {"cost", f.cost},

@@ -60,7 +60,7 @@ struct PolySftOptions {
   std::string Validate() const;
 };
 
-struct SftFrameResult {
+struct SftFrameSummary {
   int index = 0;
   // 3 by #V, camera frame, template vertex order.
   Eigen::Matrix3Xd vertices;
@@ -76,7 +76,7 @@ struct SftFrameResult {
   double chamfer_1e4 = std::numeric_limits<double>::quiet_NaN();
 };
 
-struct SftTraceRow {
+struct SftIterationSummary {
   int frame = 0;   // the window's newest frame
   int window = 0;  // the window's oldest frame
   int iteration = 0;
@@ -86,8 +86,8 @@ struct SftTraceRow {
 };
 
 struct PolySftSummary {
-  std::vector<SftFrameResult> frames;
-  std::vector<SftTraceRow> trace;
+  std::vector<SftFrameSummary> frames;
+  std::vector<SftIterationSummary> trace;
   // "patch_jet", or "texture_space" (the fallback for templates that are
   // no height field, or when asked for).
   std::string deformation;
@@ -107,7 +107,7 @@ struct PolySftSummary {
 };
 
 // Called once per frame, when it leaves the window (its result is final).
-using SftFrameCallback = std::function<void(const SftFrameResult&)>;
+using SftFrameCallback = std::function<void(const SftFrameSummary&)>;
 
 // Throws std::invalid_argument on invalid options, SceneError on a scene
 // that cannot be read.

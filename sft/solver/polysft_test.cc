@@ -24,7 +24,7 @@ SheetSceneOptions SmallScene(SheetMotion motion, int frames) {
 }
 
 void ExpectFinite(const PolySftSummary& summary) {
-  for (const SftFrameResult& f : summary.frames) {
+  for (const SftFrameSummary& f : summary.frames) {
     ASSERT_TRUE(f.vertices.allFinite()) << "frame " << f.index;
     EXPECT_TRUE(std::isfinite(f.cost));
   }

@@ -79,7 +79,7 @@ void WriteOverlays(const std::string& out_dir, const polyfit::SftScene& scene,
   namespace fs = std::filesystem;
   fs::create_directories(fs::path(out_dir) / "overlays");
   for (size_t t = 0; t < summary.frames.size(); ++t) {
-    const polyfit::SftFrameResult& f = summary.frames[t];
+    const polyfit::SftFrameSummary& f = summary.frames[t];
     cv::Mat image = cv::imread(scene.frame_paths[f.index - scene.first_frame], cv::IMREAD_COLOR);
     if (image.empty()) continue;
     auto project = [&](int v) {
@@ -168,7 +168,7 @@ int main(int argc, char** argv) {
                 scene.template_mesh.num_faces(), scene.has_masks() ? ", masks" : "",
                 scene.has_ground_truth() ? ", ground truth" : "");
     const polyfit::PolySftSummary summary =
-        polyfit::SolvePolySft(options, scene, [](const polyfit::SftFrameResult& f) {
+        polyfit::SolvePolySft(options, scene, [](const polyfit::SftFrameSummary& f) {
           std::printf("frame %4d  %6.3f s  cost %.3e  %2d it", f.index, f.time_s, f.cost, f.iterations);
           if (std::isfinite(f.e3d)) std::printf("  e3D %.4f  e_n %5.2f deg  RMSE %6.2f mm", f.e3d, f.normal_error_deg, f.rmse_mm);
           if (std::isfinite(f.chamfer_1e4)) std::printf("  Chamfer x1e4 %.4f", f.chamfer_1e4);

@@ -1,7 +1,7 @@
-// Per-vertex and per-edge draping terms on skinned jet patches, with
-// analytic Jacobians (the reference drape builds tens of thousands per
-// frame). A garment point with rest parameters (u, v) on patch p, slid by
-// (du, dv) along the patch, is
+// OneFit's draping terms on skinned jet patches, as Ceres costs over a
+// patch's parameters, with analytic Jacobians (the reference drape builds
+// tens of thousands per frame). A garment point with rest parameters (u, v)
+// on patch p, slid by (du, dv) along the patch, is
 //
 //   X = s R (u', v', z(u', v'; alpha)) + T    canonical (rest-pose) space,
 //                                             (u', v') = (u + du, v + dv)
@@ -10,20 +10,32 @@
 //
 // so dx/dalpha_k = s (M R e_3) m_k(u', v'), dx/ds = M R (u', v', z),
 // dx/dT = M, dx/d(du, dv) = s M R [(1, 0, z_u), (0, 1, z_v)], with m_k the
-// jet's monomials. The slide keeps every point on its patch's jet while
-// letting it move in the patch's plane (what skinning distorts). Parameter
-// blocks of the vertex cost: alpha (NumJetCoefficients(order)), s (1),
-// T (3), slide (2); of the edge cost: alpha, s, T, slide_i, slide_j.
-// Tested against autodiff of the same formulas in drape_solver_test.cc.
-#ifndef POLYFIT_DRAPE_SIMULATE_SKINNED_PATCH_COSTS_H_
-#define POLYFIT_DRAPE_SIMULATE_SKINNED_PATCH_COSTS_H_
+// jet's monomials (polyfit/jet/jet_basis.h). The slide keeps every point on
+// its patch's jet while letting it move in the patch's plane (what skinning
+// distorts).
+//
+// The residuals in x are the functors of cost_functions/ (collision,
+// inertia with gravity folded in, gravity, edge inextensibility), evaluated
+// on ceres::Jet at x and chained through dx/dparameters by hand, as
+// sft/solver/frame_costs.cc does. Parameter blocks of the vertex cost:
+// alpha (NumJetCoefficients(order)), s (1), T (3), slide (2); of the edge
+// cost: alpha, s, T, slide_i, slide_j. Tested against autodiff in
+// skinned_patch_costs_test.cc.
+#ifndef POLYFIT_DRAPE_LOSSES_SKINNED_PATCH_COSTS_H_
+#define POLYFIT_DRAPE_LOSSES_SKINNED_PATCH_COSTS_H_
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include <ceres/cost_function.h>
+#include <ceres/jet.h>
 #include <Eigen/Core>
 
+#include "cost_functions/collision_residual.h"
+#include "cost_functions/edge_inextensibility.h"
+#include "cost_functions/gravity_inertia_residuals.h"
+#include "cost_functions/metric_inextensibility_residual.h"
 #include "polyfit/jet/jet_basis.h"
 
 namespace polyfit {
@@ -53,17 +65,12 @@ class SkinnedPatchPoint {
     PatchPointState state;
     const double u = u_ + (slide != nullptr ? slide[0] : 0.0);
     const double v = v_ + (slide != nullptr ? slide[1] : 0.0);
-    double u_pow[kMaxJetOrder + 1], v_pow[kMaxJetOrder + 1];
-    JetPowers(order_, u, v, u_pow, v_pow);
-    int k = 0;
-    for (int d = 0; d <= order_; ++d) {
-      for (int b = 0; b <= d; ++b, ++k) {
-        const int a = d - b;
-        state.monomials[k] = u_pow[a] * v_pow[b];
-        state.z += alpha[k] * state.monomials[k];
-        if (a >= 1) state.z_u += alpha[k] * a * u_pow[a - 1] * v_pow[b];
-        if (b >= 1) state.z_v += alpha[k] * b * u_pow[a] * v_pow[b - 1];
-      }
+    double m_u[kMaxJetCoefficients], m_v[kMaxJetCoefficients];
+    JetMonomialGradients(order_, u, v, state.monomials, m_u, m_v);
+    for (int k = 0; k < num_coefficients_; ++k) {
+      state.z += alpha[k] * state.monomials[k];
+      state.z_u += alpha[k] * m_u[k];
+      state.z_v += alpha[k] * m_v[k];
     }
     state.local = Eigen::Vector3d(u, v, state.z);
     return state;
@@ -100,7 +107,8 @@ class SkinnedPatchPoint {
     };
     const Eigen::Matrix<double, kRows, 3> dr_dlocal = scale[0] * (dr_dcanonical * rotation_);
     if (jacobians[0] != nullptr) {
-      Eigen::Map<Eigen::Matrix<double, kRows, Eigen::Dynamic, Eigen::RowMajor>> j(jacobians[0], kRows, num_coefficients_);
+      Eigen::Map<Eigen::Matrix<double, kRows, Eigen::Dynamic, Eigen::RowMajor>> j(jacobians[0], kRows,
+                                                                                  num_coefficients_);
       for (int k = 0; k < num_coefficients_; ++k) write(j.col(k), dr_dlocal.col(2) * state.monomials[k]);
     }
     if (jacobians[1] != nullptr) {
@@ -126,34 +134,43 @@ class SkinnedPatchPoint {
   const Eigen::Vector3d* skin_translation_ = nullptr;
 };
 
-// The vertex terms (a term that is off gives 0):
-//   collision   w_c max(eps - (x - c) . n, 0)                 energy w_c^2 / 2 depth^2
-//   inertia     w_i (x - x_hat + w_g / w_i^2 up)  (3)         energy w_i^2 / 2 |x - x_hat|^2
-//                                                                    + w_g x . up + const
-// so gravity's linear energy w_g (x . up - floor) rides on the inertia
-// residual, exactly (completing the square); without inertia it is
-//   gravity     sqrt(2 w_g (x . up - floor))                  energy w_g (x . up - floor)
+// A residual functor of cost_functions/ with one 3-vector block, evaluated
+// at x: its residuals and their derivative rows in dr_dx.
+// Rows first_row.. of dr_dx (4 by 3) are written.
+template <int kRows, typename Functor>
+bool EvaluateAtPoint(const Functor& functor, const Eigen::Vector3d& x, int first_row, double* residuals,
+                     Eigen::Matrix<double, 4, 3>* dr_dx) {
+  using J3 = ceres::Jet<double, 3>;
+  const J3 point[3] = {J3(x[0], 0), J3(x[1], 1), J3(x[2], 2)};
+  J3 r[kRows];
+  if (!functor(point, r)) return false;
+  for (int i = 0; i < kRows; ++i) {
+    residuals[first_row + i] = r[i].a;
+    dr_dx->row(first_row + i) = r[i].v.transpose();
+  }
+  return true;
+}
+
+// What a vertex's terms read, set per frame (motion) or per collision pass.
+// An unset term gives zero residuals.
 struct VertexTermsData {
-  bool collision = false;
-  Eigen::Vector3d closest = Eigen::Vector3d::Zero();
-  Eigen::Vector3d normal = Eigen::Vector3d::UnitY();
-  double margin = 0.0;
-  double collision_weight = 0.0;
-  double gravity_weight = 0.0;  // w_g = k_g m g; 0 for off
-  Eigen::Vector3d up = Eigen::Vector3d::UnitY();
-  double floor = 0.0;
-  double inertia_weight = 0.0;  // 0 for off
-  Eigen::Vector3d target = Eigen::Vector3d::Zero();
+  std::optional<CollisionResidual> collision;  // where the body is near
+  std::optional<InertiaResidual> inertia;      // gravity folded in
+  std::optional<GravityResidual> gravity;      // only without inertia
 };
 
-// Residuals: the collision, then (with `motion`) the three inertia ones, or
-// the gravity one when the inertia weight is 0 at construction. The data
-// is read through a pointer at each evaluation (updated per frame).
+// Which rows a vertex cost has: the collision always; at a vertex's owner
+// membership also its motion, as inertia (3 rows, gravity folded in) or, with
+// no inertia, gravity (1 row).
+enum class VertexMotion { kNone, kInertia, kGravity };
+
+// Residuals: collision, then the motion rows. The data is read through a
+// pointer at each evaluation (updated per frame).
 class SkinnedVertexCost : public ceres::CostFunction {
  public:
-  SkinnedVertexCost(const SkinnedPatchPoint& point, const VertexTermsData* data, bool motion = true)
-      : point_(point), data_(*data) {
-    rows_ = !motion ? 1 : (data->inertia_weight > 0.0 ? 4 : 2);
+  SkinnedVertexCost(const SkinnedPatchPoint& point, const VertexTermsData* data, VertexMotion motion)
+      : point_(point), data_(*data), motion_(motion) {
+    rows_ = motion == VertexMotion::kInertia ? 4 : (motion == VertexMotion::kGravity ? 2 : 1);
     set_num_residuals(rows_);
     mutable_parameter_block_sizes()->assign({point.num_coefficients(), 1, 3, 2});
   }
@@ -162,26 +179,15 @@ class SkinnedVertexCost : public ceres::CostFunction {
     const PatchPointState state = point_.State(parameters[0], parameters[3]);
     const Eigen::Vector3d x = point_.Position(state, parameters[1], parameters[2]);
     Eigen::Matrix<double, 4, 3> dr_dx = Eigen::Matrix<double, 4, 3>::Zero();
-    residuals[0] = 0.0;
-    if (data_.collision) {
-      const double depth = data_.margin - (x - data_.closest).dot(data_.normal);
-      if (depth > 0.0) {
-        residuals[0] = data_.collision_weight * depth;
-        dr_dx.row(0) = -data_.collision_weight * data_.normal.transpose();
-      }
+    std::fill(residuals, residuals + rows_, 0.0);
+    if (data_.collision && !EvaluateAtPoint<1>(*data_.collision, x, 0, residuals, &dr_dx)) return false;
+    if (motion_ == VertexMotion::kInertia && data_.inertia &&
+        !EvaluateAtPoint<3>(*data_.inertia, x, 1, residuals, &dr_dx)) {
+      return false;
     }
-    if (rows_ == 4) {
-      const double w = data_.inertia_weight;
-      const Eigen::Vector3d target = data_.target - data_.gravity_weight / (w * w) * data_.up;
-      for (int k = 0; k < 3; ++k) residuals[1 + k] = w * (x[k] - target[k]);
-      dr_dx.bottomRows<3>() = w * Eigen::Matrix3d::Identity();
-    } else if (rows_ == 2) {
-      residuals[1] = 0.0;
-      if (data_.gravity_weight > 0.0) {
-        const double height = std::max(x.dot(data_.up) - data_.floor, 1e-9);
-        residuals[1] = std::sqrt(2.0 * data_.gravity_weight * height);
-        dr_dx.row(1) = data_.gravity_weight / residuals[1] * data_.up.transpose();
-      }
+    if (motion_ == VertexMotion::kGravity && data_.gravity &&
+        !EvaluateAtPoint<1>(*data_.gravity, x, 1, residuals, &dr_dx)) {
+      return false;
     }
     if (jacobians == nullptr) return true;
     switch (rows_) {
@@ -195,16 +201,16 @@ class SkinnedVertexCost : public ceres::CostFunction {
  private:
   SkinnedPatchPoint point_;
   const VertexTermsData& data_;
+  VertexMotion motion_;
   int rows_ = 1;
 };
 
-// Edge inextensibility (eq. 1) between two points of one patch:
-//   r = w (|x_i - x_j| - L) / L                               energy w^2 / 2 strain^2
-// Blocks: alpha, s, T, slide_i, slide_j.
+// Edge inextensibility (EdgeInextensibilityResidual) between two points of
+// one patch. Blocks: alpha, s, T, slide_i, slide_j.
 class SkinnedEdgeCost : public ceres::CostFunction {
  public:
   SkinnedEdgeCost(const SkinnedPatchPoint& point_i, const SkinnedPatchPoint& point_j, double rest_length, double weight)
-      : point_i_(point_i), point_j_(point_j), rest_length_(rest_length), weight_(weight) {
+      : point_i_(point_i), point_j_(point_j), functor_(rest_length, weight) {
     set_num_residuals(1);
     mutable_parameter_block_sizes()->assign({point_i.num_coefficients(), 1, 3, 2, 2});
   }
@@ -212,22 +218,24 @@ class SkinnedEdgeCost : public ceres::CostFunction {
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
     const PatchPointState state_i = point_i_.State(parameters[0], parameters[3]);
     const PatchPointState state_j = point_j_.State(parameters[0], parameters[4]);
-    const Eigen::Vector3d e = point_i_.Position(state_i, parameters[1], parameters[2]) -
-                              point_j_.Position(state_j, parameters[1], parameters[2]);
-    const double length = e.norm();
-    residuals[0] = weight_ * (length - rest_length_) / rest_length_;
+    const Eigen::Vector3d xi = point_i_.Position(state_i, parameters[1], parameters[2]);
+    const Eigen::Vector3d xj = point_j_.Position(state_j, parameters[1], parameters[2]);
+    using J6 = ceres::Jet<double, 6>;
+    const J6 a[3] = {J6(xi[0], 0), J6(xi[1], 1), J6(xi[2], 2)};
+    const J6 b[3] = {J6(xj[0], 3), J6(xj[1], 4), J6(xj[2], 5)};
+    J6 r;
+    functor_(a, b, &r);
+    residuals[0] = r.a;
     if (jacobians != nullptr) {
-      Eigen::Matrix<double, 1, 3> dr_dx = Eigen::Matrix<double, 1, 3>::Zero();
-      if (length > 0.0) dr_dx = weight_ / (rest_length_ * length) * e.transpose();
-      point_i_.Chain<1>(dr_dx, state_i, parameters[1], jacobians, 3);
-      point_j_.Chain<1>(dr_dx, state_j, parameters[1], jacobians, 4, -1.0, true);
+      point_i_.Chain<1>(r.v.head<3>().transpose(), state_i, parameters[1], jacobians, 3);
+      point_j_.Chain<1>(r.v.tail<3>().transpose(), state_j, parameters[1], jacobians, 4, 1.0, true);
     }
     return true;
   }
 
  private:
   SkinnedPatchPoint point_i_, point_j_;
-  double rest_length_, weight_;
+  EdgeInextensibilityResidual functor_;
 };
 
 // Two patches' points of one garment vertex kept together once slid, in
@@ -264,6 +272,55 @@ class SkinnedAgreementCost : public ceres::CostFunction {
   double weight_;
 };
 
+// The metric-tensor term (MetricInextensibilityResidual, eq. 4) with the
+// vertex's skinning Jacobian M and the k_ext factor read at each
+// evaluation (both change per frame). Autodiff over alpha and s.
+class SkinnedMetricFunctor {
+ public:
+  SkinnedMetricFunctor(int order, double u, double v, const Eigen::Vector3d& rest_metric,
+                       const Eigen::Matrix3d& rotation, const Eigen::Matrix3d* skinning, double weight,
+                       const double* factor)
+      : order_(order), u_(u), v_(v), rest_(rest_metric), rotation_(rotation), skinning_(skinning), weight_(weight),
+        factor_(factor) {}
+
+  template <typename T>
+  bool operator()(const T* alpha, const T* scale, T* residual) const {
+    return MetricInextensibilityResidual(order_, u_, v_, rest_, rotation_, *skinning_, weight_ * *factor_)(
+        alpha, scale, residual);
+  }
+
+ private:
+  int order_;
+  double u_, v_;
+  Eigen::Vector3d rest_;
+  Eigen::Matrix3d rotation_;
+  const Eigen::Matrix3d* skinning_;
+  double weight_;
+  const double* factor_;
+};
+
+// A prior w (x - mean) on a parameter block, the mean read through a
+// pointer (the previous frame's parameters).
+class ParameterPrior : public ceres::CostFunction {
+ public:
+  ParameterPrior(int size, double weight, const double* mean) : weight_(weight), mean_(mean) {
+    set_num_residuals(size);
+    mutable_parameter_block_sizes()->assign({size});
+  }
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const int n = num_residuals();
+    for (int i = 0; i < n; ++i) residuals[i] = weight_ * (parameters[0][i] - mean_[i]);
+    if (jacobians != nullptr && jacobians[0] != nullptr) {
+      Eigen::Map<Eigen::MatrixXd>(jacobians[0], n, n) = weight_ * Eigen::MatrixXd::Identity(n, n);
+    }
+    return true;
+  }
+
+ private:
+  double weight_;
+  const double* mean_;
+};
+
 }  // namespace polyfit
 
-#endif  // POLYFIT_DRAPE_SIMULATE_SKINNED_PATCH_COSTS_H_
+#endif  // POLYFIT_DRAPE_LOSSES_SKINNED_PATCH_COSTS_H_
