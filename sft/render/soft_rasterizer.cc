@@ -357,4 +357,21 @@ void SoftRasterizer::Render(const ScreenMesh& mesh, int width, int height, const
   }
 }
 
+bool ProjectVertices(const PinholeCamera& camera, const Eigen::Matrix3Xd& vertices, ScreenMesh* screen,
+                     Eigen::MatrixXd* jacobian) {
+  const Eigen::Index n = vertices.cols();
+  screen->pixels.resize(2, n);
+  screen->depths.resize(n);
+  if (jacobian != nullptr) jacobian->resize(3 * n, 3);
+  Eigen::Vector2d pixel;
+  Eigen::Matrix3d j;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (!camera.ProjectWithJacobian(vertices.col(i), &pixel, jacobian != nullptr ? &j : nullptr)) return false;
+    screen->pixels.col(i) = pixel;
+    screen->depths[i] = vertices(2, i);
+    if (jacobian != nullptr) jacobian->middleRows(3 * i, 3) = j;
+  }
+  return true;
+}
+
 }  // namespace polyfit

@@ -28,6 +28,8 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include "sft/camera/pinhole_camera.h"
+
 namespace polyfit {
 
 struct SoftRasterizerOptions {
@@ -69,6 +71,13 @@ struct ScreenMesh {
 
 // The boundary_edges flags of a mesh's faces (an edge used by one face only).
 std::vector<std::uint8_t> MeshBoundaryEdgeFlags(const Eigen::Matrix3Xi& faces);
+
+// Projects vertices (3 by #V, camera frame) into screen->pixels and
+// screen->depths, and optionally the 3 by 3 Jacobian of (px, py, depth) per
+// vertex stacked (3 #V by 3). False when a vertex is not in front of the
+// camera.
+bool ProjectVertices(const PinholeCamera& camera, const Eigen::Matrix3Xd& vertices, ScreenMesh* screen,
+                     Eigen::MatrixXd* jacobian);
 
 // One pixel's derivatives with respect to one vertex: d(R, G, B, S) /
 // d(x, y, depth), row-major 4 by 3.

@@ -46,19 +46,6 @@ cv::Mat ReadMask(const std::string& path) {
 
 }  // namespace
 
-PinholeCamera PinholeCamera::Scaled(double factor) const {
-  PinholeCamera c = *this;
-  c.fx *= factor;
-  c.fy *= factor;
-  // Pixel centres: x' + 0.5 = factor (x + 0.5).
-  c.cx = factor * (cx + 0.5) - 0.5;
-  c.cy = factor * (cy + 0.5) - 0.5;
-  c.width = static_cast<int>(std::lround(width * factor));
-  c.height = static_cast<int>(std::lround(height * factor));
-  c.distortion.clear();
-  return c;
-}
-
 cv::Mat ReadImageRgb(const std::string& path) {
   cv::Mat raw = cv::imread(path, cv::IMREAD_COLOR);  // BGR
   if (raw.empty()) Fail(path + ": cannot be read as an image (missing or not PNG/JPEG?)");

@@ -13,6 +13,7 @@
 #include <opencv2/core.hpp>
 
 #include "polyfit/mesh/triangle_mesh.h"
+#include "sft/camera/pinhole_camera.h"
 #include "polyfit/util/status.h"
 
 namespace polyfit {
@@ -21,22 +22,6 @@ namespace polyfit {
 class SceneError : public Error {
  public:
   explicit SceneError(const std::string& message, ErrorKind kind = ErrorKind::kInput) : Error(kind, message) {}
-};
-
-// OpenCV pinhole: x right, y down, z forward; pixel (0, 0) is the centre of
-// the top-left pixel.
-struct PinholeCamera {
-  double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;
-  int width = 0, height = 0;
-  // k1, k2, p1, p2, k3, or empty. Frames are undistorted on load, so the
-  // solver sees the pinhole model only.
-  std::vector<double> distortion;
-
-  Eigen::Vector2d Project(const Eigen::Vector3d& point_in_camera) const {
-    return {fx * point_in_camera.x() / point_in_camera.z() + cx, fy * point_in_camera.y() / point_in_camera.z() + cy};
-  }
-  // The same camera for an image scaled by `factor` (a pyramid level).
-  PinholeCamera Scaled(double factor) const;
 };
 
 enum class GroundTruthKind { kNone, kVertices, kPoints };

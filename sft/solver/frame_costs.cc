@@ -10,31 +10,6 @@
 
 namespace polyfit {
 
-bool ProjectVertices(const PinholeCamera& camera, const Eigen::Matrix3Xd& vertices, ScreenMesh* screen,
-                     Eigen::MatrixXd* jacobian) {
-  const Eigen::Index n = vertices.cols();
-  screen->pixels.resize(2, n);
-  screen->depths.resize(n);
-  if (jacobian != nullptr) jacobian->setZero(3 * n, 3);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const double x = vertices(0, i), y = vertices(1, i), z = vertices(2, i);
-    if (!(z > 1e-6) || !std::isfinite(x) || !std::isfinite(y)) return false;
-    const double inv_z = 1.0 / z;
-    screen->pixels(0, i) = camera.fx * x * inv_z + camera.cx;
-    screen->pixels(1, i) = camera.fy * y * inv_z + camera.cy;
-    screen->depths[i] = z;
-    if (jacobian != nullptr) {
-      auto j = jacobian->middleRows(3 * i, 3);
-      j(0, 0) = camera.fx * inv_z;
-      j(0, 2) = -camera.fx * x * inv_z * inv_z;
-      j(1, 1) = camera.fy * inv_z;
-      j(1, 2) = -camera.fy * y * inv_z * inv_z;
-      j(2, 2) = 1.0;
-    }
-  }
-  return true;
-}
-
 RenderCost::RenderCost(Data data) : data_(std::move(data)) {
   channels_ = data_.mask.empty() ? 3 : 4;
   set_num_residuals(data_.roi.area() * channels_);

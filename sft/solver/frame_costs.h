@@ -15,7 +15,7 @@
 #include "sft/model/jet_deformation.h"
 #include "sft/render/soft_rasterizer.h"
 #include "sft/scene/scene.h"
-#include "sft/solver/polysft.h"
+#include "sft/solver/robust_loss.h"
 
 namespace polyfit {
 
@@ -115,12 +115,6 @@ class TemporalCost : public ceres::CostFunction {
   mutable Eigen::Matrix3Xd now_, before_;
   mutable Eigen::MatrixXd jacobian_now_, jacobian_before_;
 };
-
-// Projects vertices into the camera: pixels and depths, and the 3 by 3
-// Jacobian of (x, y, depth) per vertex stacked (3 #V by 3). False when a
-// vertex is not in front of the camera.
-bool ProjectVertices(const PinholeCamera& camera, const Eigen::Matrix3Xd& vertices, ScreenMesh* screen,
-                     Eigen::MatrixXd* jacobian);
 
 }  // namespace polyfit
 

@@ -6,7 +6,6 @@
 #include <cstdio>
 #include <deque>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 
 #include <ceres/ceres.h>
@@ -15,9 +14,12 @@
 
 #include "cost_functions/compressed_cost.h"
 #include "polyfit/mesh/mesh_io.h"
-#include "polyfit/mesh/mesh_topology.h"
+#include "polyfit/mesh/unique_edges.h"
 #include "sft/scene/sft_metrics.h"
+#include "polyfit/util/atomic_file.h"
+#include "polyfit/util/json_number.h"
 #include "polyfit/util/parallel_for.h"
+#include "sft/solver/polysft_settings.h"
 #include "sft/solver/frame_costs.h"
 
 namespace polyfit {
@@ -123,211 +125,202 @@ std::string PolySftOptions::Validate() const {
   return {};
 }
 
-PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene, const SftFrameCallback& on_frame) {
-  if (const std::string problem = options.Validate(); !problem.empty()) {
-    throw std::invalid_argument("PolySftOptions: " + problem);
-  }
-  const auto start = Clock::now();
-  PolySftSummary summary;
-  const Eigen::Matrix2Xd vertex_texcoords = VertexTexcoords(
-      scene.template_mesh.faces, scene.template_mesh.corner_texcoords, scene.template_mesh.num_vertices());
-  const JetDeformationModel model(options.deformation, scene.template_mesh.vertices, &vertex_texcoords);
-  const int P = model.num_parameters();
-  const int num_frames =
-      options.max_frames > 0 ? std::min(options.max_frames, scene.frame_count) : scene.frame_count;
-  const int levels = options.pyramid_levels;
-  const bool use_masks = scene.has_masks() && options.silhouette_weight > 0.0;
-  const bool use_temporal = num_frames > 1 && options.temporal_weight > 0.0;
-  const bool use_photometric = options.photometric_weight > 0.0;
-  const bool use_inextensibility = options.inextensibility_weight > 0.0;
-  if (use_photometric) summary.terms.emplace_back("photometric", options.photometric_weight);
-  if (use_masks) summary.terms.emplace_back("silhouette", options.silhouette_weight);
-  if (use_inextensibility) summary.terms.emplace_back("inextensibility", options.inextensibility_weight);
-  if (use_temporal) summary.terms.emplace_back("temporal", options.temporal_weight);
-  {
-    // Data terms are normalised to about 1 per unit weight: the regularisers
-    // far above them decide the shape alone.
-    const double data = std::max(use_photometric ? options.photometric_weight : 0.0,
-                                 use_masks ? options.silhouette_weight : 0.0);
-    const double stiffest = std::max(use_inextensibility ? options.inextensibility_weight : 0.0,
-                                     use_temporal ? options.temporal_weight : 0.0);
-    if (data > 0.0 && stiffest >= 1e4 * data) {
-      summary.warnings.emplace_back("stiff weights (a regulariser at " + std::to_string(stiffest / data) +
-                                    " times the data terms): the images barely move the surface and results may be "
-                                    "unreliable");
+namespace {
+
+// Where the image terms sit in a level's Ceres problem for one frame.
+struct LevelData {
+  PinholeCamera camera;
+  double scale = 1.0;
+  std::unique_ptr<SoftRasterizer> rasterizer;         // all threads: a lone frame
+  std::unique_ptr<SoftRasterizer> serial_rasterizer;  // one thread: frames side by side
+};
+
+// SolvePolySft's phases over one sequence: set-up (terms, template data,
+// pyramid, rasterizers), then per frame load, solve the window coarse to
+// fine, and finalise the frame that leaves the window.
+class PolySftController {
+ public:
+  PolySftController(const PolySftOptions& options, const SftScene& scene, const SftFrameCallback& on_frame)
+      : options_(options), scene_(scene), on_frame_(on_frame), start_(Clock::now()),
+        vertex_texcoords_(VertexTexcoords(scene.template_mesh.faces, scene.template_mesh.corner_texcoords,
+                                          scene.template_mesh.num_vertices())),
+        model_(options.deformation, scene.template_mesh.vertices, &vertex_texcoords_) {}
+
+  PolySftSummary Run() {
+    ChooseTerms();
+    CheckTemplate();
+    PrepareTemplateData();
+    BuildPyramid();
+    CreateRasterizers();
+    const int num_frames =
+        options_.max_frames > 0 ? std::min(options_.max_frames, scene_.frame_count) : scene_.frame_count;
+    frame_time_.assign(num_frames, 0.0);
+    frame_cost_.assign(num_frames, 0.0);
+    frame_iterations_.assign(num_frames, 0);
+    for (int t = 0; t < num_frames; ++t) {
+      const auto frame_start = Clock::now();
+      AddFrameToWindow(t);
+      double cost = 0.0;
+      int iterations = 0;
+      if (!SolveWindow(&cost, &iterations)) break;
+      frame_time_[t] = Seconds(frame_start);
+      frame_cost_[t] = cost;
+      frame_iterations_[t] = iterations;
+      if (static_cast<int>(window_.size()) >= options_.window_size) FinalizeOldestFrame();
     }
-  }
-  if (!use_photometric && !use_masks) {
-    throw std::invalid_argument("PolySftOptions: no data term (photometric weight 0 and no masks)");
-  }
-  summary.deformation = model.texture_space() ? "texture_space" : "patch_jet";
-  if (model.texture_space() && !options.deformation.texture_space) {
-    summary.warnings.emplace_back(
-        "the template is not a height field over one plane: it is deformed by a texture-space field instead of "
-        "its patch's jet");
-  }
-  if (model.template_rms_error() > 1e-3 * BoundingBoxDiagonal(scene.template_mesh.vertices)) {
-    char buffer[160];
-    std::snprintf(buffer, sizeof(buffer), "the template's jet deviates from it by %.2e m RMS",
-                  model.template_rms_error());
-    summary.warnings.emplace_back(buffer);
+    if (summary_.termination_type != TerminationType::kFailure) {
+      while (!window_.empty()) FinalizeOldestFrame();
+    }
+    Summarize();
+    return std::move(summary_);
   }
 
-  // Template data shared by every frame.
-  ScreenMesh mesh_template;
-  mesh_template.faces = scene.template_mesh.faces;
-  mesh_template.corner_texcoords = scene.template_mesh.corner_texcoords;
-  mesh_template.boundary_edges = MeshBoundaryEdgeFlags(scene.template_mesh.faces);
-  const double min_depth = scene.template_mesh.vertices.row(2).minCoeff();
-  const double max_depth = scene.template_mesh.vertices.row(2).maxCoeff();
-  const double size = BoundingBoxDiagonal(scene.template_mesh.vertices);
-  mesh_template.depth_near = std::max(1e-3, min_depth - size);
-  mesh_template.depth_far = max_depth + size;
-  std::vector<Eigen::Vector2i> edges;
-  std::vector<double> rest_lengths;
-  {
-    const std::vector<std::pair<std::uint64_t, int>> sorted = SortedEdgeCorners(scene.template_mesh);
-    for (size_t k = 0; k < sorted.size(); ++k) {
-      if (k > 0 && sorted[k].first == sorted[k - 1].first) continue;
-      const int a = static_cast<int>(sorted[k].first >> 32), b = static_cast<int>(sorted[k].first & 0xffffffffu);
-      const double length = (scene.template_mesh.vertices.col(a) - scene.template_mesh.vertices.col(b)).norm();
-      if (length > 0.0) {
-        edges.emplace_back(a, b);
-        rest_lengths.push_back(length);
-      }
+ private:
+  // Active terms and their weights: only what the scene supports.
+  void ChooseTerms() {
+    const PolySftOptions& o = options_;
+    const int num_frames = o.max_frames > 0 ? std::min(o.max_frames, scene_.frame_count) : scene_.frame_count;
+    use_masks_ = scene_.has_masks() && o.silhouette_weight > 0.0;
+    use_temporal_ = num_frames > 1 && o.temporal_weight > 0.0;
+    use_photometric_ = o.photometric_weight > 0.0;
+    use_inextensibility_ = o.inextensibility_weight > 0.0;
+    if (use_photometric_) summary_.terms.emplace_back("photometric", o.photometric_weight);
+    if (use_masks_) summary_.terms.emplace_back("silhouette", o.silhouette_weight);
+    if (use_inextensibility_) summary_.terms.emplace_back("inextensibility", o.inextensibility_weight);
+    if (use_temporal_) summary_.terms.emplace_back("temporal", o.temporal_weight);
+    // Data terms are normalised to about 1 per unit weight: the regularisers
+    // far above them decide the shape alone.
+    const double data =
+        std::max(use_photometric_ ? o.photometric_weight : 0.0, use_masks_ ? o.silhouette_weight : 0.0);
+    const double stiffest = std::max(use_inextensibility_ ? o.inextensibility_weight : 0.0,
+                                     use_temporal_ ? o.temporal_weight : 0.0);
+    if (data > 0.0 && stiffest >= 1e4 * data) {
+      summary_.warnings.emplace_back("stiff weights (a regulariser at " + std::to_string(stiffest / data) +
+                                     " times the data terms): the images barely move the surface and results may "
+                                     "be unreliable");
+    }
+    if (!use_photometric_ && !use_masks_) {
+      throw std::invalid_argument("PolySftOptions: no data term (photometric weight 0 and no masks)");
     }
   }
-  // Pixels the template covers at full size: normalises the image terms.
-  double template_pixels = 0.0;
-  {
-    ScreenMesh screen = mesh_template;
-    ProjectVertices(scene.camera, scene.template_mesh.vertices, &screen, nullptr);
+
+  // The deformation chosen, and what may make the result unreliable.
+  void CheckTemplate() {
+    summary_.deformation = model_.texture_space() ? "texture_space" : "patch_jet";
+    if (model_.texture_space() && !options_.deformation.texture_space) {
+      summary_.warnings.emplace_back(
+          "the template is not a height field over one plane: it is deformed by a texture-space field instead of "
+          "its patch's jet");
+    }
+    if (model_.template_rms_error() > 1e-3 * BoundingBoxDiagonal(scene_.template_mesh.vertices)) {
+      char buffer[160];
+      std::snprintf(buffer, sizeof(buffer), "the template's jet deviates from it by %.2e m RMS",
+                    model_.template_rms_error());
+      summary_.warnings.emplace_back(buffer);
+    }
+    // Little texture: the photometric term cannot locate the surface.
+    cv::Mat grey, dx, dy;
+    cv::cvtColor(scene_.texture, grey, cv::COLOR_RGB2GRAY);
+    cv::Sobel(grey, dx, CV_32F, 1, 0);
+    cv::Sobel(grey, dy, CV_32F, 0, 1);
+    if (cv::mean(dx.mul(dx) + dy.mul(dy))[0] < 1e-4) {
+      summary_.warnings.emplace_back("the texture has little detail: shape is constrained mostly by the " +
+                                     std::string(use_masks_ ? "silhouettes" : "regularisers") +
+                                     " and results may be unreliable");
+    }
+  }
+
+  // Faces, texture coordinates and depth range for the rasterizer; edges
+  // and their rest lengths; the template's pixel area (normalises the image
+  // terms); the template held still (the baseline).
+  void PrepareTemplateData() {
+    const TriangleMesh& mesh = scene_.template_mesh;
+    mesh_template_.faces = mesh.faces;
+    mesh_template_.corner_texcoords = mesh.corner_texcoords;
+    mesh_template_.boundary_edges = MeshBoundaryEdgeFlags(mesh.faces);
+    size_ = BoundingBoxDiagonal(mesh.vertices);
+    mesh_template_.depth_near = std::max(1e-3, mesh.vertices.row(2).minCoeff() - size_);
+    mesh_template_.depth_far = mesh.vertices.row(2).maxCoeff() + size_;
+    const Eigen::Matrix2Xi edges = UniqueEdges(mesh);
+    for (Eigen::Index e = 0; e < edges.cols(); ++e) {
+      const double length = (mesh.vertices.col(edges(0, e)) - mesh.vertices.col(edges(1, e))).norm();
+      if (length > 0.0) {
+        edges_.emplace_back(edges(0, e), edges(1, e));
+        rest_lengths_.push_back(length);
+      }
+    }
+    ScreenMesh screen = mesh_template_;
+    ProjectVertices(scene_.camera, mesh.vertices, &screen, nullptr);
+    template_pixels_ = 0.0;
     for (int f = 0; f < screen.faces.cols(); ++f) {
       const Eigen::Vector2d a = screen.pixels.col(screen.faces(0, f)), b = screen.pixels.col(screen.faces(1, f)),
                             c = screen.pixels.col(screen.faces(2, f));
-      template_pixels += 0.5 * std::abs((b - a).x() * (c - a).y() - (b - a).y() * (c - a).x());
+      template_pixels_ += 0.5 * std::abs((b - a).x() * (c - a).y() - (b - a).y() * (c - a).x());
     }
-    template_pixels = std::max(template_pixels, 16.0);
+    template_pixels_ = std::max(template_pixels_, 16.0);
+    if (scene_.ground_truth_kind == GroundTruthKind::kVertices) summary_.template_e3d = summary_.template_rmse_mm = 0.0;
   }
-  {
-    // Little texture: the photometric term cannot locate the surface.
-    cv::Mat grey, dx, dy;
-    cv::cvtColor(scene.texture, grey, cv::COLOR_RGB2GRAY);
-    cv::Sobel(grey, dx, CV_32F, 1, 0);
-    cv::Sobel(grey, dy, CV_32F, 0, 1);
-    const double energy = cv::mean(dx.mul(dx) + dy.mul(dy))[0];
-    if (energy < 1e-4) {
-      summary.warnings.emplace_back("the texture has little detail: shape is constrained mostly by the " +
-                                    std::string(use_masks ? "silhouettes" : "regularisers") +
-                                    " and results may be unreliable");
+
+  // Levels coarsest first, halving from the finest (which may itself be
+  // scaled down to max_image_width).
+  void BuildPyramid() {
+    const int levels = options_.pyramid_levels;
+    const double top_scale = options_.max_image_width > 0 && options_.max_image_width < scene_.camera.width
+                                 ? static_cast<double>(options_.max_image_width) / scene_.camera.width
+                                 : 1.0;
+    levels_.resize(levels);
+    for (int l = 0; l < levels; ++l) {
+      levels_[l].scale = top_scale * std::ldexp(1.0, -(levels - 1 - l));
+      levels_[l].camera = scene_.camera.Scaled(levels_[l].scale);
     }
-  }
-  std::vector<PinholeCamera> cameras(levels);
-  const double top_scale = options.max_image_width > 0 && options.max_image_width < scene.camera.width
-                               ? static_cast<double>(options.max_image_width) / scene.camera.width
-                               : 1.0;
-  std::vector<double> level_scales(levels);
-  for (int l = 0; l < levels; ++l) {
-    level_scales[l] = top_scale * std::ldexp(1.0, -(levels - 1 - l));
-    cameras[l] = scene.camera.Scaled(level_scales[l]);
   }
 
   // One rasterizer per level, each with the texture prefiltered to about one
   // texel per image pixel: sampled at a single point per pixel, a finer
   // texture aliases, and its colours match neither the (area-averaged)
   // frames nor their neighbours, which ruins the photometric gradients.
-  std::vector<std::unique_ptr<SoftRasterizer>> rasterizers, serial_rasterizers;
-  {
-    ScreenMesh screen = mesh_template;
-    ProjectVertices(scene.camera, scene.template_mesh.vertices, &screen, nullptr);
+  void CreateRasterizers() {
+    const TriangleMesh& mesh = scene_.template_mesh;
+    ScreenMesh screen = mesh_template_;
+    ProjectVertices(scene_.camera, mesh.vertices, &screen, nullptr);
     // Pixels per unit of texture coordinate, from the template's edges.
     double pixels_per_uv = 0.0;
     for (int f = 0; f < screen.faces.cols(); ++f) {
       for (int c = 0; c < 3; ++c) {
-        const double duv = (scene.template_mesh.corner_texcoords.col(3 * f + c) -
-                            scene.template_mesh.corner_texcoords.col(3 * f + (c + 1) % 3))
-                               .norm();
-        const double dpx = (screen.pixels.col(screen.faces(c, f)) - screen.pixels.col(screen.faces((c + 1) % 3, f))).norm();
+        const double duv =
+            (mesh.corner_texcoords.col(3 * f + c) - mesh.corner_texcoords.col(3 * f + (c + 1) % 3)).norm();
+        const double dpx =
+            (screen.pixels.col(screen.faces(c, f)) - screen.pixels.col(screen.faces((c + 1) % 3, f))).norm();
         if (duv > 0.0) pixels_per_uv = std::max(pixels_per_uv, dpx / duv);
       }
     }
-    for (int l = 0; l < levels; ++l) {
-      const double level_scale = level_scales[l];
-      const double factor = std::min(1.0, level_scale * pixels_per_uv / std::max(scene.texture.cols, scene.texture.rows));
-      cv::Mat texture = scene.texture;
+    const cv::Mat& full = scene_.texture;
+    for (LevelData& level : levels_) {
+      const double factor = std::min(1.0, level.scale * pixels_per_uv / std::max(full.cols, full.rows));
+      cv::Mat texture = full;
       if (factor < 1.0) {
-        cv::resize(scene.texture, texture,
-                   cv::Size(std::max(2, static_cast<int>(std::lround(scene.texture.cols * factor))),
-                            std::max(2, static_cast<int>(std::lround(scene.texture.rows * factor)))),
+        cv::resize(full, texture,
+                   cv::Size(std::max(2, static_cast<int>(std::lround(full.cols * factor))),
+                            std::max(2, static_cast<int>(std::lround(full.rows * factor)))),
                    0, 0, cv::INTER_AREA);
       }
-      rasterizers.push_back(std::make_unique<SoftRasterizer>(options.rasterizer, texture));
-      SoftRasterizerOptions serial = options.rasterizer;
+      level.rasterizer = std::make_unique<SoftRasterizer>(options_.rasterizer, texture);
+      SoftRasterizerOptions serial = options_.rasterizer;
       serial.num_threads = 1;
-      serial_rasterizers.push_back(std::make_unique<SoftRasterizer>(serial, texture));
+      level.serial_rasterizer = std::make_unique<SoftRasterizer>(serial, texture);
     }
   }
-  Eigen::Matrix3Xd template_now;
-  {
-    std::vector<double> zero(P, 0.0);
-    model.Evaluate(zero.data(), &template_now);
-  }
-  if (scene.ground_truth_kind == GroundTruthKind::kVertices) summary.template_e3d = summary.template_rmse_mm = 0.0;
 
-  std::deque<std::unique_ptr<FrameData>> window;
-  Eigen::Matrix3Xd previous_final;  // the frame before the window, once there is one
-  bool has_previous_final = false;
-
-  double first_cost = -1.0;
-  auto finalize = [&](FrameData& data, double time_s, double cost, int iterations) {
-    // A frame that fits far worse than the first has probably lost track.
-    if (first_cost < 0.0) {
-      first_cost = cost;
-    } else if (cost > 4.0 * std::max(first_cost, 1e-12)) {
-      char buffer[200];
-      std::snprintf(buffer, sizeof(buffer),
-                    "frame %d: cost %.3g is %.0f times the first frame's: tracking may be lost (motion too large "
-                    "between frames?)",
-                    data.frame.index, cost, cost / std::max(first_cost, 1e-12));
-      summary.warnings.emplace_back(buffer);
-    }
-    SftFrameSummary result;
-    result.index = data.frame.index;
-    model.Evaluate(data.theta.data(), &result.vertices);
-    result.time_s = time_s;
-    result.cost = cost;
-    result.iterations = iterations;
-    if (scene.ground_truth_kind == GroundTruthKind::kVertices) {
-      const Eigen::Matrix3Xd& gt = data.frame.ground_truth;
-      result.e3d = ComputeE3D(result.vertices, gt);
-      result.normal_error_deg = ComputeNormalErrorDeg(scene.template_mesh.faces, result.vertices, gt);
-      result.rmse_mm = ComputeRmseMm(result.vertices, gt);
-      summary.template_e3d += ComputeE3D(scene.template_mesh.vertices, gt);
-      summary.template_rmse_mm += ComputeRmseMm(scene.template_mesh.vertices, gt);
-    } else if (scene.ground_truth_kind == GroundTruthKind::kPoints) {
-      TriangleMesh surface;
-      surface.vertices = result.vertices;
-      surface.faces = scene.template_mesh.faces;
-      result.chamfer_1e4 = ComputePointChamfer1e4(surface, data.frame.ground_truth);
-    }
-    previous_final = result.vertices;
-    has_previous_final = true;
-    summary.frames.push_back(result);
-    if (on_frame) on_frame(summary.frames.back());
-  };
-
-  std::vector<double> frame_time(num_frames, 0.0), frame_cost(num_frames, 0.0);
-  std::vector<int> frame_iterations(num_frames, 0);
-  for (int t = 0; t < num_frames; ++t) {
-    const auto frame_start = Clock::now();
-    // Load the new frame and build its pyramid.
+  // Loads frame t with its pyramid, warm-started from the newest frame.
+  void AddFrameToWindow(int t) {
     auto data = std::make_unique<FrameData>();
-    data->frame = LoadFrame(scene, t);
+    data->frame = LoadFrame(scene_, t);
+    const int levels = static_cast<int>(levels_.size());
     data->images.resize(levels);
     data->masks.resize(levels);
     for (int l = 0; l < levels; ++l) {
-      const cv::Size size(cameras[l].width, cameras[l].height);
-      if (level_scales[l] == 1.0) {
+      const cv::Size size(levels_[l].camera.width, levels_[l].camera.height);
+      if (levels_[l].scale == 1.0) {
         data->images[l] = data->frame.image;
         data->masks[l] = data->frame.mask;
       } else {
@@ -337,131 +330,250 @@ PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene
     }
     if (!data->frame.mask.empty() && cv::countNonZero(data->frame.mask) == 0) {
       data->mask_empty = true;
-      summary.warnings.emplace_back("frame " + std::to_string(data->frame.index) +
-                                    ": the mask is empty (object not visible?): its image terms are skipped");
+      summary_.warnings.emplace_back("frame " + std::to_string(data->frame.index) +
+                                     ": the mask is empty (object not visible?): its image terms are skipped");
     }
-    data->theta = window.empty() ? std::vector<double>(P, 0.0) : window.back()->theta;
-    window.push_back(std::move(data));
+    data->theta = window_.empty() ? std::vector<double>(model_.num_parameters(), 0.0) : window_.back()->theta;
+    window_.push_back(std::move(data));
+  }
 
-    // Solve the window, coarse to fine.
-    double cost = 0.0;
-    int iterations = 0;
-    for (int l = 0; l < levels; ++l) {
+  // The photometric and silhouette term of window frame k at a level;
+  // false when the surface went behind the camera.
+  bool AddImageTerm(int l, FrameData& frame, ceres::Problem* problem) {
+    if (frame.mask_empty || (!use_photometric_ && !use_masks_)) return true;
+    const LevelData& level = levels_[l];
+    RenderCost::Data d;
+    d.model = &model_;
+    d.rasterizer = window_.size() > 1 ? level.serial_rasterizer.get() : level.rasterizer.get();
+    d.mesh = mesh_template_;
+    d.camera = level.camera;
+    d.image = frame.images[l];
+    if (use_masks_) d.mask = frame.masks[l];
+    Eigen::Matrix3Xd vertices;
+    model_.Evaluate(frame.theta.data(), &vertices);
+    ScreenMesh screen = mesh_template_;
+    if (!ProjectVertices(level.camera, vertices, &screen, nullptr)) return false;
+    const double level_pixels = template_pixels_ * level.scale * level.scale;
+    d.roi = RegionOfInterest(screen, d.mask, level.camera.width, level.camera.height,
+                             4.0 + std::sqrt(options_.rasterizer.cutoff * options_.rasterizer.sigma));
+    d.photometric_weight = use_photometric_ ? std::sqrt(options_.photometric_weight / level_pixels) : 0.0;
+    d.silhouette_weight = std::sqrt(options_.silhouette_weight / level_pixels);
+    d.robust_loss = options_.robust_loss;
+    d.robust_scale = options_.robust_scale * d.photometric_weight;
+    if (d.roi.area() > 0) problem->AddResidualBlock(new CompressedRenderCost(std::move(d)), nullptr, frame.theta.data());
+    return true;
+  }
+
+  // Inextensibility of window frame k, and its temporal link to the frame
+  // before it (in the window, or the last finalised one).
+  void AddRegularizers(size_t k, ceres::Problem* problem) {
+    double* theta = window_[k]->theta.data();
+    if (use_inextensibility_ && !edges_.empty()) {
+      problem->AddResidualBlock(
+          new CompressedCost(new InextensibilityCost(&model_, edges_, rest_lengths_,
+                                                     std::sqrt(options_.inextensibility_weight / edges_.size()))),
+          nullptr, theta);
+    }
+    if (!use_temporal_) return;
+    const double w = std::sqrt(options_.temporal_weight / model_.num_vertices());
+    if (k > 0) {
+      problem->AddResidualBlock(new CompressedCost(new TemporalCost(&model_, size_, w)), nullptr, theta,
+                                window_[k - 1]->theta.data());
+    } else if (has_previous_final_) {
+      problem->AddResidualBlock(new CompressedCost(new TemporalCost(&model_, size_, w, &previous_final_)), nullptr,
+                                theta);
+    }
+  }
+
+  ceres::Solver::Options LevelSolverOptions() const {
+    ceres::Solver::Options solver;
+    solver.minimizer_type = ceres::TRUST_REGION;
+    solver.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+    // Every term is compressed to (parameters + 1) rows: a small dense system.
+    solver.linear_solver_type = ceres::DENSE_QR;
+    solver.max_num_iterations = options_.max_iterations_per_level;
+    // The window's frames are evaluated side by side; a lone frame's pixels
+    // are split over the threads by the rasterizer instead.
+    solver.num_threads = window_.size() > 1 ? ResolveNumThreads(options_.num_threads) : 1;
+    solver.logging_type = ceres::SILENT;
+    solver.update_state_every_iteration = true;
+    return solver;
+  }
+
+  // Every level, coarse to fine. False (with the summary's failure set)
+  // when the solve diverged or the surface went behind the camera.
+  bool SolveWindow(double* cost, int* iterations) {
+    for (int l = 0; l < static_cast<int>(levels_.size()); ++l) {
       ceres::Problem::Options problem_options;
       problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
       ceres::Problem problem(problem_options);
-      const double level_pixels = template_pixels * level_scales[l] * level_scales[l];
-      for (size_t k = 0; k < window.size(); ++k) {
-        FrameData& frame = *window[k];
-        double* theta = frame.theta.data();
-        problem.AddParameterBlock(theta, P);
-        if (!frame.mask_empty && (use_photometric || use_masks)) {
-          RenderCost::Data d;
-          d.model = &model;
-          d.rasterizer = window.size() > 1 ? serial_rasterizers[l].get() : rasterizers[l].get();
-          d.mesh = mesh_template;
-          d.camera = cameras[l];
-          d.image = frame.images[l];
-          if (use_masks) d.mask = frame.masks[l];
-          Eigen::Matrix3Xd vertices;
-          model.Evaluate(theta, &vertices);
-          ScreenMesh screen = mesh_template;
-          if (!ProjectVertices(cameras[l], vertices, &screen, nullptr)) {
-            throw std::runtime_error("frame " + std::to_string(frame.frame.index) +
-                                     ": the surface went behind the camera");
-          }
-          d.roi = RegionOfInterest(screen, d.mask, cameras[l].width, cameras[l].height,
-                                   4.0 + std::sqrt(options.rasterizer.cutoff * options.rasterizer.sigma));
-          d.photometric_weight = use_photometric ? std::sqrt(options.photometric_weight / level_pixels) : 0.0;
-          d.silhouette_weight = std::sqrt(options.silhouette_weight / level_pixels);
-          d.robust_loss = options.robust_loss;
-          d.robust_scale = options.robust_scale * d.photometric_weight;
-          if (d.roi.area() > 0) problem.AddResidualBlock(new CompressedRenderCost(std::move(d)), nullptr, theta);
+      for (size_t k = 0; k < window_.size(); ++k) {
+        FrameData& frame = *window_[k];
+        problem.AddParameterBlock(frame.theta.data(), model_.num_parameters());
+        if (!AddImageTerm(l, frame, &problem)) {
+          return Fail("frame " + std::to_string(frame.frame.index) + ": the surface went behind the camera");
         }
-        if (use_inextensibility && !edges.empty()) {
-          problem.AddResidualBlock(
-              new CompressedCost(new InextensibilityCost(&model, edges, rest_lengths,
-                                                         std::sqrt(options.inextensibility_weight / edges.size()))),
-              nullptr, theta);
-        }
-        if (use_temporal) {
-          const double w = std::sqrt(options.temporal_weight / model.num_vertices());
-          if (k > 0) {
-            problem.AddResidualBlock(new CompressedCost(new TemporalCost(&model, size, w)), nullptr, theta,
-                                     window[k - 1]->theta.data());
-          } else if (has_previous_final) {
-            problem.AddResidualBlock(new CompressedCost(new TemporalCost(&model, size, w, &previous_final)), nullptr,
-                                     theta);
-          }
-        }
+        AddRegularizers(k, &problem);
       }
-      ceres::Solver::Options solver;
-      solver.minimizer_type = ceres::TRUST_REGION;
-      solver.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-      // Every term is compressed to (parameters + 1) rows: a small dense system.
-      solver.linear_solver_type = ceres::DENSE_QR;
-      solver.max_num_iterations = options.max_iterations_per_level;
-      // The window's frames are evaluated side by side; a lone frame's pixels
-      // are split over the threads by the rasterizer instead.
-      solver.num_threads = window.size() > 1 ? ResolveNumThreads(options.num_threads) : 1;
-      solver.logging_type = ceres::SILENT;
-      solver.update_state_every_iteration = true;
+      ceres::Solver::Options solver = LevelSolverOptions();
       SftIterationSummary row;
-      row.frame = window.back()->frame.index;
-      row.window = window.front()->frame.index;
+      row.frame = window_.back()->frame.index;
+      row.window = window_.front()->frame.index;
       std::function<double()> e3d;
-      if (scene.ground_truth_kind == GroundTruthKind::kVertices) {
-        FrameData* newest = window.back().get();
-        e3d = [&model, newest] {
+      if (scene_.ground_truth_kind == GroundTruthKind::kVertices) {
+        FrameData* newest = window_.back().get();
+        e3d = [this, newest] {
           Eigen::Matrix3Xd v;
-          model.Evaluate(newest->theta.data(), &v);
+          model_.Evaluate(newest->theta.data(), &v);
           return ComputeE3D(v, newest->frame.ground_truth);
         };
       }
-      WindowCallback callback(options, &summary.trace, row, start, e3d);
+      WindowCallback callback(options_, &summary_.trace, row, start_, e3d);
       solver.callbacks.push_back(&callback);
       ceres::Solver::Summary result;
       ceres::Solve(solver, &problem, &result);
+      if (result.termination_type == ceres::NO_CONVERGENCE) ++unconverged_solves_;
+      ++solves_;
       // Per frame of the window, so that windows of different sizes compare.
-      cost = result.final_cost / window.size();
-      iterations += callback.iterations();
-      for (const auto& frame : window) {
+      *cost = result.final_cost / window_.size();
+      *iterations += callback.iterations();
+      for (const auto& frame : window_) {
         for (double v : frame->theta) {
-          if (!std::isfinite(v)) throw std::runtime_error("the solve diverged (non-finite parameters)");
+          if (!std::isfinite(v)) {
+            return Fail("frame " + std::to_string(window_.back()->frame.index) +
+                        ": the solve diverged (non-finite parameters)");
+          }
         }
       }
     }
-    frame_time[t] = Seconds(frame_start);
-    frame_cost[t] = cost;
-    frame_iterations[t] = iterations;
-    if (static_cast<int>(window.size()) >= options.window_size) {
-      const int oldest = window.front()->frame.index - scene.first_frame;
-      finalize(*window.front(), frame_time[oldest], frame_cost[oldest], frame_iterations[oldest]);
-      window.pop_front();
+    return true;
+  }
+
+  bool Fail(const std::string& message) {
+    summary_.termination_type = TerminationType::kFailure;
+    summary_.message = message + "; frames before the window are kept";
+    return false;
+  }
+
+  void FinalizeOldestFrame() {
+    FrameData& data = *window_.front();
+    const int t = data.frame.index - scene_.first_frame;
+    FinalizeFrame(data, frame_time_[t], frame_cost_[t], frame_iterations_[t]);
+    window_.pop_front();
+  }
+
+  // The frame's result, its error against ground truth, and a warning when
+  // it fits far worse than the first (tracking probably lost).
+  void FinalizeFrame(FrameData& data, double time_s, double cost, int iterations) {
+    if (first_cost_ < 0.0) {
+      first_cost_ = cost;
+    } else if (cost > 4.0 * std::max(first_cost_, 1e-12)) {
+      char buffer[200];
+      std::snprintf(buffer, sizeof(buffer),
+                    "frame %d: cost %.3g is %.0f times the first frame's: tracking may be lost (motion too large "
+                    "between frames?)",
+                    data.frame.index, cost, cost / std::max(first_cost_, 1e-12));
+      summary_.warnings.emplace_back(buffer);
+    }
+    SftFrameSummary result;
+    result.index = data.frame.index;
+    model_.Evaluate(data.theta.data(), &result.vertices);
+    result.time_s = time_s;
+    result.cost = cost;
+    result.iterations = iterations;
+    if (scene_.ground_truth_kind == GroundTruthKind::kVertices) {
+      const Eigen::Matrix3Xd& gt = data.frame.ground_truth;
+      result.e3d = ComputeE3D(result.vertices, gt);
+      result.normal_error_deg = ComputeNormalErrorDeg(scene_.template_mesh.faces, result.vertices, gt);
+      result.rmse_mm = ComputeRmseMm(result.vertices, gt);
+      summary_.template_e3d += ComputeE3D(scene_.template_mesh.vertices, gt);
+      summary_.template_rmse_mm += ComputeRmseMm(scene_.template_mesh.vertices, gt);
+    } else if (scene_.ground_truth_kind == GroundTruthKind::kPoints) {
+      TriangleMesh surface;
+      surface.vertices = result.vertices;
+      surface.faces = scene_.template_mesh.faces;
+      result.chamfer_1e4 = ComputePointChamfer1e4(surface, data.frame.ground_truth);
+    }
+    previous_final_ = result.vertices;
+    has_previous_final_ = true;
+    summary_.frames.push_back(result);
+    if (on_frame_) on_frame_(summary_.frames.back());
+  }
+
+  void Summarize() {
+    PolySftSummary& s = summary_;
+    s.total_time_s = Seconds(start_);
+    s.mean_time_per_frame_s = s.frames.empty() ? 0.0 : s.total_time_s / s.frames.size();
+    s.mean_e3d = Mean(s.frames, &SftFrameSummary::e3d);
+    s.mean_normal_error_deg = Mean(s.frames, &SftFrameSummary::normal_error_deg);
+    s.mean_rmse_mm = Mean(s.frames, &SftFrameSummary::rmse_mm);
+    s.mean_chamfer_1e4 = Mean(s.frames, &SftFrameSummary::chamfer_1e4);
+    if (std::isfinite(s.template_e3d) && !s.frames.empty()) {
+      s.template_e3d /= s.frames.size();
+      s.template_rmse_mm /= s.frames.size();
+    }
+    if (s.termination_type != TerminationType::kFailure && unconverged_solves_ > 0) {
+      s.termination_type = TerminationType::kNoConvergence;
+      s.message = std::to_string(unconverged_solves_) + " of " + std::to_string(solves_) +
+                  " level solves reached max_iterations_per_level";
     }
   }
-  while (!window.empty()) {
-    const int oldest = window.front()->frame.index - scene.first_frame;
-    finalize(*window.front(), frame_time[oldest], frame_cost[oldest], frame_iterations[oldest]);
-    window.pop_front();
+
+  const PolySftOptions& options_;
+  const SftScene& scene_;
+  const SftFrameCallback& on_frame_;
+  const Clock::time_point start_;
+  const Eigen::Matrix2Xd vertex_texcoords_;
+  const JetDeformationModel model_;
+  PolySftSummary summary_;
+  bool use_masks_ = false, use_temporal_ = false, use_photometric_ = false, use_inextensibility_ = false;
+  ScreenMesh mesh_template_;
+  double size_ = 0.0;  // the template's bounding-box diagonal
+  std::vector<Eigen::Vector2i> edges_;
+  std::vector<double> rest_lengths_;
+  double template_pixels_ = 0.0;
+  std::vector<LevelData> levels_;
+  std::deque<std::unique_ptr<FrameData>> window_;
+  Eigen::Matrix3Xd previous_final_;  // the frame before the window, once there is one
+  bool has_previous_final_ = false;
+  double first_cost_ = -1.0;
+  std::vector<double> frame_time_, frame_cost_;
+  std::vector<int> frame_iterations_;
+  int solves_ = 0, unconverged_solves_ = 0;
+};
+
+}  // namespace
+
+PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene, const SftFrameCallback& on_frame) {
+  if (const std::string problem = options.Validate(); !problem.empty()) {
+    throw std::invalid_argument("PolySftOptions: " + problem);
   }
-  summary.total_time_s = Seconds(start);
-  summary.mean_time_per_frame_s = summary.frames.empty() ? 0.0 : summary.total_time_s / summary.frames.size();
-  summary.mean_e3d = Mean(summary.frames, &SftFrameSummary::e3d);
-  summary.mean_normal_error_deg = Mean(summary.frames, &SftFrameSummary::normal_error_deg);
-  summary.mean_rmse_mm = Mean(summary.frames, &SftFrameSummary::rmse_mm);
-  summary.mean_chamfer_1e4 = Mean(summary.frames, &SftFrameSummary::chamfer_1e4);
-  if (std::isfinite(summary.template_e3d) && !summary.frames.empty()) {
-    summary.template_e3d /= summary.frames.size();
-    summary.template_rmse_mm /= summary.frames.size();
+  return PolySftController(options, scene, on_frame).Run();
+}
+
+std::string PolySftSummary::BriefReport() const {
+  char line[512];
+  int n = std::snprintf(line, sizeof(line), "%s: %zu frames in %.2f s (%.3f s per frame)",
+                        TerminationTypeToString(termination_type), frames.size(), total_time_s, mean_time_per_frame_s);
+  if (std::isfinite(mean_e3d)) {
+    n += std::snprintf(line + n, sizeof(line) - n,
+                       "; mean e3D %.4f, e_n %.2f deg, RMSE %.2f mm (template held still: e3D %.4f, RMSE %.1f mm)",
+                       mean_e3d, mean_normal_error_deg, mean_rmse_mm, template_e3d, template_rmse_mm);
   }
-  return summary;
+  if (std::isfinite(mean_chamfer_1e4) && n < static_cast<int>(sizeof(line))) {
+    n += std::snprintf(line + n, sizeof(line) - n, "; mean Chamfer x1e4 %.4f", mean_chamfer_1e4);
+  }
+  std::string report = line;
+  if (!message.empty()) report += " (" + message + ")";
+  return report;
 }
 
 void WriteSftOutputs(const std::string& directory, const SftScene& scene, const PolySftOptions& options,
                      const PolySftSummary& summary) {
   namespace fs = std::filesystem;
-  fs::create_directories(fs::path(directory) / "meshes");
+  std::error_code error;
+  fs::create_directories(fs::path(directory) / "meshes", error);
+  if (error) throw Error(ErrorKind::kOutput, directory + ": cannot create the folder: " + error.message());
   TriangleMesh mesh;
   mesh.faces = scene.template_mesh.faces;
   for (const SftFrameSummary& frame : summary.frames) {
@@ -470,60 +582,47 @@ void WriteSftOutputs(const std::string& directory, const SftScene& scene, const 
     mesh.vertices = frame.vertices;
     WritePly((fs::path(directory) / "meshes" / name).string(), mesh);
   }
-  auto number = [](double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); };
-  {
-    std::ofstream trace(fs::path(directory) / "trace.csv");
+  WriteFileAtomically((fs::path(directory) / "trace.csv").string(), [&](std::ostream& trace) {
     trace << "frame,window,iteration,time_s,cost,e3d\n";
     for (const SftIterationSummary& r : summary.trace) {
       trace << r.frame << ',' << r.window << ',' << r.iteration << ',' << r.time_s << ',' << r.cost << ',';
       if (std::isfinite(r.e3d)) trace << r.e3d;
       trace << '\n';
     }
-    if (!trace) throw std::runtime_error((fs::path(directory) / "trace.csv").string() + ": cannot be written");
-  }
+  });
   nlohmann::json frames = nlohmann::json::array();
   for (const SftFrameSummary& f : summary.frames) {
     frames.push_back({{"frame", f.index},
                       {"time_s", f.time_s},
                       {"cost", f.cost},
                       {"iterations", f.iterations},
-                      {"e3d", number(f.e3d)},
-                      {"e_n_deg", number(f.normal_error_deg)},
-                      {"rmse_mm", number(f.rmse_mm)},
-                      {"chamfer_1e4", number(f.chamfer_1e4)}});
+                      {"e3d", JsonNumber(f.e3d)},
+                      {"e_n_deg", JsonNumber(f.normal_error_deg)},
+                      {"rmse_mm", JsonNumber(f.rmse_mm)},
+                      {"chamfer_1e4", JsonNumber(f.chamfer_1e4)}});
   }
   nlohmann::json terms = nlohmann::json::object();
   for (const auto& [name, weight] : summary.terms) terms[name] = weight;
   const nlohmann::json metrics = {
       {"scene", scene.directory},
+      {"termination", TerminationTypeToString(summary.termination_type)},
+      {"message", summary.message},
       {"frames", frames},
-      {"mean", {{"e3d", number(summary.mean_e3d)},
-                {"e_n_deg", number(summary.mean_normal_error_deg)},
-                {"rmse_mm", number(summary.mean_rmse_mm)},
-                {"chamfer_1e4", number(summary.mean_chamfer_1e4)},
-                {"time_per_frame_s", summary.mean_time_per_frame_s}}},
-      {"baseline_template_still", {{"e3d", number(summary.template_e3d)}, {"rmse_mm", number(summary.template_rmse_mm)}}},
+      {"mean",
+       {{"e3d", JsonNumber(summary.mean_e3d)},
+        {"e_n_deg", JsonNumber(summary.mean_normal_error_deg)},
+        {"rmse_mm", JsonNumber(summary.mean_rmse_mm)},
+        {"chamfer_1e4", JsonNumber(summary.mean_chamfer_1e4)},
+        {"time_per_frame_s", summary.mean_time_per_frame_s}}},
+      {"baseline_template_still",
+       {{"e3d", JsonNumber(summary.template_e3d)}, {"rmse_mm", JsonNumber(summary.template_rmse_mm)}}},
       {"total_time_s", summary.total_time_s},
+      {"deformation", summary.deformation},
       {"active_terms", terms},
       {"warnings", summary.warnings},
-      {"settings",
-       {{"jet_order", options.deformation.jet_order},
-        {"deformation", summary.deformation},
-        {"uv_displacement", options.deformation.uv_displacement == UvDisplacement::kCompactField ? "compact" : "per_vertex"},
-        {"uv_order", options.deformation.uv_order},
-        {"window_size", options.window_size},
-        {"pyramid_levels", options.pyramid_levels},
-        {"max_image_width", options.max_image_width},
-        {"max_iterations_per_level", options.max_iterations_per_level},
-        {"patience", options.patience},
-        {"sigma", options.rasterizer.sigma},
-        {"gamma", options.rasterizer.gamma},
-        {"robust_loss", options.robust_loss == RobustLoss::kNone    ? "none"
-                        : options.robust_loss == RobustLoss::kHuber ? "huber"
-                                                                    : "cauchy"}}}};
-  std::ofstream out(fs::path(directory) / "metrics.json");
-  out << metrics.dump(2) << '\n';
-  if (!out) throw std::runtime_error((fs::path(directory) / "metrics.json").string() + ": cannot be written");
+      {"settings", PolySftSettingsToJson(options)}};
+  WriteFileAtomically((fs::path(directory) / "metrics.json").string(),
+                      [&](std::ostream& out) { out << metrics.dump(2) << '\n'; });
 }
 
 }  // namespace polyfit

@@ -22,10 +22,10 @@
 #include "sft/model/jet_deformation.h"
 #include "sft/render/soft_rasterizer.h"
 #include "sft/scene/scene.h"
+#include "sft/solver/robust_loss.h"
+#include "polyfit/util/status.h"
 
 namespace polyfit {
-
-enum class RobustLoss { kNone, kHuber, kCauchy };
 
 struct PolySftOptions {
   JetDeformationOptions deformation;
@@ -86,6 +86,12 @@ struct SftIterationSummary {
 };
 
 struct PolySftSummary {
+  // kFailure: the solve diverged or the surface went behind the camera;
+  // `frames` holds the frames finalised before (the message names the
+  // frame). kNoConvergence: some level solve reached its iteration cap (the
+  // usual case at a fixed cost per frame).
+  TerminationType termination_type = TerminationType::kConvergence;
+  std::string message;
   std::vector<SftFrameSummary> frames;
   std::vector<SftIterationSummary> trace;
   // "patch_jet", or "texture_space" (the fallback for templates that are
@@ -104,18 +110,25 @@ struct PolySftSummary {
   // has vertices.
   double template_e3d = std::numeric_limits<double>::quiet_NaN();
   double template_rmse_mm = std::numeric_limits<double>::quiet_NaN();
+
+  bool IsSolutionUsable() const { return termination_type != TerminationType::kFailure; }
+  std::string BriefReport() const;
 };
 
 // Called once per frame, when it leaves the window (its result is final).
 using SftFrameCallback = std::function<void(const SftFrameSummary&)>;
 
 // Throws std::invalid_argument on invalid options, SceneError on a scene
-// that cannot be read.
+// that cannot be read. A diverged solve is no exception: the summary says
+// so (termination_type, message).
 PolySftSummary SolvePolySft(const PolySftOptions& options, const SftScene& scene,
                             const SftFrameCallback& on_frame = nullptr);
 
 // Writes meshes/NNNNNN.ply, trace.csv and metrics.json into `directory` as
-// the scene format specifies. Throws std::runtime_error naming a file.
+// the scene format specifies, each file atomically (a crash leaves whole
+// files or none). metrics.json's "settings" are the options as
+// polysft_settings.h writes them, so that `polysft --config` takes them
+// back. Throws Error (kOutput) naming a file.
 void WriteSftOutputs(const std::string& directory, const SftScene& scene, const PolySftOptions& options,
                      const PolySftSummary& summary);
 

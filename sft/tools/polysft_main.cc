@@ -20,58 +20,13 @@
 #include <opencv2/imgproc.hpp>
 
 #include "sft/scene/scene.h"
+#include "polyfit/util/atomic_file.h"
+#include "polyfit/util/status.h"
 #include "sft/solver/polysft.h"
+#include "sft/solver/polysft_settings.h"
 #include "sft/synthetic/sheet_scene.h"
 
 namespace {
-
-// Config keys, as in metrics.json's "settings" and the option names.
-void ApplyConfig(const std::string& path, polyfit::PolySftOptions* o) {
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error(path + ": cannot be opened");
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& e) {
-    throw std::runtime_error(path + ": not valid JSON: " + e.what());
-  }
-  for (const auto& [key, value] : j.items()) {
-    try {
-      if (key == "jet_order") o->deformation.jet_order = value.get<int>();
-      else if (key == "uv_displacement") {
-        const std::string mode = value.get<std::string>();
-        if (mode != "compact" && mode != "per_vertex") throw std::runtime_error("compact or per_vertex");
-        o->deformation.uv_displacement =
-            mode == "compact" ? polyfit::UvDisplacement::kCompactField : polyfit::UvDisplacement::kPerVertex;
-      } else if (key == "uv_order") o->deformation.uv_order = value.get<int>();
-      else if (key == "texture_space") o->deformation.texture_space = value.get<bool>();
-      else if (key == "window_size") o->window_size = value.get<int>();
-      else if (key == "pyramid_levels") o->pyramid_levels = value.get<int>();
-      else if (key == "max_image_width") o->max_image_width = value.get<int>();
-      else if (key == "max_iterations_per_level") o->max_iterations_per_level = value.get<int>();
-      else if (key == "patience") o->patience = value.get<int>();
-      else if (key == "improvement_tolerance") o->improvement_tolerance = value.get<double>();
-      else if (key == "photometric_weight") o->photometric_weight = value.get<double>();
-      else if (key == "silhouette_weight") o->silhouette_weight = value.get<double>();
-      else if (key == "inextensibility_weight") o->inextensibility_weight = value.get<double>();
-      else if (key == "temporal_weight") o->temporal_weight = value.get<double>();
-      else if (key == "sigma") o->rasterizer.sigma = value.get<double>();
-      else if (key == "gamma") o->rasterizer.gamma = value.get<double>();
-      else if (key == "robust_loss") {
-        const std::string loss = value.get<std::string>();
-        if (loss == "none") o->robust_loss = polyfit::RobustLoss::kNone;
-        else if (loss == "huber") o->robust_loss = polyfit::RobustLoss::kHuber;
-        else if (loss == "cauchy") o->robust_loss = polyfit::RobustLoss::kCauchy;
-        else throw std::runtime_error("none, huber or cauchy");
-      } else if (key == "robust_scale") o->robust_scale = value.get<double>();
-      else if (key == "max_frames") o->max_frames = value.get<int>();
-      else if (key == "num_threads") o->num_threads = value.get<int>();
-      else throw std::runtime_error("unknown key");
-    } catch (const std::exception& e) {
-      throw std::runtime_error(path + ": key '" + key + "': " + e.what());
-    }
-  }
-}
 
 // The reconstruction's edges drawn over each frame.
 void WriteOverlays(const std::string& out_dir, const polyfit::SftScene& scene,
@@ -94,7 +49,11 @@ void WriteOverlays(const std::string& out_dir, const polyfit::SftScene& scene,
     }
     char name[32];
     std::snprintf(name, sizeof(name), "%06d.png", f.index);
-    cv::imwrite((fs::path(out_dir) / "overlays" / name).string(), image);
+    std::vector<uchar> png;
+    cv::imencode(".png", image, png);
+    polyfit::WriteFileAtomically((fs::path(out_dir) / "overlays" / name).string(), [&](std::ostream& out) {
+      out.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
+    });
   }
 }
 
@@ -137,7 +96,11 @@ int main(int argc, char** argv) {
   demo->add_option("--dir", demo_dir, "Where to write the scene (DIR/scene) and the result (DIR/result)")
       ->capture_default_str();
 
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? polyfit::kExitSuccess : polyfit::kExitUsage;
+  }
   try {
     if (demo->parsed()) {
       scene_dir = demo_dir + "/scene";
@@ -155,10 +118,10 @@ int main(int argc, char** argv) {
     }
     if (scene_dir.empty() || out_dir.empty()) {
       std::cerr << "polysft: --scene and --out are required (or use 'polysft generate')\n";
-      return 2;
+      return polyfit::kExitUsage;
     }
     polyfit::PolySftOptions options;
-    if (!config.empty()) ApplyConfig(config, &options);
+    if (!config.empty()) polyfit::ApplyPolySftSettingsFile(config, &options);
     if (threads > 0) options.num_threads = threads;
     if (max_frames > 0) options.max_frames = max_frames;
     options.rasterizer.num_threads = options.num_threads;
@@ -178,18 +141,16 @@ int main(int argc, char** argv) {
     polyfit::WriteSftOutputs(out_dir, scene, options, summary);
     if (overlays) WriteOverlays(out_dir, scene, summary);
     for (const std::string& w : summary.warnings) std::printf("warning: %s\n", w.c_str());
-    std::printf("%zu frames in %.2f s (%.3f s per frame)", summary.frames.size(), summary.total_time_s,
-                summary.mean_time_per_frame_s);
-    if (std::isfinite(summary.mean_e3d)) {
-      std::printf("; mean e3D %.4f, e_n %.2f deg, RMSE %.2f mm (template held still: e3D %.4f, RMSE %.1f mm)",
-                  summary.mean_e3d, summary.mean_normal_error_deg, summary.mean_rmse_mm, summary.template_e3d,
-                  summary.template_rmse_mm);
-    }
-    if (std::isfinite(summary.mean_chamfer_1e4)) std::printf("; mean Chamfer x1e4 %.4f", summary.mean_chamfer_1e4);
-    std::printf("\nwrote %s/metrics.json, trace.csv, meshes/\n", out_dir.c_str());
-    return 0;
+    std::printf("%s\nwrote %s/metrics.json, trace.csv, meshes/\n", summary.BriefReport().c_str(), out_dir.c_str());
+    return summary.IsSolutionUsable() ? polyfit::kExitSuccess : polyfit::kExitSolverFailure;
+  } catch (const polyfit::Error& e) {
+    std::cerr << "polysft: " << e.what() << "\n";
+    return polyfit::ExitCodeFor(e.kind());
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "polysft: " << e.what() << "\n";
+    return polyfit::kExitUsage;
   } catch (const std::exception& e) {
     std::cerr << "polysft: " << e.what() << "\n";
-    return 2;
+    return polyfit::kExitFailure;
   }
 }

@@ -1,0 +1,142 @@
+#include "sft/solver/polysft_settings.h"
+
+#include <fstream>
+#include <functional>
+#include <stdexcept>
+#include <utility>
+
+#include "polyfit/util/status.h"
+
+namespace polyfit {
+namespace {
+
+using nlohmann::json;
+
+struct Setting {
+  const char* key;
+  std::function<json(const PolySftOptions&)> get;
+  std::function<void(const json&, PolySftOptions*)> set;
+};
+
+// An enum setting by its names.
+template <typename Enum>
+Setting EnumSetting(const char* key, Enum PolySftOptions::*member,
+                    std::vector<std::pair<Enum, const char*>> names) {
+  return {key,
+          [member, names](const PolySftOptions& o) {
+            for (const auto& [value, name] : names) {
+              if (o.*member == value) return json(name);
+            }
+            return json(nullptr);
+          },
+          [member, names](const json& j, PolySftOptions* o) {
+            const std::string name = j.get<std::string>();
+            std::string allowed;
+            for (const auto& [value, n] : names) {
+              if (name == n) {
+                o->*member = value;
+                return;
+              }
+              allowed += (allowed.empty() ? "" : ", ") + std::string(n);
+            }
+            throw std::invalid_argument("expected one of " + allowed + ", got '" + name + "'");
+          }};
+}
+
+#define POLYFIT_SETTING(key, field)                                                      \
+  Setting {                                                                              \
+    key, [](const PolySftOptions& o) { return json(o.field); },                          \
+        [](const json& j, PolySftOptions* o) { j.get_to(o->field); }                     \
+  }
+
+const std::vector<Setting>& Settings() {
+  static const std::vector<Setting> settings = [] {
+    std::vector<Setting> s = {
+        POLYFIT_SETTING("jet_order", deformation.jet_order),
+        POLYFIT_SETTING("uv_order", deformation.uv_order),
+        POLYFIT_SETTING("texture_space", deformation.texture_space),
+        POLYFIT_SETTING("window_size", window_size),
+        POLYFIT_SETTING("pyramid_levels", pyramid_levels),
+        POLYFIT_SETTING("max_image_width", max_image_width),
+        POLYFIT_SETTING("max_iterations_per_level", max_iterations_per_level),
+        POLYFIT_SETTING("patience", patience),
+        POLYFIT_SETTING("improvement_tolerance", improvement_tolerance),
+        POLYFIT_SETTING("photometric_weight", photometric_weight),
+        POLYFIT_SETTING("silhouette_weight", silhouette_weight),
+        POLYFIT_SETTING("inextensibility_weight", inextensibility_weight),
+        POLYFIT_SETTING("temporal_weight", temporal_weight),
+        POLYFIT_SETTING("sigma", rasterizer.sigma),
+        POLYFIT_SETTING("gamma", rasterizer.gamma),
+        POLYFIT_SETTING("robust_scale", robust_scale),
+        POLYFIT_SETTING("max_frames", max_frames),
+        POLYFIT_SETTING("num_threads", num_threads),
+    };
+    s.insert(s.begin() + 1,
+             Setting{"uv_displacement",
+                     [](const PolySftOptions& o) {
+                       return json(o.deformation.uv_displacement == UvDisplacement::kCompactField ? "compact"
+                                                                                                  : "per_vertex");
+                     },
+                     [](const json& j, PolySftOptions* o) {
+                       const std::string mode = j.get<std::string>();
+                       if (mode != "compact" && mode != "per_vertex") {
+                         throw std::invalid_argument("expected compact or per_vertex, got '" + mode + "'");
+                       }
+                       o->deformation.uv_displacement =
+                           mode == "compact" ? UvDisplacement::kCompactField : UvDisplacement::kPerVertex;
+                     }});
+    s.push_back(EnumSetting<RobustLoss>(
+        "robust_loss", &PolySftOptions::robust_loss,
+        {{RobustLoss::kNone, "none"}, {RobustLoss::kHuber, "huber"}, {RobustLoss::kCauchy, "cauchy"}}));
+    return s;
+  }();
+  return settings;
+}
+
+#undef POLYFIT_SETTING
+
+}  // namespace
+
+json PolySftSettingsToJson(const PolySftOptions& options) {
+  json j = json::object();
+  for (const Setting& s : Settings()) j[s.key] = s.get(options);
+  return j;
+}
+
+std::vector<std::string> PolySftSettingKeys() {
+  std::vector<std::string> keys;
+  for (const Setting& s : Settings()) keys.push_back(s.key);
+  return keys;
+}
+
+void ApplyPolySftSettings(const json& settings, const std::string& source, PolySftOptions* options) {
+  if (!settings.is_object()) throw Error(ErrorKind::kInvalidArgument, source + ": settings must be a JSON object");
+  for (const auto& [key, value] : settings.items()) {
+    const Setting* setting = nullptr;
+    for (const Setting& s : Settings()) {
+      if (key == s.key) setting = &s;
+    }
+    if (setting == nullptr) throw Error(ErrorKind::kInvalidArgument, source + ": key '" + key + "': unknown key");
+    try {
+      setting->set(value, options);
+    } catch (const std::exception& e) {
+      throw Error(ErrorKind::kInvalidArgument, source + ": key '" + key + "': " + e.what());
+    }
+  }
+}
+
+void ApplyPolySftSettingsFile(const std::string& path, PolySftOptions* options) {
+  std::ifstream in(path);
+  if (!in) throw Error(ErrorKind::kInput, path + ": cannot be opened");
+  json j;
+  try {
+    j = json::parse(in);
+  } catch (const json::exception& e) {
+    throw Error(ErrorKind::kInput, path + ": not valid JSON: " + e.what());
+  }
+  // A metrics.json of an earlier run: its settings.
+  if (j.is_object() && j.contains("settings") && j["settings"].is_object()) j = j["settings"];
+  ApplyPolySftSettings(j, path, options);
+}
+
+}  // namespace polyfit

@@ -1,0 +1,77 @@
+#include "sft/solver/polysft_settings.h"
+
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "polyfit/util/scoped_temp_dir.h"
+
+namespace polyfit {
+namespace {
+
+TEST(PolySftSettingsTest, EverySettingRoundTrips) {
+  PolySftOptions changed;
+  changed.deformation.jet_order = 3;
+  changed.deformation.uv_displacement = UvDisplacement::kPerVertex;
+  changed.deformation.uv_order = 2;
+  changed.deformation.texture_space = true;
+  changed.window_size = 5;
+  changed.pyramid_levels = 2;
+  changed.max_image_width = 640;
+  changed.max_iterations_per_level = 9;
+  changed.patience = 3;
+  changed.improvement_tolerance = 0.05;
+  changed.photometric_weight = 0.5;
+  changed.silhouette_weight = 2.0;
+  changed.inextensibility_weight = 20.0;
+  changed.temporal_weight = 0.3;
+  changed.rasterizer.sigma = 2.5;
+  changed.rasterizer.gamma = 0.2;
+  changed.robust_loss = RobustLoss::kCauchy;
+  changed.robust_scale = 0.3;
+  changed.max_frames = 7;
+  changed.num_threads = 1;
+  const nlohmann::json written = PolySftSettingsToJson(changed);
+  EXPECT_EQ(written.size(), PolySftSettingKeys().size());
+  PolySftOptions read;
+  ApplyPolySftSettings(written, "test", &read);
+  EXPECT_EQ(PolySftSettingsToJson(read), written);
+  EXPECT_NE(PolySftSettingsToJson(PolySftOptions()), written);  // every value above differs from its default
+  for (const std::string& key : PolySftSettingKeys()) {
+    EXPECT_NE(PolySftSettingsToJson(PolySftOptions())[key], written[key]) << key;
+  }
+}
+
+TEST(PolySftSettingsTest, ErrorsNameTheKey) {
+  PolySftOptions options;
+  const auto message = [&](const nlohmann::json& j) {
+    try {
+      ApplyPolySftSettings(j, "config.json", &options);
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::kInvalidArgument);
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(message({{"windowsize", 3}}), "config.json: key 'windowsize': unknown key");
+  EXPECT_NE(message({{"window_size", "three"}}).find("key 'window_size'"), std::string::npos);
+  EXPECT_NE(message({{"robust_loss", "l1"}}).find("expected one of none, huber, cauchy, got 'l1'"), std::string::npos);
+  EXPECT_NE(message(nlohmann::json::array()).find("must be a JSON object"), std::string::npos);
+}
+
+TEST(PolySftSettingsTest, AMetricsFileGivesItsSettings) {
+  ScopedTempDir dir("polysft_settings");
+  PolySftOptions changed;
+  changed.window_size = 4;
+  const std::string path = (dir.path() / "metrics.json").string();
+  std::ofstream(path) << nlohmann::json{{"frames", nlohmann::json::array()},
+                                        {"settings", PolySftSettingsToJson(changed)}}
+                             .dump();
+  PolySftOptions read;
+  ApplyPolySftSettingsFile(path, &read);
+  EXPECT_EQ(read.window_size, 4);
+  EXPECT_THROW(ApplyPolySftSettingsFile((dir.path() / "absent.json").string(), &read), Error);
+}
+
+}  // namespace
+}  // namespace polyfit
