@@ -61,6 +61,253 @@ struct TriangleTerm {
   int vertices[3];
 };
 
+// Triangles binned into kTile-square tiles by their bounding boxes grown by
+// the reach of a soft edge, within roi. Triangles with a corner behind the
+// camera or not finite are left out.
+std::vector<std::vector<int>> BinTrianglesIntoTiles(const ScreenMesh& mesh, const cv::Rect& roi, double reach,
+                                                    int tiles_x, int tiles_y) {
+  std::vector<std::vector<int>> tiles(static_cast<size_t>(tiles_x) * tiles_y);
+  for (int f = 0; f < mesh.faces.cols(); ++f) {
+    double min_x = 1e300, max_x = -1e300, min_y = 1e300, max_y = -1e300;
+    bool visible = true;
+    for (int c = 0; c < 3; ++c) {
+      const int v = mesh.faces(c, f);
+      if (!(mesh.depths[v] > 0.0) || !mesh.pixels.col(v).allFinite()) visible = false;
+      min_x = std::min(min_x, mesh.pixels(0, v));
+      max_x = std::max(max_x, mesh.pixels(0, v));
+      min_y = std::min(min_y, mesh.pixels(1, v));
+      max_y = std::max(max_y, mesh.pixels(1, v));
+    }
+    if (!visible) continue;
+    const int x0 = std::max(roi.x, static_cast<int>(std::floor(min_x - reach)));
+    const int x1 = std::min(roi.x + roi.width - 1, static_cast<int>(std::ceil(max_x + reach)));
+    const int y0 = std::max(roi.y, static_cast<int>(std::floor(min_y - reach)));
+    const int y1 = std::min(roi.y + roi.height - 1, static_cast<int>(std::ceil(max_y + reach)));
+    if (x0 > x1 || y0 > y1) continue;
+    for (int ty = y0 / kTile; ty <= y1 / kTile; ++ty) {
+      for (int tx = x0 / kTile; tx <= x1 / kTile; ++tx) tiles[ty * tiles_x + tx].push_back(f);
+    }
+  }
+  return tiles;
+}
+
+// What every pixel's triangle terms read.
+struct TermContext {
+  const ScreenMesh& mesh;
+  const cv::Mat& texture;
+  double sigma = 1.0;
+  double max_distance2 = 0.0;  // cutoff sigma: beyond, a soft edge is 0 or 1
+  double inv_far = 0.0, depth_scale = 1.0;
+  bool has_uv = false, has_flags = false;
+};
+
+// Triangle f's term at pixel (px, py), as jets of its 9 screen variables:
+// coverage D (a sigmoid of the squared distance to its nearest soft edge,
+// 1 deep inside), normalised inverse depth and colour, interpolated at p
+// inside or at the closest boundary point outside. False when the triangle
+// does not reach the pixel.
+bool TriangleTermAt(const TermContext& c, int f, int px, int py, TriangleTerm* term) {
+  const ScreenMesh& mesh = c.mesh;
+  const double pxd = px, pyd = py;
+  const int ia = mesh.faces(0, f), ib = mesh.faces(1, f), ic = mesh.faces(2, f);
+  const double ax = mesh.pixels(0, ia), ay = mesh.pixels(1, ia);
+  const double bx = mesh.pixels(0, ib), by = mesh.pixels(1, ib);
+  const double cx = mesh.pixels(0, ic), cy = mesh.pixels(1, ic);
+  // Closest boundary point (in doubles, to choose the edge).
+  double t[3];
+  const double d2[3] = {SegmentDistance2(px, py, ax, ay, bx, by, &t[0]), SegmentDistance2(px, py, bx, by, cx, cy, &t[1]),
+                        SegmentDistance2(px, py, cx, cy, ax, ay, &t[2])};
+  const int nearest = static_cast<int>(std::min_element(d2, d2 + 3) - d2);
+  const double area = Cross2(bx - ax, by - ay, cx - ax, cy - ay);
+  const double w0 = Cross2(bx - px, by - py, cx - px, cy - py);
+  const double w1 = Cross2(cx - px, cy - py, ax - px, ay - py);
+  const double w2 = Cross2(ax - px, ay - py, bx - px, by - py);
+  const bool inside =
+      area != 0.0 && ((area > 0 && w0 >= 0 && w1 >= 0 && w2 >= 0) || (area < 0 && w0 <= 0 && w1 <= 0 && w2 <= 0));
+  // Soft edges: the mesh's boundary (all, without flags).
+  const std::uint8_t soft = c.has_flags ? mesh.boundary_edges[f] : 7;
+  int edge = nearest;  // the edge whose distance softens the coverage, or -1: hard
+  if (inside) {
+    edge = -1;
+    for (int k = 0; k < 3; ++k) {
+      if ((soft >> k & 1) && (edge < 0 || d2[k] < d2[edge])) edge = k;
+    }
+    if (edge >= 0 && d2[edge] > c.max_distance2) edge = -1;  // saturated: D = 1
+  } else if (!(soft >> nearest & 1) || d2[nearest] > c.max_distance2) {
+    return false;
+  }
+  // The same quantities as jets of the triangle's 9 variables.
+  const J9 Ax(ax, 0), Ay(ay, 1), Bx(bx, 2), By(by, 3), Cx(cx, 4), Cy(cy, 5);
+  const J9 Za(mesh.depths[ia], 6), Zb(mesh.depths[ib], 7), Zc(mesh.depths[ic], 8);
+  const J9* X[3] = {&Ax, &Bx, &Cx};
+  const J9* Y[3] = {&Ay, &By, &Cy};
+  const int e0 = nearest, e1 = (nearest + 1) % 3;
+  const J9 ex = *X[e1] - *X[e0], ey = *Y[e1] - *Y[e0];
+  J9 s(t[nearest]);
+  if (!inside && t[nearest] > 0.0 && t[nearest] < 1.0) {
+    s = ((J9(px) - *X[e0]) * ex + (J9(py) - *Y[e0]) * ey) / (ex * ex + ey * ey);
+  }
+  if (edge < 0) {
+    term->coverage = J9(1.0);
+  } else {
+    const int f0 = edge, f1 = (edge + 1) % 3;
+    const J9 fx = *X[f1] - *X[f0], fy = *Y[f1] - *Y[f0];
+    J9 r(t[edge]);
+    if (t[edge] > 0.0 && t[edge] < 1.0) r = ((J9(px) - *X[f0]) * fx + (J9(py) - *Y[f0]) * fy) / (fx * fx + fy * fy);
+    const J9 qx = J9(px) - (*X[f0] + r * fx), qy = J9(py) - (*Y[f0] + r * fy);
+    const J9 dist2 = qx * qx + qy * qy;
+    const J9 q = (inside ? dist2 : -dist2) / c.sigma;
+    term->coverage = 1.0 / (1.0 + exp(-q));
+  }
+  // Barycentrics: of p inside, of the closest boundary point outside.
+  J9 b[3];
+  if (inside) {
+    const J9 A = (Bx - Ax) * (Cy - Ay) - (By - Ay) * (Cx - Ax);
+    b[0] = ((Bx - pxd) * (Cy - pyd) - (By - pyd) * (Cx - pxd)) / A;
+    b[1] = ((Cx - pxd) * (Ay - pyd) - (Cy - pyd) * (Ax - pxd)) / A;
+    b[2] = 1.0 - b[0] - b[1];
+  } else {
+    b[e0] = 1.0 - s;
+    b[e1] = s;
+    b[(nearest + 2) % 3] = J9(0.0);
+  }
+  const J9 inv_depth = b[0] / Za + b[1] / Zb + b[2] / Zc;
+  term->depth = (inv_depth - c.inv_far) * c.depth_scale;
+  if (c.has_uv) {
+    J9 u(0.0), v(0.0);
+    for (int k = 0; k < 3; ++k) {
+      u += b[k] * mesh.corner_texcoords(0, 3 * f + k);
+      v += b[k] * mesh.corner_texcoords(1, 3 * f + k);
+    }
+    Eigen::Vector3d color, d_du, d_dv;
+    SampleTexture(c.texture, u.a, v.a, &color, &d_du, &d_dv);
+    for (int ch = 0; ch < 3; ++ch) {
+      term->color[ch].a = color[ch];
+      term->color[ch].v = d_du[ch] * u.v + d_dv[ch] * v.v;
+    }
+  } else {
+    for (int ch = 0; ch < 3; ++ch) term->color[ch] = J9(1.0);
+  }
+  term->vertices[0] = ia;
+  term->vertices[1] = ib;
+  term->vertices[2] = ic;
+  return true;
+}
+
+// A pixel's aggregate of its triangle terms (SoftRas):
+//   S = 1 - prod_j (1 - D_j)
+//   I = (e_b C_b + sum_j e_j C_j) / (e_b + sum_j e_j),
+//   e_j = D_j exp((z_j - z_max) / gamma), e_b = exp((z_b - z_max) / gamma).
+struct PixelBlend {
+  double color[3];
+  double silhouette = 0.0;
+  double e_sum = 0.0;
+  double z_max = 0.0;
+  const double* e = nullptr;  // e_j, for the gradients
+};
+
+PixelBlend BlendPixel(const std::vector<TriangleTerm>& terms, const cv::Vec3f& background,
+                      const SoftRasterizerOptions& o, std::vector<double>* e_scratch) {
+  PixelBlend blend;
+  double keep = 1.0;  // prod (1 - D_j)
+  blend.z_max = o.background_depth;
+  for (const TriangleTerm& term : terms) {
+    keep *= 1.0 - term.coverage.a;
+    blend.z_max = std::max(blend.z_max, term.depth.a);
+  }
+  const double e_background = std::exp((o.background_depth - blend.z_max) / o.gamma);
+  blend.e_sum = e_background;
+  double numerator[3] = {e_background * background[0], e_background * background[1], e_background * background[2]};
+  std::vector<double>& e = *e_scratch;
+  e.resize(terms.size());
+  for (size_t j = 0; j < terms.size(); ++j) {
+    e[j] = terms[j].coverage.a * std::exp((terms[j].depth.a - blend.z_max) / o.gamma);
+    blend.e_sum += e[j];
+    for (int ch = 0; ch < 3; ++ch) numerator[ch] += e[j] * terms[j].color[ch].a;
+  }
+  for (int ch = 0; ch < 3; ++ch) blend.color[ch] = numerator[ch] / blend.e_sum;
+  blend.silhouette = 1.0 - keep;
+  blend.e = e.data();
+  return blend;
+}
+
+// d(I, S)/d(screen variables) of a pixel, per vertex, appended to `grads`
+// (a vertex's entries summed over its triangles).
+void AppendPixelGradients(const std::vector<TriangleTerm>& terms, const PixelBlend& blend, double gamma,
+                          std::vector<VertexGradient>* grads) {
+  const int first = static_cast<int>(grads->size());
+  const int n = static_cast<int>(terms.size());
+  for (int j = 0; j < n; ++j) {
+    const TriangleTerm& term = terms[j];
+    // dS/dD_j = prod_{k != j} (1 - D_k), computed directly (D_j may be 1).
+    double others = 1.0;
+    for (int k = 0; k < n; ++k) {
+      if (k != j) others *= 1.0 - terms[k].coverage.a;
+    }
+    const double exp_j = std::exp((term.depth.a - blend.z_max) / gamma);
+    // d colour / d local variables of triangle j.
+    Eigen::Matrix<double, 4, 9> local;
+    for (int ch = 0; ch < 3; ++ch) {
+      const double to_e = (term.color[ch].a - blend.color[ch]) / blend.e_sum;
+      local.row(ch) = (to_e * (exp_j * term.coverage.v + blend.e[j] / gamma * term.depth.v) +
+                       blend.e[j] / blend.e_sum * term.color[ch].v)
+                          .transpose();
+    }
+    local.row(3) = (others * term.coverage.v).transpose();
+    for (int c = 0; c < 3; ++c) {
+      const int vertex = term.vertices[c];
+      VertexGradient* g = nullptr;
+      for (int k = first; k < static_cast<int>(grads->size()); ++k) {
+        if ((*grads)[k].vertex == vertex) {
+          g = &(*grads)[k];
+          break;
+        }
+      }
+      if (g == nullptr) {
+        grads->emplace_back();
+        g = &grads->back();
+        g->vertex = vertex;
+      }
+      for (int r = 0; r < 4; ++r) {
+        g->d[r][0] += static_cast<float>(local(r, 2 * c));
+        g->d[r][1] += static_cast<float>(local(r, 2 * c + 1));
+        g->d[r][2] += static_cast<float>(local(r, 6 + c));
+      }
+    }
+  }
+}
+
+// The tiles' gradients concatenated into out->gradients, their pixels'
+// tile-local ranges made global.
+void ConcatenateTileGradients(const std::vector<std::vector<VertexGradient>>& tile_gradients, int tiles_x, int width,
+                              int height, SoftRenderOutput* out) {
+  std::vector<int> base(tile_gradients.size() + 1, 0);
+  for (size_t t = 0; t < tile_gradients.size(); ++t) {
+    base[t + 1] = base[t] + static_cast<int>(tile_gradients[t].size());
+  }
+  out->gradients.resize(base.back());
+  for (size_t t = 0; t < tile_gradients.size(); ++t) {
+    std::copy(tile_gradients[t].begin(), tile_gradients[t].end(), out->gradients.begin() + base[t]);
+    if (tile_gradients[t].empty()) continue;
+    const int tx = static_cast<int>(t) % tiles_x, ty = static_cast<int>(t) / tiles_x;
+    for (int py = ty * kTile; py < std::min((ty + 1) * kTile, height); ++py) {
+      for (int px = tx * kTile; px < std::min((tx + 1) * kTile, width); ++px) {
+        const int pixel = py * width + px;
+        if (out->end[pixel] > out->begin[pixel]) {
+          out->begin[pixel] += base[t];
+          out->end[pixel] += base[t];
+        }
+      }
+    }
+  }
+}
+
+// Per thread, reused across tiles and pixels.
+struct RenderScratch {
+  std::vector<TriangleTerm> terms;
+  std::vector<double> e;
+};
+
 }  // namespace
 
 std::vector<std::uint8_t> MeshBoundaryEdgeFlags(const Eigen::Matrix3Xi& faces) {
@@ -104,257 +351,67 @@ void SoftRasterizer::Render(const ScreenMesh& mesh, int width, int height, const
   out->color.create(height, width, CV_32FC3);
   out->silhouette.create(height, width, CV_32F);
   out->silhouette.setTo(0.0f);
+  const cv::Vec3f flat(o.background_color.x(), o.background_color.y(), o.background_color.z());
   if (background.empty()) {
-    out->color.setTo(cv::Scalar(o.background_color.x(), o.background_color.y(), o.background_color.z()));
+    out->color.setTo(cv::Scalar(flat[0], flat[1], flat[2]));
   } else {
     background.copyTo(out->color);
   }
-  const int num_pixels = width * height;
   if (with_gradients) {
-    out->begin.assign(num_pixels, 0);
-    out->end.assign(num_pixels, 0);
+    out->begin.assign(width * height, 0);
+    out->end.assign(width * height, 0);
   }
   out->gradients.clear();
   out->num_covered_pixels = 0;
 
-  // Bin triangles into tiles by their expanded bounding boxes.
-  const double reach = std::sqrt(o.cutoff * o.sigma);
   const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
-  std::vector<std::vector<int>> tiles(static_cast<size_t>(tiles_x) * tiles_y);
-  for (int f = 0; f < num_faces; ++f) {
-    double min_x = 1e300, max_x = -1e300, min_y = 1e300, max_y = -1e300;
-    bool visible = true;
-    for (int c = 0; c < 3; ++c) {
-      const int v = mesh.faces(c, f);
-      if (!(mesh.depths[v] > 0.0) || !mesh.pixels.col(v).allFinite()) visible = false;
-      min_x = std::min(min_x, mesh.pixels(0, v));
-      max_x = std::max(max_x, mesh.pixels(0, v));
-      min_y = std::min(min_y, mesh.pixels(1, v));
-      max_y = std::max(max_y, mesh.pixels(1, v));
-    }
-    if (!visible) continue;
-    const int x0 = std::max(roi.x, static_cast<int>(std::floor(min_x - reach)));
-    const int x1 = std::min(roi.x + roi.width - 1, static_cast<int>(std::ceil(max_x + reach)));
-    const int y0 = std::max(roi.y, static_cast<int>(std::floor(min_y - reach)));
-    const int y1 = std::min(roi.y + roi.height - 1, static_cast<int>(std::ceil(max_y + reach)));
-    if (x0 > x1 || y0 > y1) continue;
-    for (int ty = y0 / kTile; ty <= y1 / kTile; ++ty) {
-      for (int tx = x0 / kTile; tx <= x1 / kTile; ++tx) tiles[ty * tiles_x + tx].push_back(f);
-    }
-  }
-
-  const double inv_near = 1.0 / mesh.depth_near, inv_far = 1.0 / mesh.depth_far;
-  const double depth_scale = 1.0 / (inv_near - inv_far);
-  const double max_distance2 = o.cutoff * o.sigma;
-  const bool has_uv = mesh.corner_texcoords.cols() == 3 * num_faces;
-  const bool has_flags = static_cast<int>(mesh.boundary_edges.size()) == num_faces;
+  const std::vector<std::vector<int>> tiles =
+      BinTrianglesIntoTiles(mesh, roi, std::sqrt(o.cutoff * o.sigma), tiles_x, tiles_y);
+  TermContext context{mesh, texture_};
+  context.sigma = o.sigma;
+  context.max_distance2 = o.cutoff * o.sigma;
+  const double inv_near = 1.0 / mesh.depth_near;
+  context.inv_far = 1.0 / mesh.depth_far;
+  context.depth_scale = 1.0 / (inv_near - context.inv_far);
+  context.has_uv = mesh.corner_texcoords.cols() == 3 * num_faces;
+  context.has_flags = static_cast<int>(mesh.boundary_edges.size()) == num_faces;
 
   // Per tile: its pixels' gradients, concatenated afterwards.
   std::vector<std::vector<VertexGradient>> tile_gradients(tiles.size());
   std::vector<int> covered(tiles.size(), 0);
-  // One scratch list of triangle terms per thread, reused across tiles.
-  std::vector<std::vector<TriangleTerm>> scratch(ResolveNumThreads(o.num_threads));
+  std::vector<RenderScratch> scratch(ResolveNumThreads(o.num_threads));
   ParallelFor(static_cast<int>(tiles.size()), o.num_threads, [&](int thread, int tile) {
     const std::vector<int>& list = tiles[tile];
     if (list.empty()) return;
     std::vector<VertexGradient>& grads = tile_gradients[tile];
     grads.clear();
     if (with_gradients) grads.reserve(kTile * kTile * 12);
-    std::vector<TriangleTerm>& terms = scratch[thread];
+    RenderScratch& s = scratch[thread];
     const int tx = tile % tiles_x, ty = tile / tiles_x;
     for (int py = std::max(ty * kTile, roi.y); py < std::min((ty + 1) * kTile, roi.y + roi.height); ++py) {
       for (int px = std::max(tx * kTile, roi.x); px < std::min((tx + 1) * kTile, roi.x + roi.width); ++px) {
-        terms.clear();
-        const double pxd = px, pyd = py;
+        s.terms.clear();
+        TriangleTerm term;
         for (const int f : list) {
-          const int ia = mesh.faces(0, f), ib = mesh.faces(1, f), ic = mesh.faces(2, f);
-          const double ax = mesh.pixels(0, ia), ay = mesh.pixels(1, ia);
-          const double bx = mesh.pixels(0, ib), by = mesh.pixels(1, ib);
-          const double cx = mesh.pixels(0, ic), cy = mesh.pixels(1, ic);
-          // Closest boundary point (in doubles, to choose the edge).
-          double t[3];
-          const double d2[3] = {SegmentDistance2(px, py, ax, ay, bx, by, &t[0]),
-                                SegmentDistance2(px, py, bx, by, cx, cy, &t[1]),
-                                SegmentDistance2(px, py, cx, cy, ax, ay, &t[2])};
-          const int nearest = static_cast<int>(std::min_element(d2, d2 + 3) - d2);
-          const double area = Cross2(bx - ax, by - ay, cx - ax, cy - ay);
-          const double w0 = Cross2(bx - px, by - py, cx - px, cy - py);
-          const double w1 = Cross2(cx - px, cy - py, ax - px, ay - py);
-          const double w2 = Cross2(ax - px, ay - py, bx - px, by - py);
-          const bool inside = area != 0.0 && ((area > 0 && w0 >= 0 && w1 >= 0 && w2 >= 0) ||
-                                              (area < 0 && w0 <= 0 && w1 <= 0 && w2 <= 0));
-          // Soft edges: the mesh's boundary (all, without flags).
-          const std::uint8_t soft = has_flags ? mesh.boundary_edges[f] : 7;
-          int edge = nearest;  // the edge whose distance softens the coverage, or -1: hard
-          if (inside) {
-            edge = -1;
-            for (int k = 0; k < 3; ++k) {
-              if ((soft >> k & 1) && (edge < 0 || d2[k] < d2[edge])) edge = k;
-            }
-            if (edge >= 0 && d2[edge] > max_distance2) edge = -1;  // saturated: D = 1
-          } else {
-            if (!(soft >> nearest & 1) || d2[nearest] > max_distance2) continue;
-          }
-          // The same quantities as jets of the triangle's 9 variables.
-          const J9 Ax(ax, 0), Ay(ay, 1), Bx(bx, 2), By(by, 3), Cx(cx, 4), Cy(cy, 5);
-          const J9 Za(mesh.depths[ia], 6), Zb(mesh.depths[ib], 7), Zc(mesh.depths[ic], 8);
-          const J9* X[3] = {&Ax, &Bx, &Cx};
-          const J9* Y[3] = {&Ay, &By, &Cy};
-          const int e0 = nearest, e1 = (nearest + 1) % 3;
-          const J9 ex = *X[e1] - *X[e0], ey = *Y[e1] - *Y[e0];
-          J9 s(t[nearest]);
-          if (!inside && t[nearest] > 0.0 && t[nearest] < 1.0) {
-            s = ((J9(px) - *X[e0]) * ex + (J9(py) - *Y[e0]) * ey) / (ex * ex + ey * ey);
-          }
-          TriangleTerm term;
-          if (edge < 0) {
-            term.coverage = J9(1.0);
-          } else {
-            const int f0 = edge, f1 = (edge + 1) % 3;
-            const J9 fx = *X[f1] - *X[f0], fy = *Y[f1] - *Y[f0];
-            J9 r(t[edge]);
-            if (t[edge] > 0.0 && t[edge] < 1.0) {
-              r = ((J9(px) - *X[f0]) * fx + (J9(py) - *Y[f0]) * fy) / (fx * fx + fy * fy);
-            }
-            const J9 qx = J9(px) - (*X[f0] + r * fx), qy = J9(py) - (*Y[f0] + r * fy);
-            const J9 dist2 = qx * qx + qy * qy;
-            const J9 q = (inside ? dist2 : -dist2) / o.sigma;
-            term.coverage = 1.0 / (1.0 + exp(-q));
-          }
-          // Barycentrics: of p inside, of the closest boundary point outside.
-          J9 b[3];
-          if (inside) {
-            const J9 A = (Bx - Ax) * (Cy - Ay) - (By - Ay) * (Cx - Ax);
-            b[0] = ((Bx - pxd) * (Cy - pyd) - (By - pyd) * (Cx - pxd)) / A;
-            b[1] = ((Cx - pxd) * (Ay - pyd) - (Cy - pyd) * (Ax - pxd)) / A;
-            b[2] = 1.0 - b[0] - b[1];
-          } else {
-            b[e0] = 1.0 - s;
-            b[e1] = s;
-            b[(nearest + 2) % 3] = J9(0.0);
-          }
-          const J9 inv_depth = b[0] / Za + b[1] / Zb + b[2] / Zc;
-          term.depth = (inv_depth - inv_far) * depth_scale;
-          if (has_uv) {
-            J9 u(0.0), v(0.0);
-            for (int k = 0; k < 3; ++k) {
-              u += b[k] * mesh.corner_texcoords(0, 3 * f + k);
-              v += b[k] * mesh.corner_texcoords(1, 3 * f + k);
-            }
-            Eigen::Vector3d color, d_du, d_dv;
-            SampleTexture(texture_, u.a, v.a, &color, &d_du, &d_dv);
-            for (int ch = 0; ch < 3; ++ch) {
-              term.color[ch].a = color[ch];
-              term.color[ch].v = d_du[ch] * u.v + d_dv[ch] * v.v;
-            }
-          } else {
-            for (int ch = 0; ch < 3; ++ch) term.color[ch] = J9(1.0);
-          }
-          term.vertices[0] = ia;
-          term.vertices[1] = ib;
-          term.vertices[2] = ic;
-          terms.push_back(term);
+          if (TriangleTermAt(context, f, px, py, &term)) s.terms.push_back(term);
         }
-        if (terms.empty()) continue;
-        const int pixel = py * width + px;
+        if (s.terms.empty()) continue;
         ++covered[tile];
-
-        // Aggregate: silhouette and depth-blended colour.
-        const int n = static_cast<int>(terms.size());
-        double keep = 1.0;  // prod (1 - D_j)
-        double z_max = o.background_depth;
-        for (const TriangleTerm& term : terms) {
-          keep *= 1.0 - term.coverage.a;
-          z_max = std::max(z_max, term.depth.a);
-        }
-        const cv::Vec3f bg = background.empty()
-                                 ? cv::Vec3f(o.background_color.x(), o.background_color.y(), o.background_color.z())
-                                 : background.at<cv::Vec3f>(py, px);
-        double e_sum = std::exp((o.background_depth - z_max) / o.gamma);
-        const double e_background = e_sum;
-        double numerator[3] = {e_background * bg[0], e_background * bg[1], e_background * bg[2]};
-        // e_j, kept for the gradients.
-        double e_local[64];
-        double* e = n <= 64 ? e_local : new double[n];
-        for (int j = 0; j < n; ++j) {
-          e[j] = terms[j].coverage.a * std::exp((terms[j].depth.a - z_max) / o.gamma);
-          e_sum += e[j];
-          for (int ch = 0; ch < 3; ++ch) numerator[ch] += e[j] * terms[j].color[ch].a;
-        }
-        double color[3];
-        for (int ch = 0; ch < 3; ++ch) color[ch] = numerator[ch] / e_sum;
-        out->color.at<cv::Vec3f>(py, px) = cv::Vec3f(color[0], color[1], color[2]);
-        out->silhouette.at<float>(py, px) = static_cast<float>(1.0 - keep);
-
-        if (with_gradients) {
-          const int first = static_cast<int>(grads.size());
-          for (int j = 0; j < n; ++j) {
-            const TriangleTerm& term = terms[j];
-            // dS/dD_j = prod_{k != j} (1 - D_k), computed directly (D_j may be 1).
-            double others = 1.0;
-            for (int k = 0; k < n; ++k) {
-              if (k != j) others *= 1.0 - terms[k].coverage.a;
-            }
-            const double exp_j = std::exp((term.depth.a - z_max) / o.gamma);
-            // d colour / d local variables of triangle j.
-            Eigen::Matrix<double, 4, 9> local;
-            for (int ch = 0; ch < 3; ++ch) {
-              const double to_e = (term.color[ch].a - color[ch]) / e_sum;
-              local.row(ch) = (to_e * (exp_j * term.coverage.v + e[j] / o.gamma * term.depth.v) +
-                               e[j] / e_sum * term.color[ch].v)
-                                  .transpose();
-            }
-            local.row(3) = (others * term.coverage.v).transpose();
-            for (int c = 0; c < 3; ++c) {
-              const int vertex = term.vertices[c];
-              VertexGradient* g = nullptr;
-              for (int k = first; k < static_cast<int>(grads.size()); ++k) {
-                if (grads[k].vertex == vertex) {
-                  g = &grads[k];
-                  break;
-                }
-              }
-              if (g == nullptr) {
-                grads.emplace_back();
-                g = &grads.back();
-                g->vertex = vertex;
-              }
-              for (int r = 0; r < 4; ++r) {
-                g->d[r][0] += static_cast<float>(local(r, 2 * c));
-                g->d[r][1] += static_cast<float>(local(r, 2 * c + 1));
-                g->d[r][2] += static_cast<float>(local(r, 6 + c));
-              }
-            }
-          }
-          // Tile-local range; made global below.
-          out->begin[pixel] = first;
-          out->end[pixel] = static_cast<int>(grads.size());
-        }
-        if (e != e_local) delete[] e;
+        const PixelBlend blend =
+            BlendPixel(s.terms, background.empty() ? flat : background.at<cv::Vec3f>(py, px), o, &s.e);
+        out->color.at<cv::Vec3f>(py, px) = cv::Vec3f(blend.color[0], blend.color[1], blend.color[2]);
+        out->silhouette.at<float>(py, px) = static_cast<float>(blend.silhouette);
+        if (!with_gradients) continue;
+        const int pixel = py * width + px;
+        out->begin[pixel] = static_cast<int>(grads.size());  // tile-local; made global below
+        AppendPixelGradients(s.terms, blend, o.gamma, &grads);
+        out->end[pixel] = static_cast<int>(grads.size());
       }
     }
   }, 1);
 
   for (int c : covered) out->num_covered_pixels += c;
-  if (!with_gradients) return;
-  // Concatenate the tiles' gradients and shift their pixels' ranges.
-  std::vector<int> base(tiles.size() + 1, 0);
-  for (size_t t = 0; t < tiles.size(); ++t) base[t + 1] = base[t] + static_cast<int>(tile_gradients[t].size());
-  out->gradients.resize(base.back());
-  for (size_t t = 0; t < tiles.size(); ++t) {
-    std::copy(tile_gradients[t].begin(), tile_gradients[t].end(), out->gradients.begin() + base[t]);
-    if (tile_gradients[t].empty()) continue;
-    const int tx = static_cast<int>(t) % tiles_x, ty = static_cast<int>(t) / tiles_x;
-    for (int py = ty * kTile; py < std::min((ty + 1) * kTile, height); ++py) {
-      for (int px = tx * kTile; px < std::min((tx + 1) * kTile, width); ++px) {
-        const int pixel = py * width + px;
-        if (out->end[pixel] > out->begin[pixel]) {
-          out->begin[pixel] += base[t];
-          out->end[pixel] += base[t];
-        }
-      }
-    }
-  }
+  if (with_gradients) ConcatenateTileGradients(tile_gradients, tiles_x, width, height, out);
 }
 
 bool ProjectVertices(const PinholeCamera& camera, const Eigen::Matrix3Xd& vertices, ScreenMesh* screen,
