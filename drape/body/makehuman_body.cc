@@ -76,21 +76,18 @@ int Skeleton::Find(const std::string& name) const {
   return it == names.end() ? -1 : static_cast<int>(it - names.begin());
 }
 
-SkinnedBody LoadMakeHumanBody(const std::string& body_dir) {
-  const fs::path dir(body_dir);
-  const std::string obj_path = (dir / "makehuman" / "base.obj").string();
-  const std::string rig_path = (dir / "mpfb2_rigs" / "rig.cmu_mb.json").string();
-  const std::string weights_path = (dir / "mpfb2_rigs" / "weights.cmu_mb.json").string();
-  const ObjGroups obj = ReadObjGroups(obj_path);
+namespace {
+
+// The body's mesh (decimetres to metres) and every vertex of the OBJ
+// (helpers included, for garments' bindings).
+void ReadBodyMesh(const ObjGroups& obj, const std::string& obj_path, SkinnedBody* body) {
   if (static_cast<int>(obj.vertices.size()) < kBodyVertices) Fail(obj_path + ": fewer vertices than the hm08 body");
   const auto body_faces = obj.faces.find("body");
   if (body_faces == obj.faces.end()) Fail(obj_path + ": no group 'body'");
-
-  SkinnedBody body;
-  body.mesh.vertices.resize(3, kBodyVertices);
-  for (int v = 0; v < kBodyVertices; ++v) body.mesh.vertices.col(v) = 0.1 * obj.vertices[v];
-  body.base_vertices.resize(3, static_cast<Eigen::Index>(obj.vertices.size()));
-  for (size_t v = 0; v < obj.vertices.size(); ++v) body.base_vertices.col(v) = 0.1 * obj.vertices[v];
+  body->mesh.vertices.resize(3, kBodyVertices);
+  for (int v = 0; v < kBodyVertices; ++v) body->mesh.vertices.col(v) = 0.1 * obj.vertices[v];
+  body->base_vertices.resize(3, static_cast<Eigen::Index>(obj.vertices.size()));
+  for (size_t v = 0; v < obj.vertices.size(); ++v) body->base_vertices.col(v) = 0.1 * obj.vertices[v];
   std::vector<Eigen::Vector3i> triangles;
   for (const std::vector<int>& face : body_faces->second) {
     for (size_t k = 1; k + 1 < face.size(); ++k) {
@@ -99,61 +96,67 @@ SkinnedBody LoadMakeHumanBody(const std::string& body_dir) {
       triangles.push_back(t);
     }
   }
-  body.mesh.faces.resize(3, static_cast<Eigen::Index>(triangles.size()));
-  for (size_t f = 0; f < triangles.size(); ++f) body.mesh.faces.col(f) = triangles[f];
+  body->mesh.faces.resize(3, static_cast<Eigen::Index>(triangles.size()));
+  for (size_t f = 0; f < triangles.size(); ++f) body->mesh.faces.col(f) = triangles[f];
+}
 
-  // Bones, parents first.
-  const nlohmann::json rig = ReadJson(rig_path);
+// Bones, parents first.
+void ReadBones(const nlohmann::json& rig, const std::string& rig_path, Skeleton* skeleton) {
   std::vector<std::string> pending;
   for (const auto& [name, bone] : rig.items()) pending.push_back(name);
-  Skeleton& skeleton = body.skeleton;
   while (!pending.empty()) {
     const size_t before = pending.size();
     for (auto it = pending.begin(); it != pending.end();) {
       const std::string parent = rig[*it].value("parent", std::string());
-      const int parent_index = parent.empty() ? -1 : skeleton.Find(parent);
+      const int parent_index = parent.empty() ? -1 : skeleton->Find(parent);
       if (!parent.empty() && parent_index < 0) {
         ++it;
         continue;
       }
-      skeleton.names.push_back(*it);
-      skeleton.parents.push_back(parent_index);
+      skeleton->names.push_back(*it);
+      skeleton->parents.push_back(parent_index);
       it = pending.erase(it);
     }
     if (pending.size() == before) Fail(rig_path + ": bone '" + pending.front() + "' has a missing parent (or a cycle)");
   }
-  // Heads: the mean of the joint cube's vertices, or of listed vertices.
-  skeleton.rest_heads.resize(3, skeleton.num_joints());
-  for (int j = 0; j < skeleton.num_joints(); ++j) {
-    const nlohmann::json& head = rig[skeleton.names[j]]["head"];
+}
+
+// Heads: the mean of the joint cube's vertices, or of listed vertices.
+void PlaceJointHeads(const nlohmann::json& rig, const std::string& rig_path, const ObjGroups& obj,
+                     const std::string& obj_path, Skeleton* skeleton) {
+  skeleton->rest_heads.resize(3, skeleton->num_joints());
+  for (int j = 0; j < skeleton->num_joints(); ++j) {
+    const std::string& name = skeleton->names[j];
+    const nlohmann::json& head = rig[name]["head"];
     std::set<int> vertices;
     const std::string strategy = head.value("strategy", std::string());
     if (strategy == "CUBE") {
       const std::string cube = head.value("cube_name", std::string());
       const auto group = obj.faces.find(cube);
-      if (group == obj.faces.end()) Fail(obj_path + ": no joint cube '" + cube + "' (bone " + skeleton.names[j] + ")");
+      if (group == obj.faces.end()) Fail(obj_path + ": no joint cube '" + cube + "' (bone " + name + ")");
       for (const auto& face : group->second) vertices.insert(face.begin(), face.end());
     } else if (strategy == "MEAN") {
       for (int v : head.at("vertex_indices")) vertices.insert(v);
     } else {
-      Fail(rig_path + ": bone '" + skeleton.names[j] + "': unknown head strategy '" + strategy + "'");
+      Fail(rig_path + ": bone '" + name + "': unknown head strategy '" + strategy + "'");
     }
-    if (vertices.empty()) Fail(rig_path + ": bone '" + skeleton.names[j] + "' has no head vertices");
+    if (vertices.empty()) Fail(rig_path + ": bone '" + name + "' has no head vertices");
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     for (int v : vertices) {
       if (v < 0 || v >= static_cast<int>(obj.vertices.size())) Fail(rig_path + ": vertex index out of range");
       sum += obj.vertices[v];
     }
-    skeleton.rest_heads.col(j) = 0.1 * sum / static_cast<double>(vertices.size());
-    skeleton.head_vertices.emplace_back(vertices.begin(), vertices.end());
+    skeleton->rest_heads.col(j) = 0.1 * sum / static_cast<double>(vertices.size());
+    skeleton->head_vertices.emplace_back(vertices.begin(), vertices.end());
   }
+}
 
-  // Weights, per vertex, normalised.
-  const nlohmann::json weights = ReadJson(weights_path);
+// Weights per body vertex, normalised to sum 1.
+void ReadSkinWeights(const nlohmann::json& weights, const std::string& weights_path, SkinnedBody* body) {
   if (!weights.contains("weights")) Fail(weights_path + ": missing key 'weights'");
   std::vector<std::vector<std::pair<int, double>>> per_vertex(kBodyVertices);
   for (const auto& [bone, list] : weights["weights"].items()) {
-    const int j = skeleton.Find(bone);
+    const int j = body->skeleton.Find(bone);
     if (j < 0) Fail(weights_path + ": bone '" + bone + "' is not in the rig");
     for (const auto& entry : list) {
       const int v = entry.at(0).get<int>();
@@ -161,17 +164,33 @@ SkinnedBody LoadMakeHumanBody(const std::string& body_dir) {
       if (v >= 0 && v < kBodyVertices && w > 0.0) per_vertex[v].emplace_back(j, w);
     }
   }
-  body.weight_offsets.assign(1, 0);
+  body->weight_offsets.assign(1, 0);
   for (int v = 0; v < kBodyVertices; ++v) {
     double total = 0.0;
     for (const auto& [j, w] : per_vertex[v]) total += w;
     if (!(total > 0.0)) Fail(weights_path + ": body vertex " + std::to_string(v) + " has no weight");
     for (const auto& [j, w] : per_vertex[v]) {
-      body.weight_joint.push_back(j);
-      body.weight_value.push_back(w / total);
+      body->weight_joint.push_back(j);
+      body->weight_value.push_back(w / total);
     }
-    body.weight_offsets.push_back(static_cast<int>(body.weight_joint.size()));
+    body->weight_offsets.push_back(static_cast<int>(body->weight_joint.size()));
   }
+}
+
+}  // namespace
+
+SkinnedBody LoadMakeHumanBody(const std::string& body_dir) {
+  const fs::path dir(body_dir);
+  const std::string obj_path = (dir / "makehuman" / "base.obj").string();
+  const std::string rig_path = (dir / "mpfb2_rigs" / "rig.cmu_mb.json").string();
+  const std::string weights_path = (dir / "mpfb2_rigs" / "weights.cmu_mb.json").string();
+  const ObjGroups obj = ReadObjGroups(obj_path);
+  SkinnedBody body;
+  ReadBodyMesh(obj, obj_path, &body);
+  const nlohmann::json rig = ReadJson(rig_path);
+  ReadBones(rig, rig_path, &body.skeleton);
+  PlaceJointHeads(rig, rig_path, obj, obj_path, &body.skeleton);
+  ReadSkinWeights(ReadJson(weights_path), weights_path, &body);
   return body;
 }
 

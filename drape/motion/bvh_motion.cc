@@ -1,5 +1,6 @@
 #include "drape/motion/bvh_motion.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -112,43 +113,48 @@ Eigen::Vector3d MotionClip::RootVelocity(int f) const {
   return (frames[b].root_translation - frames[a].root_translation) * fps / (b - a);
 }
 
-MotionClip ReadBvh(const std::string& path, double units_to_metres) {
-  std::ifstream in(path);
-  if (!in) throw BvhError(path + ": cannot be opened (missing?)");
-  Tokenizer tokens{in, path};
-  MotionClip clip;
-  std::vector<std::vector<Channel>> channels;  // per joint
+namespace {
+
+// One ROOT or JOINT: name, OFFSET, CHANNELS (the keyword already read).
+MotionJoint ReadJointHeader(Tokenizer& tokens, double units_to_metres, std::vector<Channel>* channels) {
+  MotionJoint joint;
+  joint.name = tokens.Next();
+  tokens.Expect("{");
+  tokens.Expect("OFFSET");
+  for (int k = 0; k < 3; ++k) joint.offset[k] = tokens.Number() * units_to_metres;
+  tokens.Expect("CHANNELS");
+  const double count = tokens.Number();
+  if (count < 0 || count > 6 || count != std::floor(count)) tokens.Fail("bad channel count");
+  static const std::pair<const char*, Channel> kNames[] = {{"Xposition", Channel::kXpos}, {"Yposition", Channel::kYpos},
+                                                           {"Zposition", Channel::kZpos}, {"Xrotation", Channel::kXrot},
+                                                           {"Yrotation", Channel::kYrot}, {"Zrotation", Channel::kZrot}};
+  for (int k = 0; k < static_cast<int>(count); ++k) {
+    const std::string name = tokens.Next();
+    const auto* it = std::find_if(std::begin(kNames), std::end(kNames), [&](const auto& e) { return name == e.first; });
+    if (it == std::end(kNames)) tokens.Fail("unknown channel '" + name + "'");
+    channels->push_back(it->second);
+  }
+  return joint;
+}
+
+// HIERARCHY: the joints (parents before children) and their channels.
+void ReadHierarchy(Tokenizer& tokens, double units_to_metres, MotionClip* clip,
+                   std::vector<std::vector<Channel>>* channels) {
   tokens.Expect("HIERARCHY");
-  std::vector<int> stack;  // open joints; -2 marks an End Site
+  std::vector<int> stack;  // open joints
   std::string token = tokens.Next();
   if (token != "ROOT") tokens.Fail("expected 'ROOT', found '" + token + "'");
   for (;;) {
     if (token == "ROOT" || token == "JOINT") {
-      if (token == "ROOT" && !clip.joints.empty()) tokens.Fail("a second ROOT is not supported");
-      MotionJoint joint;
-      joint.name = tokens.Next();
-      joint.parent = stack.empty() ? -1 : stack.back();
-      if (token == "JOINT" && joint.parent < 0) tokens.Fail("JOINT '" + joint.name + "' outside any joint");
-      tokens.Expect("{");
-      tokens.Expect("OFFSET");
-      for (int k = 0; k < 3; ++k) joint.offset[k] = tokens.Number() * units_to_metres;
-      tokens.Expect("CHANNELS");
-      const double count = tokens.Number();
-      if (count < 0 || count > 6 || count != std::floor(count)) tokens.Fail("bad channel count");
+      if (token == "ROOT" && !clip->joints.empty()) tokens.Fail("a second ROOT is not supported");
+      const int parent = stack.empty() ? -1 : stack.back();
       std::vector<Channel> list;
-      for (int k = 0; k < static_cast<int>(count); ++k) {
-        const std::string name = tokens.Next();
-        if (name == "Xposition") list.push_back(Channel::kXpos);
-        else if (name == "Yposition") list.push_back(Channel::kYpos);
-        else if (name == "Zposition") list.push_back(Channel::kZpos);
-        else if (name == "Xrotation") list.push_back(Channel::kXrot);
-        else if (name == "Yrotation") list.push_back(Channel::kYrot);
-        else if (name == "Zrotation") list.push_back(Channel::kZrot);
-        else tokens.Fail("unknown channel '" + name + "'");
-      }
-      stack.push_back(static_cast<int>(clip.joints.size()));
-      clip.joints.push_back(joint);
-      channels.push_back(list);
+      MotionJoint joint = ReadJointHeader(tokens, units_to_metres, &list);
+      joint.parent = parent;
+      if (token == "JOINT" && parent < 0) tokens.Fail("JOINT '" + joint.name + "' outside any joint");
+      stack.push_back(static_cast<int>(clip->joints.size()));
+      clip->joints.push_back(joint);
+      channels->push_back(list);
     } else if (token == "End") {
       tokens.Expect("Site");
       tokens.Expect("{");
@@ -158,14 +164,42 @@ MotionClip ReadBvh(const std::string& path, double units_to_metres) {
     } else if (token == "}") {
       if (stack.empty()) tokens.Fail("unbalanced '}'");
       stack.pop_back();
-      if (stack.empty()) break;
+      if (stack.empty()) return;
     } else {
       tokens.Fail("unexpected '" + token + "' in HIERARCHY");
     }
     token = tokens.Next();
     if (token.empty()) tokens.Fail("the file ends inside HIERARCHY (unbalanced braces?)");
   }
+}
 
+// One frame's values applied to the joints: the root's position, every
+// joint's rotation in its channels' order.
+MotionFrame FrameFromValues(const MotionClip& clip, const std::vector<std::vector<Channel>>& channels,
+                            const std::vector<double>& row, double units_to_metres) {
+  MotionFrame frame;
+  frame.local_rotations.assign(clip.joints.size(), Eigen::Quaterniond::Identity());
+  size_t k = 0;
+  for (size_t j = 0; j < clip.joints.size(); ++j) {
+    Eigen::Vector3d position = clip.joints[j].offset;
+    for (const Channel c : channels[j]) {
+      const double value = row[k++];
+      switch (c) {
+        case Channel::kXpos: position.x() = value * units_to_metres; break;
+        case Channel::kYpos: position.y() = value * units_to_metres; break;
+        case Channel::kZpos: position.z() = value * units_to_metres; break;
+        default: frame.local_rotations[j] = frame.local_rotations[j] * AxisRotation(c, value); break;
+      }
+    }
+    if (j == 0) frame.root_translation = position;
+  }
+  return frame;
+}
+
+// MOTION: the frame count and time, then one line per frame, so that a
+// short or long line is named.
+void ReadMotion(std::istream& in, Tokenizer& tokens, const std::string& path,
+                const std::vector<std::vector<Channel>>& channels, double units_to_metres, MotionClip* clip) {
   tokens.Expect("MOTION");
   tokens.Expect("Frames:");
   const double num_frames = tokens.Number();
@@ -174,13 +208,12 @@ MotionClip ReadBvh(const std::string& path, double units_to_metres) {
   tokens.Expect("Time:");
   const double frame_time = tokens.Number();
   if (!(frame_time > 0.0)) tokens.Fail("the frame time must be positive");
-  clip.fps = 1.0 / frame_time;
+  clip->fps = 1.0 / frame_time;
   int total_channels = 0;
   for (const auto& list : channels) total_channels += static_cast<int>(list.size());
-  // Frames are lines: read the rest of the Frame Time line, then one line
-  // per frame, so that a short or long line is named.
+  // The rest of the Frame Time line; line_number: the line before the
+  // first frame's.
   std::string line;
-  // line_number: the line before the first frame's.
   int line_number = tokens.line - 1;
   if (tokens.terminator != '\n') {
     std::getline(in, line);
@@ -193,42 +226,36 @@ MotionClip ReadBvh(const std::string& path, double units_to_metres) {
                   " frames");
     }
     ++line_number;
+    const std::string where = path + ": line " + std::to_string(line_number) + ": frame " + std::to_string(f);
     std::istringstream values(line);
     std::vector<double> row;
     std::string token;
     while (values >> token) {
       char* end = nullptr;
       const double value = std::strtod(token.c_str(), &end);
-      if (*end != '\0' || !std::isfinite(value)) {
-        throw BvhError(path + ": line " + std::to_string(line_number) + ": frame " + std::to_string(f) +
-                       ": bad value '" + token + "'");
-      }
+      if (*end != '\0' || !std::isfinite(value)) throw BvhError(where + ": bad value '" + token + "'");
       row.push_back(value);
     }
     if (row.empty()) continue;  // blank line
     if (static_cast<int>(row.size()) != total_channels) {
-      throw BvhError(path + ": line " + std::to_string(line_number) + ": frame " + std::to_string(f) + " has " +
-                     std::to_string(row.size()) + " values, expected " + std::to_string(total_channels));
+      throw BvhError(where + " has " + std::to_string(row.size()) + " values, expected " +
+                     std::to_string(total_channels));
     }
-    MotionFrame frame;
-    frame.local_rotations.assign(clip.joints.size(), Eigen::Quaterniond::Identity());
-    size_t k = 0;
-    for (size_t j = 0; j < clip.joints.size(); ++j) {
-      Eigen::Vector3d position = clip.joints[j].offset;
-      for (const Channel c : channels[j]) {
-        const double value = row[k++];
-        switch (c) {
-          case Channel::kXpos: position.x() = value * units_to_metres; break;
-          case Channel::kYpos: position.y() = value * units_to_metres; break;
-          case Channel::kZpos: position.z() = value * units_to_metres; break;
-          default: frame.local_rotations[j] = frame.local_rotations[j] * AxisRotation(c, value); break;
-        }
-      }
-      if (j == 0) frame.root_translation = position;
-    }
-    clip.frames.push_back(std::move(frame));
+    clip->frames.push_back(FrameFromValues(*clip, channels, row, units_to_metres));
     ++f;
   }
+}
+
+}  // namespace
+
+MotionClip ReadBvh(const std::string& path, double units_to_metres) {
+  std::ifstream in(path);
+  if (!in) throw BvhError(path + ": cannot be opened (missing?)");
+  Tokenizer tokens{in, path};
+  MotionClip clip;
+  std::vector<std::vector<Channel>> channels;  // per joint
+  ReadHierarchy(tokens, units_to_metres, &clip, &channels);
+  ReadMotion(in, tokens, path, channels, units_to_metres, &clip);
   return clip;
 }
 

@@ -18,6 +18,8 @@
 #include "polyfit/eval/surface_distance.h"
 #include "polyfit/mesh/mesh_io.h"
 #include "polyfit/pipeline/batch_fit.h"
+#include "polyfit/util/status.h"
+#include "polyfit/util/status.h"
 
 namespace {
 
@@ -103,7 +105,11 @@ int main(int argc, char** argv) {
   eval->add_option("b", mesh_b, "Compared mesh")->required();
   eval->add_option("--samples", samples, "Uniform surface samples per mesh")->capture_default_str();
 
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? polyfit::kExitSuccess : polyfit::kExitUsage;
+  }
 
   try {
     if (fit->parsed()) {
@@ -114,11 +120,11 @@ int main(int argc, char** argv) {
           batch.fit.clustering.num_patches = std::stoi(patches);
         } catch (const std::exception&) {
           std::cerr << "--patches: expected a number or 'auto', got '" << patches << "'\n";
-          return 2;
+          return polyfit::kExitUsage;
         }
         if (batch.fit.clustering.num_patches < 1) {
           std::cerr << "--patches: must be at least 1\n";
-          return 2;
+          return polyfit::kExitUsage;
         }
       }
       batch.fit.subdivision_scheme =
@@ -132,7 +138,7 @@ int main(int argc, char** argv) {
           });
       std::printf("%d fitted, %d skipped, %d failed in %.2f s; report: %s/report.csv\n", summary.num_fitted,
                   summary.num_skipped, summary.num_failed, summary.total_time_s, batch.output_dir.c_str());
-      return summary.num_failed > 0 ? 1 : 0;
+      return summary.num_failed > 0 ? polyfit::kExitPartial : polyfit::kExitSuccess;
     }
     if (eval->parsed()) {
       const polyfit::TriangleMesh a = polyfit::ReadTriangleMesh(mesh_a);
@@ -147,9 +153,15 @@ int main(int argc, char** argv) {
                   1e3 * surface.sum(), 1e3 * surface.a_to_b, 1e3 * surface.b_to_a);
       return 0;
     }
+  } catch (const polyfit::Error& e) {
+    std::cerr << "polyfit: " << e.what() << "\n";
+    return polyfit::ExitCodeFor(e.kind());
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "polyfit: " << e.what() << "\n";
+    return polyfit::kExitUsage;
   } catch (const std::exception& e) {
     std::cerr << "polyfit: " << e.what() << "\n";
-    return 2;
+    return polyfit::kExitFailure;
   }
-  return 0;
+  return polyfit::kExitSuccess;
 }

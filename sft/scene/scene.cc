@@ -55,24 +55,22 @@ cv::Mat ReadImageRgb(const std::string& path) {
   return rgb;
 }
 
-SftScene LoadScene(const std::string& directory, const SceneLoadOptions& options) {
-  SftScene scene;
-  scene.directory = directory;
-  const fs::path dir(directory);
-  const std::string json_path = (dir / "scene.json").string();
+namespace {
+
+json ReadSceneJson(const std::string& json_path, const std::string& directory) {
   std::ifstream in(json_path);
   if (!in) Fail(json_path + ": missing (is " + directory + " a scene directory?)");
-  json root;
   try {
-    root = json::parse(in);
+    return json::parse(in);
   } catch (const json::exception& e) {
     Fail(json_path + ": not valid JSON: " + e.what());
   }
+}
 
-  const std::string where = json_path;
+PinholeCamera ReadCamera(const json& root, const std::string& where) {
   if (!root.contains("camera")) Fail(where + ": missing required key 'camera'");
   const json& cam = root["camera"];
-  PinholeCamera& camera = scene.camera;
+  PinholeCamera camera;
   camera.fx = Required<double>(cam, "fx", where + " camera");
   camera.fy = Required<double>(cam, "fy", where + " camera");
   camera.cx = Required<double>(cam, "cx", where + " camera");
@@ -86,86 +84,104 @@ SftScene LoadScene(const std::string& directory, const SceneLoadOptions& options
     camera.distortion = cam["distortion"].get<std::vector<double>>();
     if (camera.distortion.size() != 5) Fail(where + ": camera 'distortion' needs 5 values (k1, k2, p1, p2, k3)");
   }
+  return camera;
+}
 
+// The template (textured, in front of the camera) and its texture.
+void ReadTemplate(const json& root, const fs::path& dir, const std::string& where, SftScene* scene) {
   const std::string template_path = (dir / Required<std::string>(root, "template", where)).string();
   try {
-    scene.template_mesh = ReadObjTemplate(template_path);
+    scene->template_mesh = ReadObjTemplate(template_path);
   } catch (const std::runtime_error& e) {
     Fail(e.what());
   }
-  if (!scene.template_mesh.has_texcoords()) Fail(template_path + ": every face needs texture coordinates (vt)");
-  for (int v = 0; v < scene.template_mesh.num_vertices(); ++v) {
-    if (!(scene.template_mesh.vertices(2, v) > 0.0)) {
+  if (!scene->template_mesh.has_texcoords()) Fail(template_path + ": every face needs texture coordinates (vt)");
+  for (int v = 0; v < scene->template_mesh.num_vertices(); ++v) {
+    if (!(scene->template_mesh.vertices(2, v) > 0.0)) {
       Fail(template_path + ": vertex " + std::to_string(v) + " is not in front of the camera (z <= 0)");
     }
   }
-  const std::string texture_path = (dir / Required<std::string>(root, "texture", where)).string();
-  scene.texture = ReadImageRgb(texture_path);
+  scene->texture = ReadImageRgb((dir / Required<std::string>(root, "texture", where)).string());
+}
 
-  scene.frame_count = Required<int>(root, "frame_count", where);
-  scene.first_frame = root.value("first_frame", 0);
-  if (scene.frame_count <= 0) Fail(where + ": 'frame_count' must be positive");
+// Every frame's image, mask and ground-truth paths, each checked to exist.
+void ListFrameFiles(const json& root, const fs::path& dir, const std::string& where, SftScene* scene) {
+  scene->frame_count = Required<int>(root, "frame_count", where);
+  scene->first_frame = root.value("first_frame", 0);
+  if (scene->frame_count <= 0) Fail(where + ": 'frame_count' must be positive");
   const std::string frames = Required<std::string>(root, "frames", where);
   const std::string masks = root.value("masks", std::string());
   const std::string ground_truth = root.value("ground_truth", std::string());
   const std::string kind = root.value("ground_truth_kind", std::string("vertices"));
   if (!ground_truth.empty()) {
     if (kind == "vertices") {
-      scene.ground_truth_kind = GroundTruthKind::kVertices;
+      scene->ground_truth_kind = GroundTruthKind::kVertices;
     } else if (kind == "points") {
-      scene.ground_truth_kind = GroundTruthKind::kPoints;
+      scene->ground_truth_kind = GroundTruthKind::kPoints;
     } else {
       Fail(where + ": 'ground_truth_kind' must be \"vertices\" or \"points\", not \"" + kind + "\"");
     }
   }
+  const auto path_of = [&](const std::string& pattern, int index, const char* key) {
+    const std::string path = (dir / FormatPattern(pattern, index)).string();
+    if (!fs::exists(path)) Fail(path + ": missing (frame " + std::to_string(index) + ", key '" + key + "')");
+    return path;
+  };
+  for (int t = 0; t < scene->frame_count; ++t) {
+    const int index = scene->first_frame + t;
+    scene->frame_paths.push_back(path_of(frames, index, "frames"));
+    if (!masks.empty()) scene->mask_paths.push_back(path_of(masks, index, "masks"));
+    if (!ground_truth.empty()) scene->ground_truth_paths.push_back(path_of(ground_truth, index, "ground_truth"));
+  }
+}
+
+// Every frame and mask readable and of the camera's size.
+void CheckImages(const SftScene& scene) {
+  const PinholeCamera& camera = scene.camera;
+  const auto check = [&camera](const std::string& path) {
+    const cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
+    if (image.empty()) Fail(path + ": cannot be read as an image");
+    if (image.cols != camera.width || image.rows != camera.height) {
+      Fail(path + ": " + std::to_string(image.cols) + "x" + std::to_string(image.rows) + ", but the camera is " +
+           std::to_string(camera.width) + "x" + std::to_string(camera.height));
+    }
+  };
   for (int t = 0; t < scene.frame_count; ++t) {
-    const int index = scene.first_frame + t;
-    const std::string frame = (dir / FormatPattern(frames, index)).string();
-    if (!fs::exists(frame)) Fail(frame + ": missing (frame " + std::to_string(index) + ", key 'frames')");
-    scene.frame_paths.push_back(frame);
-    if (!masks.empty()) {
-      const std::string mask = (dir / FormatPattern(masks, index)).string();
-      if (!fs::exists(mask)) Fail(mask + ": missing (frame " + std::to_string(index) + ", key 'masks')");
-      scene.mask_paths.push_back(mask);
-    }
-    if (!ground_truth.empty()) {
-      const std::string gt = (dir / FormatPattern(ground_truth, index)).string();
-      if (!fs::exists(gt)) Fail(gt + ": missing (frame " + std::to_string(index) + ", key 'ground_truth')");
-      scene.ground_truth_paths.push_back(gt);
-    }
+    check(scene.frame_paths[t]);
+    if (scene.has_masks()) check(scene.mask_paths[t]);
   }
-  if (options.check_images) {
-    auto check_size = [&camera](const cv::Mat& image, const std::string& path) {
-      if (image.cols != camera.width || image.rows != camera.height) {
-        Fail(path + ": " + std::to_string(image.cols) + "x" + std::to_string(image.rows) + ", but the camera is " +
-             std::to_string(camera.width) + "x" + std::to_string(camera.height));
-      }
-    };
-    for (int t = 0; t < scene.frame_count; ++t) {
-      const cv::Mat image = cv::imread(scene.frame_paths[t], cv::IMREAD_UNCHANGED);
-      if (image.empty()) Fail(scene.frame_paths[t] + ": cannot be read as an image");
-      check_size(image, scene.frame_paths[t]);
-      if (scene.has_masks()) {
-        const cv::Mat mask = cv::imread(scene.mask_paths[t], cv::IMREAD_UNCHANGED);
-        if (mask.empty()) Fail(scene.mask_paths[t] + ": cannot be read as an image");
-        check_size(mask, scene.mask_paths[t]);
-      }
+}
+
+// The first ground-truth file against the template (each frame's is checked
+// on load).
+void CheckGroundTruth(const SftScene& scene) {
+  if (scene.ground_truth_kind != GroundTruthKind::kVertices) return;
+  const Eigen::Matrix3Xd gt = [&] {
+    try {
+      return ReadPlyVertices(scene.ground_truth_paths[0]);
+    } catch (const std::runtime_error& e) {
+      Fail(e.what());
     }
+  }();
+  if (gt.cols() != scene.template_mesh.num_vertices()) {
+    Fail(scene.ground_truth_paths[0] + ": " + std::to_string(gt.cols()) + " vertices, the template has " +
+         std::to_string(scene.template_mesh.num_vertices()));
   }
-  if (scene.ground_truth_kind == GroundTruthKind::kVertices) {
-    // Only the first file is read here; each frame's is checked on load.
-    const Eigen::Matrix3Xd gt = [&] {
-      try {
-        return ReadPlyVertices(scene.ground_truth_paths[0]);
-      } catch (const std::runtime_error& e) {
-        Fail(e.what());
-      }
-    }();
-    if (gt.cols() != scene.template_mesh.num_vertices()) {
-      Fail(scene.ground_truth_paths[0] + ": " + std::to_string(gt.cols()) + " vertices, the template has " +
-           std::to_string(scene.template_mesh.num_vertices()));
-    }
-  }
+}
+
+}  // namespace
+
+SftScene LoadScene(const std::string& directory, const SceneLoadOptions& options) {
+  SftScene scene;
+  scene.directory = directory;
+  const fs::path dir(directory);
+  const std::string json_path = (dir / "scene.json").string();
+  const json root = ReadSceneJson(json_path, directory);
+  scene.camera = ReadCamera(root, json_path);
+  ReadTemplate(root, dir, json_path, &scene);
+  ListFrameFiles(root, dir, json_path, &scene);
+  if (options.check_images) CheckImages(scene);
+  CheckGroundTruth(scene);
   return scene;
 }
 

@@ -1,13 +1,12 @@
 #include "sft/synthetic/sheet_scene.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
-#include <algorithm>
-#include <vector>
 #include <random>
 #include <stdexcept>
+#include <vector>
 
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
@@ -15,6 +14,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "polyfit/mesh/mesh_io.h"
+#include "polyfit/util/atomic_file.h"
 
 namespace polyfit {
 namespace {
@@ -64,11 +64,20 @@ cv::Mat MakeBackground(int width, int height, std::mt19937_64& rng) {
   return background;
 }
 
+// PNG written atomically.
+void WritePng(const std::string& path, const cv::Mat& image) {
+  std::vector<uchar> png;
+  if (!cv::imencode(".png", image, png)) throw Error(ErrorKind::kOutput, path + ": cannot be encoded as PNG");
+  WriteFileAtomically(path, [&](std::ostream& out) {
+    out.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
+  });
+}
+
 void WriteRgbPng(const std::string& path, const cv::Mat& rgb) {
   cv::Mat bgr, bytes;
   cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
   bgr.convertTo(bytes, CV_8UC3, 255.0);
-  if (!cv::imwrite(path, bytes)) throw std::runtime_error(path + ": cannot be written");
+  WritePng(path, bytes);
 }
 
 std::string Frame(const char* pattern, int index) {
@@ -266,30 +275,20 @@ void RenderHard(const TriangleMesh& mesh, const cv::Mat& texture, double fx, dou
   }
 }
 
-void GenerateSheetScene(const SheetSceneOptions& o, const std::string& directory) {
-  if (const std::string problem = o.Validate(); !problem.empty()) {
-    throw std::invalid_argument("SheetSceneOptions: " + problem);
-  }
-  const fs::path dir(directory);
-  fs::create_directories(dir / "frames");
-  fs::create_directories(dir / "gt");
-  if (o.write_masks) fs::create_directories(dir / "masks");
-  std::mt19937_64 rng(o.seed);
-  const cv::Mat texture = MakeTexture(o.texture_size, rng);
-  const cv::Mat background = MakeBackground(o.width, o.height, rng);
-  WriteRgbPng((dir / "texture.png").string(), texture);
+namespace {
 
-  // The template: the sheet at the first frame, with texture coordinates.
+// The sheet at the first frame: a grid of nx by ny cells, two triangles
+// each, texture coordinates spanning [0, 1]^2 (v up).
+TriangleMesh MakeSheetTemplate(const SheetSceneOptions& o) {
   TriangleMesh sheet;
   sheet.vertices = SheetVerticesAt(o, 0.0);
   const int nx = o.grid_x, ny = o.grid_y;
   sheet.faces.resize(3, 2 * nx * ny);
   sheet.corner_texcoords.resize(2, 6 * nx * ny);
-  int f = 0;
-  auto uv = [&](int vertex) {
-    return Eigen::Vector2d(static_cast<double>(vertex % (nx + 1)) / nx,
-                           1.0 - static_cast<double>(vertex / (nx + 1)) / ny);
+  const auto uv = [&](int vertex) {
+    return Eigen::Vector2d(static_cast<double>(vertex % (nx + 1)) / nx, 1.0 - static_cast<double>(vertex / (nx + 1)) / ny);
   };
+  int f = 0;
   for (int j = 0; j < ny; ++j) {
     for (int i = 0; i < nx; ++i) {
       const int a = j * (nx + 1) + i, b = a + 1, c = a + nx + 2, d = a + nx + 1;
@@ -300,21 +299,82 @@ void GenerateSheetScene(const SheetSceneOptions& o, const std::string& directory
       }
     }
   }
-  {
-    std::ofstream obj(dir / "template.obj");
+  return sheet;
+}
+
+// An OBJ with one texture coordinate per vertex (each vertex's is the same
+// at every corner on the grid).
+void WriteTemplateObj(const std::string& path, const TriangleMesh& sheet) {
+  std::vector<Eigen::Vector2d> vertex_uv(sheet.num_vertices());
+  for (int k = 0; k < sheet.num_faces(); ++k) {
+    for (int c = 0; c < 3; ++c) vertex_uv[sheet.faces(c, k)] = sheet.corner_texcoords.col(3 * k + c);
+  }
+  WriteFileAtomically(path, [&](std::ostream& obj) {
     obj.precision(10);
-    obj << "# PolyFit synthetic sheet: " << (nx + 1) * (ny + 1) << " vertices\n";
+    obj << "# PolyFit synthetic sheet: " << sheet.num_vertices() << " vertices\n";
     for (int v = 0; v < sheet.num_vertices(); ++v) {
       obj << "v " << sheet.vertices(0, v) << ' ' << sheet.vertices(1, v) << ' ' << sheet.vertices(2, v) << '\n';
     }
-    for (int v = 0; v < sheet.num_vertices(); ++v) obj << "vt " << uv(v).x() << ' ' << uv(v).y() << '\n';
+    for (int v = 0; v < sheet.num_vertices(); ++v) obj << "vt " << vertex_uv[v].x() << ' ' << vertex_uv[v].y() << '\n';
     for (int k = 0; k < sheet.num_faces(); ++k) {
       obj << 'f';
       for (int c = 0; c < 3; ++c) obj << ' ' << sheet.faces(c, k) + 1 << '/' << sheet.faces(c, k) + 1;
       obj << '\n';
     }
-    if (!obj) throw std::runtime_error((dir / "template.obj").string() + ": cannot be written");
+  });
+}
+
+const char* SheetMotionName(SheetMotion motion) {
+  switch (motion) {
+    case SheetMotion::kBend: return "bend";
+    case SheetMotion::kWave: return "wave";
+    case SheetMotion::kRigid: return "rigid";
+    case SheetMotion::kRoll: return "roll";
+    case SheetMotion::kMixed: return "mixed";
   }
+  return "mixed";
+}
+
+void WriteSceneJson(const SheetSceneOptions& o, const fs::path& dir, double cx, double cy) {
+  nlohmann::json scene = {
+      {"camera",
+       {{"fx", o.focal_length}, {"fy", o.focal_length}, {"cx", cx}, {"cy", cy}, {"width", o.width}, {"height", o.height}}},
+      {"template", "template.obj"},
+      {"texture", "texture.png"},
+      {"frames", "frames/%06d.png"},
+      {"ground_truth", "gt/%06d.ply"},
+      {"ground_truth_kind", "vertices"},
+      {"frame_count", o.frame_count},
+      {"first_frame", 0},
+      {"units", "m"},
+      {"generator",
+       {{"motion", SheetMotionName(o.motion)},
+        {"seed", o.seed},
+        {"wavelength", o.wavelength},
+        {"wave_amplitude", o.wave_amplitude},
+        {"noise_sigma", o.noise_sigma}}}};
+  if (o.write_masks) scene["masks"] = "masks/%06d.png";
+  WriteFileAtomically((dir / "scene.json").string(), [&](std::ostream& out) { out << scene.dump(2) << '\n'; });
+}
+
+}  // namespace
+
+void GenerateSheetScene(const SheetSceneOptions& o, const std::string& directory) {
+  if (const std::string problem = o.Validate(); !problem.empty()) {
+    throw std::invalid_argument("SheetSceneOptions: " + problem);
+  }
+  const fs::path dir(directory);
+  std::error_code error;
+  fs::create_directories(dir / "frames", error);
+  if (!error) fs::create_directories(dir / "gt", error);
+  if (!error && o.write_masks) fs::create_directories(dir / "masks", error);
+  if (error) throw Error(ErrorKind::kOutput, directory + ": cannot create the folder: " + error.message());
+  std::mt19937_64 rng(o.seed);
+  const cv::Mat texture = MakeTexture(o.texture_size, rng);
+  const cv::Mat background = MakeBackground(o.width, o.height, rng);
+  WriteRgbPng((dir / "texture.png").string(), texture);
+  TriangleMesh sheet = MakeSheetTemplate(o);
+  WriteTemplateObj((dir / "template.obj").string(), sheet);
 
   const double cx = (o.width - 1) / 2.0, cy = (o.height - 1) / 2.0;
   std::normal_distribution<float> noise(0.0f, static_cast<float>(o.noise_sigma));
@@ -333,36 +393,11 @@ void GenerateSheetScene(const SheetSceneOptions& o, const std::string& directory
     if (o.write_masks) {
       cv::Mat mask;
       coverage.convertTo(mask, CV_8U, 255.0);
-      const std::string path = (dir / Frame("masks/%06d.png", t)).string();
-      if (!cv::imwrite(path, mask)) throw std::runtime_error(path + ": cannot be written");
+      WritePng((dir / Frame("masks/%06d.png", t)).string(), mask);
     }
     WritePly((dir / Frame("gt/%06d.ply", t)).string(), sheet);
   }
-
-  nlohmann::json scene = {
-      {"camera",
-       {{"fx", o.focal_length}, {"fy", o.focal_length}, {"cx", cx}, {"cy", cy}, {"width", o.width}, {"height", o.height}}},
-      {"template", "template.obj"},
-      {"texture", "texture.png"},
-      {"frames", "frames/%06d.png"},
-      {"ground_truth", "gt/%06d.ply"},
-      {"ground_truth_kind", "vertices"},
-      {"frame_count", o.frame_count},
-      {"first_frame", 0},
-      {"units", "m"},
-      {"generator", {{"motion", o.motion == SheetMotion::kBend    ? "bend"
-                                : o.motion == SheetMotion::kWave  ? "wave"
-                                : o.motion == SheetMotion::kRigid ? "rigid"
-                                : o.motion == SheetMotion::kRoll  ? "roll"
-                                                                  : "mixed"},
-                     {"seed", o.seed},
-                     {"wavelength", o.wavelength},
-                     {"wave_amplitude", o.wave_amplitude},
-                     {"noise_sigma", o.noise_sigma}}}};
-  if (o.write_masks) scene["masks"] = "masks/%06d.png";
-  std::ofstream out(dir / "scene.json");
-  out << scene.dump(2) << '\n';
-  if (!out) throw std::runtime_error((dir / "scene.json").string() + ": cannot be written");
+  WriteSceneJson(o, dir, cx, cy);
 }
 
 }  // namespace polyfit

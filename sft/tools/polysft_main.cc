@@ -57,92 +57,114 @@ void WriteOverlays(const std::string& out_dir, const polyfit::SftScene& scene,
   }
 }
 
+// What the command line asks for.
+struct SolveFlags {
+  std::string scene_dir, out_dir, config;
+  bool overlays = false;
+  int threads = 0, max_frames = 0;
+};
+struct GenerateFlags {
+  polyfit::SheetSceneOptions options;
+  std::string out, motion = "mixed";
+  bool no_masks = false;
+};
+
+void AddSolveFlags(CLI::App* app, SolveFlags* f) {
+  app->add_option("--scene", f->scene_dir, "Scene directory (../shared/docs/sft-scene-format.md)");
+  app->add_option("--out", f->out_dir, "Output directory");
+  app->add_option("--config", f->config,
+                  "JSON file of solver settings (keys as in metrics.json 'settings'), or a metrics.json");
+  app->add_flag("--overlays", f->overlays, "Write the reconstruction drawn over each frame (PNG)");
+  app->add_option("--threads", f->threads, "Threads (0: all)");
+  app->add_option("--max-frames", f->max_frames, "Solve only the first N frames (0: all)");
+}
+
+CLI::App* AddGenerateCommand(CLI::App* app, GenerateFlags* f) {
+  polyfit::SheetSceneOptions& o = f->options;
+  CLI::App* generate = app->add_subcommand("generate", "Write a synthetic sheet scene with exact ground truth");
+  generate->add_option("--out", f->out, "Scene directory to write")->required();
+  generate->add_option("--motion", f->motion, "bend, wave, rigid, mixed or roll")->capture_default_str();
+  generate->add_option("--frames", o.frame_count, "Frames")->capture_default_str();
+  generate->add_option("--width", o.width, "Image width")->capture_default_str();
+  generate->add_option("--height", o.height, "Image height")->capture_default_str();
+  generate->add_option("--focal", o.focal_length, "Focal length (pixels)")->capture_default_str();
+  generate->add_option("--wavelength", o.wavelength, "Wave length (m), motion wave")->capture_default_str();
+  generate->add_option("--amplitude", o.wave_amplitude, "Wave amplitude (m)")->capture_default_str();
+  generate->add_option("--grid-x", o.grid_x, "Template cells across")->capture_default_str();
+  generate->add_option("--grid-y", o.grid_y, "Template cells down")->capture_default_str();
+  generate->add_option("--noise", o.noise_sigma, "Pixel noise sigma")->capture_default_str();
+  generate->add_option("--seed", o.seed, "Random seed")->capture_default_str();
+  generate->add_flag("--no-masks", f->no_masks, "Write no masks");
+  return generate;
+}
+
+int RunGenerate(GenerateFlags& f) {
+  f.options.motion = polyfit::ParseSheetMotion(f.motion);
+  f.options.write_masks = !f.no_masks;
+  polyfit::GenerateSheetScene(f.options, f.out);
+  std::printf("wrote %s (%d frames, %dx%d, %s)\n", f.out.c_str(), f.options.frame_count, f.options.width,
+              f.options.height, f.motion.c_str());
+  return polyfit::kExitSuccess;
+}
+
+void PrintFrame(const polyfit::SftFrameSummary& f) {
+  std::printf("frame %4d  %6.3f s  cost %.3e  %2d it", f.index, f.time_s, f.cost, f.iterations);
+  if (std::isfinite(f.e3d)) std::printf("  e3D %.4f  e_n %5.2f deg  RMSE %6.2f mm", f.e3d, f.normal_error_deg, f.rmse_mm);
+  if (std::isfinite(f.chamfer_1e4)) std::printf("  Chamfer x1e4 %.4f", f.chamfer_1e4);
+  std::printf("\n");
+  std::fflush(stdout);
+}
+
+int RunSolve(const SolveFlags& f) {
+  if (f.scene_dir.empty() || f.out_dir.empty()) {
+    std::cerr << "polysft: --scene and --out are required (or use 'polysft generate')\n";
+    return polyfit::kExitUsage;
+  }
+  polyfit::PolySftOptions options;
+  if (!f.config.empty()) polyfit::ApplyPolySftSettingsFile(f.config, &options);
+  if (f.threads > 0) options.num_threads = f.threads;
+  if (f.max_frames > 0) options.max_frames = f.max_frames;
+  options.rasterizer.num_threads = options.num_threads;
+  const polyfit::SftScene scene = polyfit::LoadScene(f.scene_dir);
+  std::printf("scene %s: %d frames %dx%d, template %d vertices / %d faces%s%s\n", f.scene_dir.c_str(),
+              scene.frame_count, scene.camera.width, scene.camera.height, scene.template_mesh.num_vertices(),
+              scene.template_mesh.num_faces(), scene.has_masks() ? ", masks" : "",
+              scene.has_ground_truth() ? ", ground truth" : "");
+  const polyfit::PolySftSummary summary = polyfit::SolvePolySft(options, scene, PrintFrame);
+  polyfit::WriteSftOutputs(f.out_dir, scene, options, summary);
+  if (f.overlays) WriteOverlays(f.out_dir, scene, summary);
+  for (const std::string& w : summary.warnings) std::printf("warning: %s\n", w.c_str());
+  std::printf("%s\nwrote %s/metrics.json, trace.csv, meshes/\n", summary.BriefReport().c_str(), f.out_dir.c_str());
+  return summary.IsSolutionUsable() ? polyfit::kExitSuccess : polyfit::kExitSolverFailure;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"PolySfT: shape from template with patch-wise polynomial jets"};
-  std::string scene_dir, out_dir, config;
-  bool overlays = false;
-  int threads = 0, max_frames = 0;
-  app.add_option("--scene", scene_dir, "Scene directory (../shared/docs/sft-scene-format.md)");
-  app.add_option("--out", out_dir, "Output directory");
-  app.add_option("--config", config, "JSON file of solver settings (keys as in metrics.json 'settings')");
-  app.add_flag("--overlays", overlays, "Write the reconstruction drawn over each frame (PNG)");
-  app.add_option("--threads", threads, "Threads (0: all)");
-  app.add_option("--max-frames", max_frames, "Solve only the first N frames (0: all)");
-
-  polyfit::SheetSceneOptions generate_options;
-  std::string generate_out, motion = "mixed";
-  CLI::App* generate = app.add_subcommand("generate", "Write a synthetic sheet scene with exact ground truth");
-  generate->add_option("--out", generate_out, "Scene directory to write")->required();
-  generate->add_option("--motion", motion, "bend, wave, rigid, mixed or roll")->capture_default_str();
-  generate->add_option("--frames", generate_options.frame_count, "Frames")->capture_default_str();
-  generate->add_option("--width", generate_options.width, "Image width")->capture_default_str();
-  generate->add_option("--height", generate_options.height, "Image height")->capture_default_str();
-  generate->add_option("--focal", generate_options.focal_length, "Focal length (pixels)")->capture_default_str();
-  generate->add_option("--wavelength", generate_options.wavelength, "Wave length (m), motion wave")
-      ->capture_default_str();
-  generate->add_option("--amplitude", generate_options.wave_amplitude, "Wave amplitude (m)")->capture_default_str();
-  generate->add_option("--grid-x", generate_options.grid_x, "Template cells across")->capture_default_str();
-  generate->add_option("--grid-y", generate_options.grid_y, "Template cells down")->capture_default_str();
-  generate->add_option("--noise", generate_options.noise_sigma, "Pixel noise sigma")->capture_default_str();
-  generate->add_option("--seed", generate_options.seed, "Random seed")->capture_default_str();
-  bool no_masks = false;
-  generate->add_flag("--no-masks", no_masks, "Write no masks");
-
+  SolveFlags solve;
+  AddSolveFlags(&app, &solve);
+  GenerateFlags generate_flags;
+  CLI::App* generate = AddGenerateCommand(&app, &generate_flags);
   std::string demo_dir = "build/demo";
   CLI::App* demo = app.add_subcommand(
       "demo", "Generate the default scene (a sheet bending and moving, 30 frames, 320x240) and solve it");
   demo->add_option("--dir", demo_dir, "Where to write the scene (DIR/scene) and the result (DIR/result)")
       ->capture_default_str();
-
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? polyfit::kExitSuccess : polyfit::kExitUsage;
   }
   try {
+    if (generate->parsed()) return RunGenerate(generate_flags);
     if (demo->parsed()) {
-      scene_dir = demo_dir + "/scene";
-      out_dir = demo_dir + "/result";
-      polyfit::GenerateSheetScene(polyfit::SheetSceneOptions(), scene_dir);
-      std::printf("generated %s\n", scene_dir.c_str());
+      solve.scene_dir = demo_dir + "/scene";
+      solve.out_dir = demo_dir + "/result";
+      polyfit::GenerateSheetScene(polyfit::SheetSceneOptions(), solve.scene_dir);
+      std::printf("generated %s\n", solve.scene_dir.c_str());
     }
-    if (generate->parsed()) {
-      generate_options.motion = polyfit::ParseSheetMotion(motion);
-      generate_options.write_masks = !no_masks;
-      polyfit::GenerateSheetScene(generate_options, generate_out);
-      std::printf("wrote %s (%d frames, %dx%d, %s)\n", generate_out.c_str(), generate_options.frame_count,
-                  generate_options.width, generate_options.height, motion.c_str());
-      return 0;
-    }
-    if (scene_dir.empty() || out_dir.empty()) {
-      std::cerr << "polysft: --scene and --out are required (or use 'polysft generate')\n";
-      return polyfit::kExitUsage;
-    }
-    polyfit::PolySftOptions options;
-    if (!config.empty()) polyfit::ApplyPolySftSettingsFile(config, &options);
-    if (threads > 0) options.num_threads = threads;
-    if (max_frames > 0) options.max_frames = max_frames;
-    options.rasterizer.num_threads = options.num_threads;
-    const polyfit::SftScene scene = polyfit::LoadScene(scene_dir);
-    std::printf("scene %s: %d frames %dx%d, template %d vertices / %d faces%s%s\n", scene_dir.c_str(),
-                scene.frame_count, scene.camera.width, scene.camera.height, scene.template_mesh.num_vertices(),
-                scene.template_mesh.num_faces(), scene.has_masks() ? ", masks" : "",
-                scene.has_ground_truth() ? ", ground truth" : "");
-    const polyfit::PolySftSummary summary =
-        polyfit::SolvePolySft(options, scene, [](const polyfit::SftFrameSummary& f) {
-          std::printf("frame %4d  %6.3f s  cost %.3e  %2d it", f.index, f.time_s, f.cost, f.iterations);
-          if (std::isfinite(f.e3d)) std::printf("  e3D %.4f  e_n %5.2f deg  RMSE %6.2f mm", f.e3d, f.normal_error_deg, f.rmse_mm);
-          if (std::isfinite(f.chamfer_1e4)) std::printf("  Chamfer x1e4 %.4f", f.chamfer_1e4);
-          std::printf("\n");
-          std::fflush(stdout);
-        });
-    polyfit::WriteSftOutputs(out_dir, scene, options, summary);
-    if (overlays) WriteOverlays(out_dir, scene, summary);
-    for (const std::string& w : summary.warnings) std::printf("warning: %s\n", w.c_str());
-    std::printf("%s\nwrote %s/metrics.json, trace.csv, meshes/\n", summary.BriefReport().c_str(), out_dir.c_str());
-    return summary.IsSolutionUsable() ? polyfit::kExitSuccess : polyfit::kExitSolverFailure;
+    return RunSolve(solve);
   } catch (const polyfit::Error& e) {
     std::cerr << "polysft: " << e.what() << "\n";
     return polyfit::ExitCodeFor(e.kind());
