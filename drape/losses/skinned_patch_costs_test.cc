@@ -158,7 +158,10 @@ TEST(SkinnedPatchCostsTest, EdgeJacobiansMatchAutodiff) {
   const int order = 4, K = 15;
   EdgeAutodiff f;
   f.order = order;
-  f.u[0] = 0.1, f.v[0] = 0.2, f.u[1] = -0.3, f.v[1] = 0.25;
+  f.u[0] = 0.1;
+  f.v[0] = 0.2;
+  f.u[1] = -0.3;
+  f.v[1] = 0.25;
   f.rotation = Eigen::Quaterniond(Eigen::Vector4d(0.3, -0.2, 0.9, 0.1).normalized()).toRotationMatrix();
   f.linear[0] = Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitX()).toRotationMatrix();
   f.linear[1] = Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitY()).toRotationMatrix();
@@ -209,7 +212,10 @@ TEST(SkinnedPatchCostsTest, AgreementJacobiansMatchAutodiff) {
   const int order = 3, K = 10;
   AgreementAutodiff f;
   f.order = order;
-  f.u[0] = 0.4, f.v[0] = -0.1, f.u[1] = -0.2, f.v[1] = 0.3;
+  f.u[0] = 0.4;
+  f.v[0] = -0.1;
+  f.u[1] = -0.2;
+  f.v[1] = 0.3;
   f.rotation[0] = Eigen::AngleAxisd(0.4, Eigen::Vector3d(1.0, 2.0, 0.5).normalized()).toRotationMatrix();
   f.rotation[1] = Eigen::AngleAxisd(-0.7, Eigen::Vector3d(0.2, 1.0, 1.0).normalized()).toRotationMatrix();
   f.gap = Eigen::Vector3d(0.001, -0.002, 0.0005);
@@ -219,7 +225,10 @@ TEST(SkinnedPatchCostsTest, AgreementJacobiansMatchAutodiff) {
   const Eigen::Vector3d translation(0.5, 0.0, 0.0);
   double alpha_a[K], alpha_b[K], scale_a = 0.9, scale_b = 1.1, offset_a[3] = {0.1, 0.0, 0.2}, offset_b[3] = {0.0, 0.1, 0.1},
                                 slide_a[2] = {0.03, -0.01}, slide_b[2] = {0.02, 0.05};
-  for (int k = 0; k < K; ++k) alpha_a[k] = 0.2 * std::cos(k + 0.5), alpha_b[k] = 0.1 * std::sin(2.0 * k);
+  for (int k = 0; k < K; ++k) {
+    alpha_a[k] = 0.2 * std::cos(k + 0.5);
+    alpha_b[k] = 0.1 * std::sin(2.0 * k);
+  }
   const double* parameters[8] = {alpha_a, &scale_a, offset_a, slide_a, alpha_b, &scale_b, offset_b, slide_b};
   SkinnedAgreementCost analytic(SkinnedPatchPoint(order, f.u[0], f.v[0], f.rotation[0], &linear, &translation),
                                 SkinnedPatchPoint(order, f.u[1], f.v[1], f.rotation[1], &linear, &translation), f.gap,
@@ -229,7 +238,10 @@ TEST(SkinnedPatchCostsTest, AgreementJacobiansMatchAutodiff) {
   double ra[3], rb[3], ja[8][3 * K], jb[8][3 * K];
   double* jacobians_a[8];
   double* jacobians_b[8];
-  for (int b = 0; b < 8; ++b) jacobians_a[b] = ja[b], jacobians_b[b] = jb[b];
+  for (int b = 0; b < 8; ++b) {
+    jacobians_a[b] = ja[b];
+    jacobians_b[b] = jb[b];
+  }
   ASSERT_TRUE(analytic.Evaluate(parameters, ra, jacobians_a));
   ASSERT_TRUE(automatic.Evaluate(parameters, rb, jacobians_b));
   for (int i = 0; i < 3; ++i) EXPECT_NEAR(ra[i], rb[i], 1e-12);

@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/imgcodecs.hpp>
 
+#include "polyfit/mesh/per_face_normals.h"
 #include "polyfit/util/atomic_file.h"
 
 namespace polyfit {
@@ -23,15 +24,14 @@ void Rasterise(const TriangleMesh& mesh, const Eigen::Matrix3d& rotation, const 
                const Eigen::Vector3d& colour, bool two_sided, cv::Mat* image, std::vector<float>* depth) {
   const int w = image->cols, h = image->rows;
   const Eigen::Vector3d light = Eigen::Vector3d(0.3, 0.5, 1.0).normalized();
+  const Eigen::Matrix3Xd normals = PerFaceNormals(mesh);
   for (int f = 0; f < mesh.faces.cols(); ++f) {
     Eigen::Vector3d p[3];
     for (int c = 0; c < 3; ++c) {
       const Eigen::Vector3d q = rotation * mesh.vertices.col(mesh.faces(c, f));
       p[c] = Eigen::Vector3d((q.x() - origin.x()) * pixels_per_metre, h - 1 - (q.y() - origin.y()) * pixels_per_metre, q.z());
     }
-    const Eigen::Vector3d normal = (rotation * (mesh.vertices.col(mesh.faces(1, f)) - mesh.vertices.col(mesh.faces(0, f)))
-                                        .cross(mesh.vertices.col(mesh.faces(2, f)) - mesh.vertices.col(mesh.faces(0, f))))
-                                       .normalized();
+    const Eigen::Vector3d normal = rotation * normals.col(f);
     double shade = normal.dot(light);
     if (two_sided) shade = std::abs(shade);
     shade = 0.25 + 0.75 * std::max(shade, 0.0);

@@ -46,7 +46,10 @@ int LloydKMeans(const Eigen::Matrix<double, D, Eigen::Dynamic>& points, const Ei
         double best_d2 = (points.col(i) - centres->col(0)).squaredNorm();
         for (Eigen::Index c = 1; c < k; ++c) {
           const double d2 = (points.col(i) - centres->col(c)).squaredNorm();
-          if (d2 < best_d2) best_d2 = d2, best = static_cast<int>(c);
+          if (d2 < best_d2) {
+            best_d2 = d2;
+            best = static_cast<int>(c);
+          }
         }
         assign(i, best);
       }

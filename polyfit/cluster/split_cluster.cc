@@ -23,7 +23,10 @@ std::vector<int> SplitClusterInTwo(const Eigen::Matrix3Xd& normals, const Eigen:
     double best = -1.0;
     for (Eigen::Index i = 0; i < n; ++i) {
       const double d = (features.col(i) - features.col(from)).squaredNorm();
-      if (d > best) best = d, best_i = i;
+      if (d > best) {
+        best = d;
+        best_i = i;
+      }
     }
     return best_i;
   };

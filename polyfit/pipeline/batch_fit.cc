@@ -136,15 +136,9 @@ Eigen::Matrix<std::uint8_t, 3, Eigen::Dynamic> PatchColours(const PolyFitModel& 
     const double f = hue - sector;
     const double s = 0.65, value = 0.95;
     const double p = value * (1 - s), q = value * (1 - s * f), t = value * (1 - s * (1 - f));
-    double r, g, b;
-    switch (sector % 6) {
-      case 0: r = value, g = t, b = p; break;
-      case 1: r = q, g = value, b = p; break;
-      case 2: r = p, g = value, b = t; break;
-      case 3: r = p, g = q, b = value; break;
-      case 4: r = t, g = p, b = value; break;
-      default: r = value, g = p, b = q; break;
-    }
+    // (r, g, b) per hue sector.
+    const double rgb[6][3] = {{value, t, p}, {q, value, p}, {p, value, t}, {p, q, value}, {t, p, value}, {value, p, q}};
+    const double r = rgb[sector % 6][0], g = rgb[sector % 6][1], b = rgb[sector % 6][2];
     colours.col(v) << static_cast<std::uint8_t>(255 * r), static_cast<std::uint8_t>(255 * g),
         static_cast<std::uint8_t>(255 * b);
   }

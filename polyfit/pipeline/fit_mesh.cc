@@ -11,7 +11,9 @@
 
 #include "polyfit/eval/mesh_metrics.h"
 #include "polyfit/eval/surface_distance.h"
+#include "polyfit/mesh/face_centroids.h"
 #include "polyfit/mesh/mesh_topology.h"
+#include "polyfit/mesh/per_face_normals.h"
 #include "polyfit/util/parallel_for.h"
 
 namespace polyfit {
@@ -178,16 +180,14 @@ MeshFitSummary FitMesh(const MeshFitOptions& options, const TriangleMesh& input,
     // face's normal against its patch's jet normal there, area-weighted
     // (vertex normals would blur sharp creases into false errors).
     const Eigen::VectorXd face_areas = FaceAreas(mesh);
+    const Eigen::Matrix3Xd normals = PerFaceNormals(mesh);
+    const Eigen::Matrix3Xd centroids = FaceCentroids(mesh);
     double sum_angle = 0.0, sum_area = 0.0;
     for (int f = 0; f < mesh.num_faces(); ++f) {
-      const Eigen::Vector3d a = mesh.vertices.col(mesh.faces(0, f));
-      const Eigen::Vector3d b = mesh.vertices.col(mesh.faces(1, f));
-      const Eigen::Vector3d c = mesh.vertices.col(mesh.faces(2, f));
-      const Eigen::Vector3d n = (b - a).cross(c - a);
-      if (n.squaredNorm() == 0.0) continue;
+      if (normals.col(f).squaredNorm() == 0.0) continue;
       const JetPatch& patch = model.patches[model.face_patch[f]];
-      const Eigen::Vector3d uv = patch.frame.PointToPatch((a + b + c) / 3.0);
-      const double cosine = std::min(1.0, std::abs(patch.NormalInWorld(uv.x(), uv.y()).dot(n.normalized())));
+      const Eigen::Vector3d uv = patch.frame.PointToPatch(centroids.col(f));
+      const double cosine = std::min(1.0, std::abs(patch.NormalInWorld(uv.x(), uv.y()).dot(normals.col(f))));
       sum_angle += face_areas[f] * std::acos(cosine) * 180.0 / M_PI;
       sum_area += face_areas[f];
     }
