@@ -28,7 +28,8 @@ class CollisionResidual {
   bool operator()(const T* x, T* residual) const {
     using std::pow;
     using std::sqrt;
-    const T d = (x[0] - closest_[0]) * normal_[0] + (x[1] - closest_[1]) * normal_[1] + (x[2] - closest_[2]) * normal_[2];
+    const T d =
+        (x[0] - closest_[0]) * normal_[0] + (x[1] - closest_[1]) * normal_[1] + (x[2] - closest_[2]) * normal_[2];
     const T depth = T(margin_) - d;
     if (depth <= T(0.0)) {
       residual[0] = T(0.0);

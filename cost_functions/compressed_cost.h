@@ -34,9 +34,8 @@ namespace polyfit {
 // Writes the compressed residuals (n + 1) and Jacobians (row-major, one per
 // parameter block of `sizes`) of a term with |r|^2 = squared_norm and
 // normal equations J^T J, J^T r. Without jacobians, only the cost.
-inline void WriteCompressedResiduals(const std::vector<int32_t>& sizes, double squared_norm,
-                                     const Eigen::MatrixXd& jtj, const Eigen::VectorXd& jtr, double* residuals,
-                                     double** jacobians) {
+inline void WriteCompressedResiduals(const std::vector<int32_t>& sizes, double squared_norm, const Eigen::MatrixXd& jtj,
+                                     const Eigen::VectorXd& jtr, double* residuals, double** jacobians) {
   const int n = static_cast<int>(jtr.size());
   Eigen::Map<Eigen::VectorXd> out(residuals, n + 1);
   out.setZero();
@@ -60,7 +59,7 @@ inline void WriteCompressedResiduals(const std::vector<int32_t>& sizes, double s
   for (size_t b = 0, cb = 0; b < sizes.size(); cb += sizes[b], ++b) {
     if (jacobians[b] == nullptr) continue;
     Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> jac(jacobians[b], n + 1,
-                                                                                             sizes[b]);
+                                                                                           sizes[b]);
     jac.topRows(n) = r_matrix.middleCols(cb, sizes[b]);
     jac.row(n).setZero();
   }

@@ -136,7 +136,8 @@ TEST(PatchBoundaryTest, IdenticalPatchesAgreeAndJacobiansMatch) {
   std::unique_ptr<ceres::CostFunction> cost(
       PatchBoundaryResidual::Create(3, Eigen::Vector2d(0.2, -0.4), r, Eigen::Vector2d(0.2, -0.4), r, 2.0, 0.5));
   std::vector<double> alpha = {0.1, -0.2, 0.3, 0.05, 0.1, -0.1, 0.02, 0.0, 0.01, -0.03};
-  for (int i = 0; i < 6; ++i) EXPECT_NEAR(Residual(*cost, {alpha, {0.7}, {1, 2, 3}, alpha, {0.7}, {1, 2, 3}}, i), 0.0, 1e-15);
+  for (int i = 0; i < 6; ++i)
+    EXPECT_NEAR(Residual(*cost, {alpha, {0.7}, {1, 2, 3}, alpha, {0.7}, {1, 2, 3}}, i), 0.0, 1e-15);
   // A shifted translation shows in the position residuals only.
   EXPECT_NEAR(Residual(*cost, {alpha, {0.7}, {1, 2, 3}, alpha, {0.7}, {1, 2, 3.5}}, 2), 2.0 * -0.5, 1e-12);
   EXPECT_NEAR(Residual(*cost, {alpha, {0.7}, {1, 2, 3}, alpha, {0.7}, {1, 2, 3.5}}, 5), 0.0, 1e-15);

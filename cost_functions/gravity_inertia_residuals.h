@@ -87,8 +87,8 @@ class InertiaResidual {
     if (gravity_weight > 0.0 && !(weight > 0.0)) {
       throw std::invalid_argument("InertiaResidual: gravity folds into inertia only with an inertia weight > 0");
     }
-    return new ceres::AutoDiffCostFunction<InertiaResidual, 3, 3>(new InertiaResidual(
-        previous, before_previous, mass, dt, weight, gravity_weight, gravity, up.normalized()));
+    return new ceres::AutoDiffCostFunction<InertiaResidual, 3, 3>(
+        new InertiaResidual(previous, before_previous, mass, dt, weight, gravity_weight, gravity, up.normalized()));
   }
 
   // The target x_pred (gravity's shift included).

@@ -29,17 +29,14 @@ namespace polyfit {
 
 class JetHeightResidual {
  public:
-  JetHeightResidual(int order, const Eigen::Vector3d& point_in_world, double scale,
-                    double weight = 1.0)
+  JetHeightResidual(int order, const Eigen::Vector3d& point_in_world, double scale, double weight = 1.0)
       : order_(order), point_in_world_(point_in_world), scale_(scale), weight_(weight) {}
 
   template <typename T>
-  bool operator()(const T* alpha, const T* world_from_patch, const T* patch_origin,
-                  T* residual) const {
-    const T patch_from_world[4] = {world_from_patch[0], -world_from_patch[1],
-                                   -world_from_patch[2], -world_from_patch[3]};
-    const T offset[3] = {T(point_in_world_[0]) - patch_origin[0],
-                         T(point_in_world_[1]) - patch_origin[1],
+  bool operator()(const T* alpha, const T* world_from_patch, const T* patch_origin, T* residual) const {
+    const T patch_from_world[4] = {world_from_patch[0], -world_from_patch[1], -world_from_patch[2],
+                                   -world_from_patch[3]};
+    const T offset[3] = {T(point_in_world_[0]) - patch_origin[0], T(point_in_world_[1]) - patch_origin[1],
                          T(point_in_world_[2]) - patch_origin[2]};
     T q[3];
     ceres::UnitQuaternionRotatePoint(patch_from_world, offset, q);
@@ -50,8 +47,8 @@ class JetHeightResidual {
   }
 
   // order in [1, 8]; scale > 0. Throws std::invalid_argument otherwise.
-  static ceres::CostFunction* Create(int order, const Eigen::Vector3d& point_in_world,
-                                     double scale, double weight = 1.0) {
+  static ceres::CostFunction* Create(int order, const Eigen::Vector3d& point_in_world, double scale,
+                                     double weight = 1.0) {
     if (!(scale > 0.0)) throw std::invalid_argument("JetHeightResidual: scale must be > 0");
     auto functor = std::make_unique<JetHeightResidual>(order, point_in_world, scale, weight);
     return DispatchJetCoefficients(order, "JetHeightResidual", [&](auto k) -> ceres::CostFunction* {

@@ -26,7 +26,10 @@ Blocks RandomBlocks(int order, std::mt19937_64& rng) {
   for (double& a : b.alpha) a = uni(rng);
   Eigen::Quaterniond q(1 + uni(rng), uni(rng), uni(rng), uni(rng));
   q.normalize();
-  b.rotation[0] = q.w(); b.rotation[1] = q.x(); b.rotation[2] = q.y(); b.rotation[3] = q.z();
+  b.rotation[0] = q.w();
+  b.rotation[1] = q.x();
+  b.rotation[2] = q.y();
+  b.rotation[3] = q.z();
   for (double& t : b.origin) t = 3 * uni(rng);
   return b;
 }
@@ -92,8 +95,8 @@ TEST(JetHeightResidual, CeresSolveReachesTheClosedFormFit) {
   std::vector<double> alpha(15, 0.0);
   ceres::Problem problem;
   for (int i = 0; i < sp.points_in_world.cols(); ++i) {
-    problem.AddResidualBlock(JetHeightResidual::Create(4, sp.points_in_world.col(i), fit.frame.scale),
-                             nullptr, alpha.data(), rotation, origin);
+    problem.AddResidualBlock(JetHeightResidual::Create(4, sp.points_in_world.col(i), fit.frame.scale), nullptr,
+                             alpha.data(), rotation, origin);
   }
   problem.SetParameterBlockConstant(rotation);
   problem.SetParameterBlockConstant(origin);

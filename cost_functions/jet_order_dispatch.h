@@ -25,8 +25,7 @@ auto DispatchJetCoefficients(int order, const char* who, Make&& make) {
     case 6: return make(std::integral_constant<int, NumJetCoefficients(6)>{});
     case 7: return make(std::integral_constant<int, NumJetCoefficients(7)>{});
     case 8: return make(std::integral_constant<int, NumJetCoefficients(8)>{});
-    default:
-      throw std::invalid_argument(std::string(who) + ": order must be in [1, 8], got " + std::to_string(order));
+    default: throw std::invalid_argument(std::string(who) + ": order must be in [1, 8], got " + std::to_string(order));
   }
 }
 

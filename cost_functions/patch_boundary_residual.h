@@ -35,8 +35,14 @@ class PatchBoundaryResidual {
                         const Eigen::Vector2d& uv_b, const Eigen::Matrix3d& rotation_b, double position_weight,
                         double normal_weight, const Eigen::Vector3d& position_gap = Eigen::Vector3d::Zero(),
                         const Eigen::Vector3d& normal_gap = Eigen::Vector3d::Zero())
-      : order_(order), uv_a_(uv_a), uv_b_(uv_b), rotation_a_(rotation_a), rotation_b_(rotation_b),
-        position_weight_(position_weight), normal_weight_(normal_weight), position_gap_(position_gap),
+      : order_(order),
+        uv_a_(uv_a),
+        uv_b_(uv_b),
+        rotation_a_(rotation_a),
+        rotation_b_(rotation_b),
+        position_weight_(position_weight),
+        normal_weight_(normal_weight),
+        position_gap_(position_gap),
         normal_gap_(normal_gap) {}
 
   template <typename T>

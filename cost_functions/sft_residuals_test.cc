@@ -80,7 +80,8 @@ struct TallResidual {
 
 TEST(CompressedCostTest, SameCostGradientAndGaussNewtonModel) {
   auto* inner = new ceres::AutoDiffCostFunction<TallResidual, 50, 2, 1>(new TallResidual);
-  std::unique_ptr<ceres::CostFunction> reference(new ceres::AutoDiffCostFunction<TallResidual, 50, 2, 1>(new TallResidual));
+  std::unique_ptr<ceres::CostFunction> reference(
+      new ceres::AutoDiffCostFunction<TallResidual, 50, 2, 1>(new TallResidual));
   const CompressedCost compressed(inner);
   EXPECT_EQ(compressed.num_residuals(), 4);
   double x[2] = {0.7, -0.4}, y[1] = {1.3};

@@ -14,15 +14,13 @@
 
 namespace {
 
-void Report(const char* label, const polyfit::JetFitOptions& options,
-            const polyfit::SyntheticPatchSet& set) {
+void Report(const char* label, const polyfit::JetFitOptions& options, const polyfit::SyntheticPatchSet& set) {
   std::vector<polyfit::JetPatch> patches;
   const polyfit::JetFitSummary summary =
       polyfit::FitJetPatches(options, set.points_in_world, set.offsets, nullptr, &patches);
   const polyfit::SurfaceErrorAccumulator error = polyfit::EvaluatePatchSet(set, patches);
-  std::printf("| %-15s | %9.2f | %9.4f | %11.4f | %9.2f |\n", label,
-              summary.total_time_s / summary.num_patches * 1e6, summary.rms_residual,
-              error.height_rmse(), error.normal_error_deg());
+  std::printf("| %-15s | %9.2f | %9.4f | %11.4f | %9.2f |\n", label, summary.total_time_s / summary.num_patches * 1e6,
+              summary.rms_residual, error.height_rmse(), error.normal_error_deg());
 }
 
 }  // namespace
@@ -32,10 +30,11 @@ int main() {
   surface.num_points = 256;
   surface.noise_sigma = 0.01;
   const polyfit::SyntheticPatchSet set = polyfit::GenerateSyntheticPatchSet(surface, 2000, 2026);
-  std::printf("PolyFit: n-jets fitted to %zu patches x %d points (summed family, noise %.2g), "
-              "all threads\n\n", set.patches.size(), surface.num_points, surface.noise_sigma);
-  std::printf("| %-15s | %9s | %9s | %11s | %9s |\n", "fit", "us/patch", "residual", "height RMSE",
-              "normal deg");
+  std::printf(
+      "PolyFit: n-jets fitted to %zu patches x %d points (summed family, noise %.2g), "
+      "all threads\n\n",
+      set.patches.size(), surface.num_points, surface.noise_sigma);
+  std::printf("| %-15s | %9s | %9s | %11s | %9s |\n", "fit", "us/patch", "residual", "height RMSE", "normal deg");
   std::printf("|-----------------|-----------|-----------|-------------|-----------|\n");
   polyfit::JetFitOptions options;
   char label[32];

@@ -1,13 +1,13 @@
 #include "drape/body/body_shape.h"
 
+#include <zlib.h>
+
 #include <array>
 #include <cmath>
 #include <filesystem>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
-
-#include <zlib.h>
 
 namespace polyfit {
 namespace {
@@ -44,7 +44,8 @@ void AddTarget(const std::string& path, double w, Eigen::Matrix3Xd* base) {
       throw BodyError(path + ": line " + std::to_string(number) + ": expected 'vertex dx dy dz'");
     }
     if (index < 0 || index >= base->cols()) {
-      throw BodyError(path + ": line " + std::to_string(number) + ": vertex " + std::to_string(index) + " out of range");
+      throw BodyError(path + ": line " + std::to_string(number) + ": vertex " + std::to_string(index) +
+                      " out of range");
     }
     base->col(index) += 0.1 * w * Eigen::Vector3d(dx, dy, dz);
   }
@@ -82,12 +83,18 @@ BodyShape BodyShape::Parse(const std::string& text) {
     } catch (const std::exception&) {
       throw std::invalid_argument("shape: '" + key + "' needs a number, got '" + item.substr(eq + 1) + "'");
     }
-    if (key == "gender") shape.gender = value;
-    else if (key == "muscle") shape.muscle = value;
-    else if (key == "weight") shape.weight = value;
-    else if (key == "height") shape.height = value;
-    else if (key == "proportions") shape.proportions = value;
-    else throw std::invalid_argument("shape: unknown key '" + key + "' (gender, muscle, weight, height, proportions)");
+    if (key == "gender")
+      shape.gender = value;
+    else if (key == "muscle")
+      shape.muscle = value;
+    else if (key == "weight")
+      shape.weight = value;
+    else if (key == "height")
+      shape.height = value;
+    else if (key == "proportions")
+      shape.proportions = value;
+    else
+      throw std::invalid_argument("shape: unknown key '" + key + "' (gender, muscle, weight, height, proportions)");
   }
   const std::string problem = shape.Validate();
   if (!problem.empty()) throw std::invalid_argument("shape: " + problem);
@@ -116,7 +123,8 @@ void ApplyBodyShape(const std::string& body_dir, const BodyShape& shape, Skinned
       for (int b = 0; b < 3; ++b) {
         const double w = w_gender * muscle[a] * weight[b];
         if (a == 1 && b == 1) continue;  // empty: the base mesh
-        AddTarget((dir / ("universal-" + gender + "-young-" + levels[a] + "muscle-" + levels[b] + "weight.target.gz")).string(),
+        AddTarget((dir / ("universal-" + gender + "-young-" + levels[a] + "muscle-" + levels[b] + "weight.target.gz"))
+                      .string(),
                   w, &base);
       }
     }

@@ -1,10 +1,9 @@
 #include "drape/body/makehuman_body.h"
 
+#include <cctype>
 #include <filesystem>
 
 #include <gtest/gtest.h>
-
-#include <cctype>
 
 namespace polyfit {
 namespace {

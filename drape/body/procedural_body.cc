@@ -21,7 +21,7 @@ void AppendCapsule(const Capsule& c, int parent, int segments, std::vector<Eigen
                    std::vector<Eigen::Vector3i>* faces, std::vector<std::vector<std::pair<int, double>>>* weights) {
   const Eigen::Vector3d axis = (c.b - c.a).normalized();
   const Eigen::Vector3d side = std::abs(axis.x()) < 0.9 ? axis.cross(Eigen::Vector3d::UnitX()).normalized()
-                                                         : axis.cross(Eigen::Vector3d::UnitY()).normalized();
+                                                        : axis.cross(Eigen::Vector3d::UnitY()).normalized();
   const Eigen::Vector3d up = axis.cross(side);
   const double length = (c.b - c.a).norm();
   const int cap_rings = std::max(2, segments / 4), body_rings = std::max(2, static_cast<int>(length / c.radius) * 2);
@@ -105,8 +105,8 @@ SkinnedBody MakeProceduralBody(int segments) {
     s.rest_heads.col(j) = joints[j].head;
   }
   const std::vector<Capsule> capsules = {
-      {1, {0, -0.02, 0}, {0, 0.5, 0}, 0.14},    // the torso: hips blending into the spine
-      {3, {0, 0.66, 0}, {0, 0.76, 0}, 0.1},     // head
+      {1, {0, -0.02, 0}, {0, 0.5, 0}, 0.14},  // the torso: hips blending into the spine
+      {3, {0, 0.66, 0}, {0, 0.76, 0}, 0.1},   // head
       {4, l_shoulder, l_elbow, 0.045},
       {5, l_elbow, l_elbow + 0.26 * arm_down, 0.04},
       {6, l_shoulder.cwiseProduct(mirror), l_elbow.cwiseProduct(mirror), 0.045},

@@ -21,7 +21,7 @@ TEST(ProceduralBodyTest, ClosedOutwardCapsulesWithNormalisedWeights) {
   }
   // Outward faces: the body is inside, the space around it outside.
   const BodySignedDistance distance(body.mesh);
-  EXPECT_LT(distance.Query(Eigen::Vector3d(0, 0.1, 0)).distance, -0.1);   // the belly
+  EXPECT_LT(distance.Query(Eigen::Vector3d(0, 0.1, 0)).distance, -0.1);      // the belly
   EXPECT_LT(distance.Query(Eigen::Vector3d(0.1, -0.7, 0)).distance, -0.03);  // a shin
   EXPECT_NEAR(distance.Query(Eigen::Vector3d(0, 0.1, 0.3)).distance, 0.16, 0.01);
   EXPECT_GT(distance.Query(Eigen::Vector3d(0, 1.2, 0)).distance, 0.3);

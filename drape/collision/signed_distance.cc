@@ -1,8 +1,8 @@
 #include "drape/collision/signed_distance.h"
 
 #include <algorithm>
-#include <limits>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <vector>
 
@@ -141,8 +141,8 @@ SignedDistanceResult BodySignedDistance::QueryPiece(const Impl& m, size_t piece,
 
 Eigen::VectorXd BodySignedDistance::SignedDistances(const Eigen::Matrix3Xd& points, int num_threads) const {
   Eigen::VectorXd d(points.cols());
-  ParallelFor(static_cast<int>(points.cols()), num_threads, [&](int, int i) { d[i] = Query(points.col(i)).distance; },
-              256);
+  ParallelFor(
+      static_cast<int>(points.cols()), num_threads, [&](int, int i) { d[i] = Query(points.col(i)).distance; }, 256);
   return d;
 }
 

@@ -22,7 +22,7 @@
 namespace polyfit {
 
 struct SignedDistanceResult {
-  double distance = 0.0;                             // negative inside
+  double distance = 0.0;                              // negative inside
   Eigen::Vector3d closest = Eigen::Vector3d::Zero();  // on the body
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();   // the pseudonormal there (unit)
   int face = -1;

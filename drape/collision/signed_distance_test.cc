@@ -53,7 +53,8 @@ TEST(BodySignedDistanceTest, SignIsRightOnEdgesAndVertices) {
     EXPECT_LT(exact.Query(0.99 * x).distance, 0.0);
   }
   for (int f = 0; f < sphere.num_faces(); ++f) {
-    const Eigen::Vector3d mid = 0.5 * (sphere.vertices.col(sphere.faces(0, f)) + sphere.vertices.col(sphere.faces(1, f)));
+    const Eigen::Vector3d mid =
+        0.5 * (sphere.vertices.col(sphere.faces(0, f)) + sphere.vertices.col(sphere.faces(1, f)));
     EXPECT_GT(exact.Query(1.01 * mid).distance, 0.0);
     EXPECT_LT(exact.Query(0.99 * mid).distance, 0.0);
   }

@@ -78,7 +78,8 @@ ClothMeasures MeasureCloth(const ClothRest& rest, const Eigen::Matrix3Xd& x, con
     const Eigen::Matrix<double, 3, 2> deformation = ds * rest.face_inverse[f];
     const Eigen::Matrix2d strain = 0.5 * (deformation.transpose() * deformation - Eigen::Matrix2d::Identity());
     const double trace = strain.trace();
-    m.stretch_energy += rest.face_area[f] * (material.mu * (strain * strain).trace() + 0.5 * material.lambda * trace * trace);
+    m.stretch_energy +=
+        rest.face_area[f] * (material.mu * (strain * strain).trace() + 0.5 * material.lambda * trace * trace);
     const double area = 0.5 * ds.col(0).cross(ds.col(1)).norm();
     area_change += std::abs(area - rest.face_area[f]) / rest.face_area[f];
   }

@@ -32,23 +32,23 @@ struct ClothMaterial {
 
 struct ClothRest {
   Eigen::Matrix3Xi faces;
-  std::vector<double> face_area;               // #F, m^2
-  std::vector<Eigen::Matrix2d> face_inverse;   // #F, D_m^-1
-  std::vector<std::array<int, 2>> edges;       // unique edges
-  std::vector<double> edge_length;             // #E rest lengths
+  std::vector<double> face_area;              // #F, m^2
+  std::vector<Eigen::Matrix2d> face_inverse;  // #F, D_m^-1
+  std::vector<std::array<int, 2>> edges;      // unique edges
+  std::vector<double> edge_length;            // #E rest lengths
   // Interior edges: (i, j) the edge, (k, l) the opposite corners of its two faces.
   std::vector<std::array<int, 4>> hinges;
-  std::vector<double> hinge_angle;             // rest dihedral angles
-  std::vector<double> hinge_weight;            // 3 |e|^2 / (A_1 + A_2)
-  std::vector<double> vertex_area;             // #V, a third of each incident face
+  std::vector<double> hinge_angle;   // rest dihedral angles
+  std::vector<double> hinge_weight;  // 3 |e|^2 / (A_1 + A_2)
+  std::vector<double> vertex_area;   // #V, a third of each incident face
 };
 
 // Throws std::invalid_argument for a degenerate (zero-area) rest face.
 ClothRest PrepareClothRest(const TriangleMesh& rest);
 
 struct ClothMeasures {
-  double stretch_energy = 0.0;  // J
-  double bending_energy = 0.0;  // J
+  double stretch_energy = 0.0;       // J
+  double bending_energy = 0.0;       // J
   double edge_strain_percent = 0.0;  // epsilon_e
   double area_change_percent = 0.0;  // epsilon_a
   double max_edge_strain_percent = 0.0;

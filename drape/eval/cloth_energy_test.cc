@@ -44,7 +44,7 @@ TEST(ClothEnergyTest, FoldedHingeMatchesTheDiscreteShell) {
   TriangleMesh hinge;
   hinge.vertices.resize(3, 4);
   hinge.vertices << 0, 1, 0.5, 0.5,  //
-      0, 0, 1, -1,                    //
+      0, 0, 1, -1,                   //
       0, 0, 0, 0;
   hinge.faces.resize(3, 2);
   hinge.faces.col(0) = Eigen::Vector3i(0, 1, 2);

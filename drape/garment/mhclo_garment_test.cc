@@ -8,8 +8,8 @@
 
 #include "drape/body/makehuman_body.h"
 #include "drape/collision/signed_distance.h"
-#include "polyfit/pipeline/fit_mesh.h"
 #include "polyfit/mesh/ordered_io.h"
+#include "polyfit/pipeline/fit_mesh.h"
 
 namespace polyfit {
 namespace {
@@ -33,8 +33,7 @@ TEST(MhcloGarmentTest, GarmentsFitTheBaseBody) {
     const double base_x = std::abs(body.base_vertices(0, binding.scale_vertices[0][0]) -
                                    body.base_vertices(0, binding.scale_vertices[0][1]));
     if (std::abs(0.1 * binding.scale_distances[0] - base_x) < 1e-4) {
-      const TriangleMesh obj =
-          ReadObjTemplate((entry.path().parent_path() / entry.path().stem()).string() + ".obj");
+      const TriangleMesh obj = ReadObjTemplate((entry.path().parent_path() / entry.path().stem()).string() + ".obj");
       EXPECT_LT((garment.vertices - 0.1 * obj.vertices).colwise().norm().maxCoeff(), 1e-3) << entry.path();
     }
     // Every garment sits on the body: close to its surface (the skirt hangs

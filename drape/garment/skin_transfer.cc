@@ -24,7 +24,8 @@ SkinWeights TransferSkinWeights(const SkinnedBody& body, const TriangleMesh& gar
   const int num_joints = body.skeleton.num_joints();
   const int n = garment.num_vertices();
   if (n == 0) throw std::invalid_argument("TransferSkinWeights: the garment has no vertex");
-  if (!garment.vertices.allFinite()) throw std::invalid_argument("TransferSkinWeights: the garment has non-finite vertices");
+  if (!garment.vertices.allFinite())
+    throw std::invalid_argument("TransferSkinWeights: the garment has non-finite vertices");
   // Dense #joints by #V: the rigs have tens of joints.
   Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(num_joints, n);
   std::vector<bool> anchored(n, false);
@@ -97,7 +98,8 @@ SkinWeights TransferSkinWeights(const SkinnedBody& body, const TriangleMesh& gar
 
 Eigen::Matrix3Xd SkinPoints(const SkinWeights& weights, const Eigen::Matrix3Xd& rest,
                             const std::vector<Eigen::Isometry3d>& transforms) {
-  if (weights.num_vertices() != rest.cols()) throw std::invalid_argument("SkinPoints: one weight row per point is needed");
+  if (weights.num_vertices() != rest.cols())
+    throw std::invalid_argument("SkinPoints: one weight row per point is needed");
   Eigen::Matrix3Xd posed(3, rest.cols());
   Eigen::Matrix3d linear;
   Eigen::Vector3d translation;

@@ -23,7 +23,8 @@ TEST(SkinTransferTest, PointsOnTheBodyTakeItsWeights) {
   for (int v = 0; v < body.mesh.num_vertices(); v += 37, ++checked) {
     Eigen::VectorXd expected = Eigen::VectorXd::Zero(body.skeleton.num_joints());
     Eigen::VectorXd got = expected;
-    for (int k = body.weight_offsets[v]; k < body.weight_offsets[v + 1]; ++k) expected[body.weight_joint[k]] += body.weight_value[k];
+    for (int k = body.weight_offsets[v]; k < body.weight_offsets[v + 1]; ++k)
+      expected[body.weight_joint[k]] += body.weight_value[k];
     for (int k = weights.offsets[v]; k < weights.offsets[v + 1]; ++k) got[weights.joint[k]] += weights.value[k];
     // Capsules overlap, so a vertex buried in another capsule may take
     // that one's surface; compare where the weights are a single bone's.

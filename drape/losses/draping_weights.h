@@ -9,11 +9,11 @@
 namespace polyfit {
 
 struct DrapingWeights {
-  double boundary = 5e3;         // k_b, patch boundary continuity (eq. 5)
-  double inextensibility = 2.0;  // k_mi, metric tensor (eq. 4) and edges (eq. 1)
-  double gravity = 1.0;          // k_g (eq. 7)
-  double collision = 1.0;        // k_c (eq. 3)
-  double inertia = 0.5;          // k_i (eq. 8)
+  double boundary = 5e3;           // k_b, patch boundary continuity (eq. 5)
+  double inextensibility = 2.0;    // k_mi, metric tensor (eq. 4) and edges (eq. 1)
+  double gravity = 1.0;            // k_g (eq. 7)
+  double collision = 1.0;          // k_c (eq. 3)
+  double inertia = 0.5;            // k_i (eq. 8)
   double collision_margin = 4e-3;  // eps, metres
 };
 

@@ -55,8 +55,13 @@ class SkinnedPatchPoint {
   SkinnedPatchPoint() = default;
   SkinnedPatchPoint(int order, double u, double v, const Eigen::Matrix3d& rotation, const Eigen::Matrix3d* skin_linear,
                     const Eigen::Vector3d* skin_translation)
-      : order_(order), num_coefficients_(NumJetCoefficients(order)), u_(u), v_(v), rotation_(rotation),
-        skin_linear_(skin_linear), skin_translation_(skin_translation) {}
+      : order_(order),
+        num_coefficients_(NumJetCoefficients(order)),
+        u_(u),
+        v_(v),
+        rotation_(rotation),
+        skin_linear_(skin_linear),
+        skin_translation_(skin_translation) {}
 
   int num_coefficients() const { return num_coefficients_; }
 
@@ -245,8 +250,8 @@ class SkinnedEdgeCost : public ceres::CostFunction {
 // s_a, T_a, slide_a, alpha_b, s_b, T_b, slide_b.
 class SkinnedAgreementCost : public ceres::CostFunction {
  public:
-  SkinnedAgreementCost(const SkinnedPatchPoint& point_a, const SkinnedPatchPoint& point_b, const Eigen::Vector3d& rest_gap,
-                       double weight)
+  SkinnedAgreementCost(const SkinnedPatchPoint& point_a, const SkinnedPatchPoint& point_b,
+                       const Eigen::Vector3d& rest_gap, double weight)
       : point_a_(point_a), point_b_(point_b), rest_gap_(rest_gap), weight_(weight) {
     set_num_residuals(3);
     mutable_parameter_block_sizes()->assign({point_a.num_coefficients(), 1, 3, 2, point_b.num_coefficients(), 1, 3, 2});
@@ -280,13 +285,19 @@ class SkinnedMetricFunctor {
   SkinnedMetricFunctor(int order, double u, double v, const Eigen::Vector3d& rest_metric,
                        const Eigen::Matrix3d& rotation, const Eigen::Matrix3d* skinning, double weight,
                        const double* factor)
-      : order_(order), u_(u), v_(v), rest_(rest_metric), rotation_(rotation), skinning_(skinning), weight_(weight),
+      : order_(order),
+        u_(u),
+        v_(v),
+        rest_(rest_metric),
+        rotation_(rotation),
+        skinning_(skinning),
+        weight_(weight),
         factor_(factor) {}
 
   template <typename T>
   bool operator()(const T* alpha, const T* scale, T* residual) const {
-    return MetricInextensibilityResidual(order_, u_, v_, rest_, rotation_, *skinning_, weight_ * *factor_)(
-        alpha, scale, residual);
+    return MetricInextensibilityResidual(order_, u_, v_, rest_, rotation_, *skinning_, weight_ * *factor_)(alpha, scale,
+                                                                                                           residual);
   }
 
  private:

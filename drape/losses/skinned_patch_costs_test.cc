@@ -16,8 +16,8 @@ namespace {
 // parameters, scaled, turned, translated, then skinned.
 template <typename T>
 void SlidPoint(int order, double u, double v, const Eigen::Matrix3d& rotation, const Eigen::Matrix3d& linear,
-               const Eigen::Vector3d& translation, const T* alpha, const T* scale, const T* offset, const T* slide, T* x,
-               bool skin = true) {
+               const Eigen::Vector3d& translation, const T* alpha, const T* scale, const T* offset, const T* slide,
+               T* x, bool skin = true) {
   const T us = T(u) + slide[0], vs = T(v) + slide[1];
   const T z = EvaluateJetHeight(order, alpha, us, vs);
   T canonical[3];
@@ -100,7 +100,7 @@ TEST(SkinnedPatchCostsTest, VertexJacobiansMatchAutodiff) {
                                motion ? VertexMotion::kInertia : VertexMotion::kNone);
     ASSERT_EQ(analytic.num_residuals(), rows);
     ceres::AutoDiffCostFunction<VertexTermsAutodiff, ceres::DYNAMIC, K, 1, 3, 2> automatic(new VertexTermsAutodiff(f),
-                                                                                          rows);
+                                                                                           rows);
     double ra[4], rb[4], ja[4][4 * K], jb[4][4 * K];
     double* jacobians_a[4] = {ja[0], ja[1], ja[2], ja[3]};
     double* jacobians_b[4] = {jb[0], jb[1], jb[2], jb[3]};
@@ -148,7 +148,8 @@ struct EdgeAutodiff {
     SlidPoint(order, u[0], v[0], rotation, linear[0], translation[0], alpha, scale, offset, slide_i, a);
     SlidPoint(order, u[1], v[1], rotation, linear[1], translation[1], alpha, scale, offset, slide_j, b);
     using std::sqrt;
-    const T length = sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
+    const T length =
+        sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
     r[0] = T(weight) * (length - T(rest)) / T(rest);
     return true;
   }
@@ -173,8 +174,8 @@ TEST(SkinnedPatchCostsTest, EdgeJacobiansMatchAutodiff) {
   for (int k = 0; k < K; ++k) alpha[k] = 0.1 * std::sin(k + 1.0);
   const double* parameters[5] = {alpha, &scale, offset, slide_i, slide_j};
   SkinnedEdgeCost analytic(SkinnedPatchPoint(order, f.u[0], f.v[0], f.rotation, &f.linear[0], &f.translation[0]),
-                           SkinnedPatchPoint(order, f.u[1], f.v[1], f.rotation, &f.linear[1], &f.translation[1]), f.rest,
-                           f.weight);
+                           SkinnedPatchPoint(order, f.u[1], f.v[1], f.rotation, &f.linear[1], &f.translation[1]),
+                           f.rest, f.weight);
   ceres::AutoDiffCostFunction<EdgeAutodiff, 1, K, 1, 3, 2, 2> automatic(new EdgeAutodiff(f));
   double ra, rb, ja[5][K], jb[5][K];
   double* jacobians_a[5] = {ja[0], ja[1], ja[2], ja[3], ja[4]};
@@ -223,8 +224,8 @@ TEST(SkinnedPatchCostsTest, AgreementJacobiansMatchAutodiff) {
   // The skinning map is shared by both points, so the term ignores it.
   const Eigen::Matrix3d linear = 1.3 * Eigen::Matrix3d::Identity();
   const Eigen::Vector3d translation(0.5, 0.0, 0.0);
-  double alpha_a[K], alpha_b[K], scale_a = 0.9, scale_b = 1.1, offset_a[3] = {0.1, 0.0, 0.2}, offset_b[3] = {0.0, 0.1, 0.1},
-                                slide_a[2] = {0.03, -0.01}, slide_b[2] = {0.02, 0.05};
+  double alpha_a[K], alpha_b[K], scale_a = 0.9, scale_b = 1.1, offset_a[3] = {0.1, 0.0, 0.2},
+                                 offset_b[3] = {0.0, 0.1, 0.1}, slide_a[2] = {0.03, -0.01}, slide_b[2] = {0.02, 0.05};
   for (int k = 0; k < K; ++k) {
     alpha_a[k] = 0.2 * std::cos(k + 0.5);
     alpha_b[k] = 0.1 * std::sin(2.0 * k);

@@ -125,9 +125,9 @@ MotionJoint ReadJointHeader(Tokenizer& tokens, double units_to_metres, std::vect
   tokens.Expect("CHANNELS");
   const double count = tokens.Number();
   if (count < 0 || count > 6 || count != std::floor(count)) tokens.Fail("bad channel count");
-  static const std::pair<const char*, Channel> kNames[] = {{"Xposition", Channel::kXpos}, {"Yposition", Channel::kYpos},
-                                                           {"Zposition", Channel::kZpos}, {"Xrotation", Channel::kXrot},
-                                                           {"Yrotation", Channel::kYrot}, {"Zrotation", Channel::kZrot}};
+  static const std::pair<const char*, Channel> kNames[] = {
+      {"Xposition", Channel::kXpos}, {"Yposition", Channel::kYpos}, {"Zposition", Channel::kZpos},
+      {"Xrotation", Channel::kXrot}, {"Yrotation", Channel::kYrot}, {"Zrotation", Channel::kZrot}};
   for (int k = 0; k < static_cast<int>(count); ++k) {
     const std::string name = tokens.Next();
     const auto* it = std::find_if(std::begin(kNames), std::end(kNames), [&](const auto& e) { return name == e.first; });

@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+
 #include "polyfit/util/status.h"
 
 namespace polyfit {

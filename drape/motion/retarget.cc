@@ -25,12 +25,15 @@ MotionRetargeter::MotionRetargeter(const MotionClip& clip, const Skeleton& skele
   for (int j = 0; j < n; ++j) {
     clip_joint_[j] = clip_.FindJoint(skeleton_.names[j]);
     // MPFB2's CMU rig renames the index finger.
-    if (clip_joint_[j] < 0 && skeleton_.names[j] == "LeftHandFinger1") clip_joint_[j] = clip_.FindJoint("LeftHandIndex1");
-    if (clip_joint_[j] < 0 && skeleton_.names[j] == "RightHandFinger1") clip_joint_[j] = clip_.FindJoint("RightHandIndex1");
+    if (clip_joint_[j] < 0 && skeleton_.names[j] == "LeftHandFinger1")
+      clip_joint_[j] = clip_.FindJoint("LeftHandIndex1");
+    if (clip_joint_[j] < 0 && skeleton_.names[j] == "RightHandFinger1")
+      clip_joint_[j] = clip_.FindJoint("RightHandIndex1");
     if (clip_joint_[j] >= 0) ++num_matched_;
   }
   if (num_matched_ == 0) throw BvhError("MotionRetargeter: no rig joint is named in the clip");
-  if (clip_joint_[0] < 0) throw BvhError("MotionRetargeter: the clip has no joint named '" + skeleton_.names[0] + "' (the rig's root)");
+  if (clip_joint_[0] < 0)
+    throw BvhError("MotionRetargeter: the clip has no joint named '" + skeleton_.names[0] + "' (the rig's root)");
 
   // The clip's rest pose: every rotation identity, root at the origin.
   std::vector<Eigen::Vector3d> clip_rest(clip_.num_joints());
@@ -43,7 +46,8 @@ MotionRetargeter::MotionRetargeter(const MotionClip& clip, const Skeleton& skele
   // C_rest: the clip's left (from the right hip to the left) onto the rig's.
   Eigen::Quaterniond rest_turn = Eigen::Quaterniond::Identity();
   Eigen::Vector3d clip_left = Eigen::Vector3d::UnitX();
-  for (const auto& [left, right] : {std::pair<const char*, const char*>{"LeftUpLeg", "RightUpLeg"}, {"LeftArm", "RightArm"}}) {
+  for (const auto& [left, right] :
+       {std::pair<const char*, const char*>{"LeftUpLeg", "RightUpLeg"}, {"LeftArm", "RightArm"}}) {
     const int rl = skeleton_.Find(left), rr = skeleton_.Find(right);
     const int cl = clip_.FindJoint(left), cr = clip_.FindJoint(right);
     if (rl < 0 || rr < 0 || cl < 0 || cr < 0) continue;
@@ -75,7 +79,8 @@ MotionRetargeter::MotionRetargeter(const MotionClip& clip, const Skeleton& skele
   };
   double rig_length = 0.0, clip_length = 0.0;
   for (const char* side : {"Left", "Right"}) {
-    const std::string up = std::string(side) + "UpLeg", leg = std::string(side) + "Leg", foot = std::string(side) + "Foot";
+    const std::string up = std::string(side) + "UpLeg", leg = std::string(side) + "Leg",
+                      foot = std::string(side) + "Foot";
     const char* chain[] = {up.c_str(), leg.c_str(), foot.c_str()};
     rig_length += chain_length(true, chain, 3);
     clip_length += chain_length(false, chain, 3);
@@ -173,8 +178,6 @@ std::vector<Eigen::Isometry3d> MotionRetargeter::Pose(int f, double blend) const
   return out;
 }
 
-Eigen::Vector3d MotionRetargeter::RootVelocity(int f) const {
-  return scale_ * (clip_to_rig_ * clip_.RootVelocity(f));
-}
+Eigen::Vector3d MotionRetargeter::RootVelocity(int f) const { return scale_ * (clip_to_rig_ * clip_.RootVelocity(f)); }
 
 }  // namespace polyfit

@@ -53,8 +53,8 @@ class MotionRetargeter {
  private:
   MotionClip clip_;
   Skeleton skeleton_;
-  std::vector<int> clip_joint_;  // per rig joint, or -1
-  std::vector<Eigen::Quaterniond> rest_alignment_;  // A_j
+  std::vector<int> clip_joint_;                                      // per rig joint, or -1
+  std::vector<Eigen::Quaterniond> rest_alignment_;                   // A_j
   Eigen::Quaterniond clip_to_rig_ = Eigen::Quaterniond::Identity();  // C
   Eigen::Quaterniond rest_turn_ = Eigen::Quaterniond::Identity();    // C_rest
   double scale_ = 1.0;

@@ -47,7 +47,8 @@ MotionClip MakeTPoseClip() {
 
 std::vector<Eigen::Vector3d> PosedHeads(const Skeleton& skeleton, const std::vector<Eigen::Isometry3d>& pose) {
   std::vector<Eigen::Vector3d> heads;
-  for (int j = 0; j < skeleton.num_joints(); ++j) heads.push_back(pose[j] * Eigen::Vector3d(skeleton.rest_heads.col(j)));
+  for (int j = 0; j < skeleton.num_joints(); ++j)
+    heads.push_back(pose[j] * Eigen::Vector3d(skeleton.rest_heads.col(j)));
   return heads;
 }
 
@@ -102,7 +103,8 @@ TEST(MotionRetargeterTest, KeepsBoneLengthsAndScalesTheRootPath) {
   EXPECT_NEAR(step.y(), 0.0, 1e-12);
   // Heading: the clip's forward (+X) turned by 30 degrees maps to the rig's
   // forward (+Z), so the clip's +X maps to +Z turned back by 30 degrees.
-  const Eigen::Vector3d expected = scale * (Eigen::AngleAxisd(-kPi / 6, Eigen::Vector3d::UnitY()) * Eigen::Vector3d::UnitZ());
+  const Eigen::Vector3d expected =
+      scale * (Eigen::AngleAxisd(-kPi / 6, Eigen::Vector3d::UnitY()) * Eigen::Vector3d::UnitZ());
   EXPECT_LT((step - expected).norm(), 1e-9);
   // The bent elbow: the left forearm turned by 90 degrees about the vertical.
   const int forearm = skeleton.Find("LeftForeArm");
@@ -147,7 +149,8 @@ TEST(MotionRetargeterTest, CmuWalkOnMakeHumanKeepsFeetOnTheGround) {
   EXPECT_GT(left.normalized().x(), std::cos(20.0 * kPi / 180.0));
   // The walk moves about 1.26 m/s (the clip's mean root speed) on this body.
   double speed = 0.0;
-  for (int f = 0; f < retargeter.num_frames(); ++f) speed += retargeter.RootVelocity(f).norm() / retargeter.num_frames();
+  for (int f = 0; f < retargeter.num_frames(); ++f)
+    speed += retargeter.RootVelocity(f).norm() / retargeter.num_frames();
   EXPECT_GT(speed, 0.8);
   EXPECT_LT(speed, 1.6);
 }

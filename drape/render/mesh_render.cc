@@ -20,8 +20,9 @@ struct View {
   Eigen::Matrix3d rotation;  // world to view: x right, y up, z towards the viewer
 };
 
-void Rasterise(const TriangleMesh& mesh, const Eigen::Matrix3d& rotation, const Eigen::Vector2d& origin, double pixels_per_metre,
-               const Eigen::Vector3d& colour, bool two_sided, cv::Mat* image, std::vector<float>* depth) {
+void Rasterise(const TriangleMesh& mesh, const Eigen::Matrix3d& rotation, const Eigen::Vector2d& origin,
+               double pixels_per_metre, const Eigen::Vector3d& colour, bool two_sided, cv::Mat* image,
+               std::vector<float>* depth) {
   const int w = image->cols, h = image->rows;
   const Eigen::Vector3d light = Eigen::Vector3d(0.3, 0.5, 1.0).normalized();
   const Eigen::Matrix3Xd normals = PerFaceNormals(mesh);
@@ -29,14 +30,16 @@ void Rasterise(const TriangleMesh& mesh, const Eigen::Matrix3d& rotation, const 
     Eigen::Vector3d p[3];
     for (int c = 0; c < 3; ++c) {
       const Eigen::Vector3d q = rotation * mesh.vertices.col(mesh.faces(c, f));
-      p[c] = Eigen::Vector3d((q.x() - origin.x()) * pixels_per_metre, h - 1 - (q.y() - origin.y()) * pixels_per_metre, q.z());
+      p[c] = Eigen::Vector3d((q.x() - origin.x()) * pixels_per_metre, h - 1 - (q.y() - origin.y()) * pixels_per_metre,
+                             q.z());
     }
     const Eigen::Vector3d normal = rotation * normals.col(f);
     double shade = normal.dot(light);
     if (two_sided) shade = std::abs(shade);
     shade = 0.25 + 0.75 * std::max(shade, 0.0);
     if (!std::isfinite(shade)) continue;
-    const cv::Vec3b bgr(static_cast<uchar>(std::min(255.0, colour[2] * shade)), static_cast<uchar>(std::min(255.0, colour[1] * shade)),
+    const cv::Vec3b bgr(static_cast<uchar>(std::min(255.0, colour[2] * shade)),
+                        static_cast<uchar>(std::min(255.0, colour[1] * shade)),
                         static_cast<uchar>(std::min(255.0, colour[0] * shade)));
     const double area = (p[1].x() - p[0].x()) * (p[2].y() - p[0].y()) - (p[2].x() - p[0].x()) * (p[1].y() - p[0].y());
     if (std::abs(area) < 1e-12) continue;
@@ -104,7 +107,8 @@ void WriteImage(const std::string& path, const cv::Mat& image) {
   if (!cv::imencode(extension.empty() ? ".png" : extension, image, bytes)) {
     throw std::runtime_error(path + ": cannot encode the image");
   }
-  WriteFileAtomically(path, [&](std::ostream& out) { out.write(reinterpret_cast<const char*>(bytes.data()), bytes.size()); });
+  WriteFileAtomically(path,
+                      [&](std::ostream& out) { out.write(reinterpret_cast<const char*>(bytes.data()), bytes.size()); });
 }
 
 }  // namespace polyfit

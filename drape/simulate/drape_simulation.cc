@@ -64,7 +64,8 @@ DrapeInputs LoadInputs(const DrapeSimulationOptions& options) {
   DrapeInputs in;
   in.body = LoadBody(options);
   in.garment = LoadGarmentMesh(options, in.body);
-  const MotionClip clip = ReadBvh(options.motion_path, options.bvh_units_to_metres).Resampled(options.solver.physics.fps);
+  const MotionClip clip =
+      ReadBvh(options.motion_path, options.bvh_units_to_metres).Resampled(options.solver.physics.fps);
   try {
     in.retargeter = std::make_unique<MotionRetargeter>(clip, in.body.skeleton);
   } catch (const BvhError& e) {

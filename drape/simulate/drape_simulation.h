@@ -69,12 +69,12 @@ struct DrapeFrameSummary {
   double solve_time_s = 0.0;
   int iterations = 0;
   int passes = 0;
-  double inside_percent = 0.0;          // epsilon_c, exact signed distance
+  double inside_percent = 0.0;              // epsilon_c, exact signed distance
   double inside_unprojected_percent = 0.0;  // before project_offset's post-process (= inside_percent without it)
-  double inside_nearest_percent = 0.0;  // epsilon_c, nearest body vertex
-  double min_distance = 0.0;            // m, negative inside
-  double edge_strain_percent = 0.0;     // epsilon_e
-  double area_change_percent = 0.0;     // epsilon_a
+  double inside_nearest_percent = 0.0;      // epsilon_c, nearest body vertex
+  double min_distance = 0.0;                // m, negative inside
+  double edge_strain_percent = 0.0;         // epsilon_e
+  double area_change_percent = 0.0;         // epsilon_a
   double max_edge_strain_percent = 0.0;
   double stretch_energy = 0.0;
   double bending_energy = 0.0;

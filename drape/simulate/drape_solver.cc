@@ -204,8 +204,8 @@ void DrapeSolver::Impl::ComputeRestMetrics(const PolyFitModel& model) {
   rest_metric.resize(model.num_memberships());
   for (int k = 0; k < model.num_memberships(); ++k) {
     const int p = model.membership_patch[k];
-    const FundamentalForm<double> I = JetFirstFundamentalForm(
-        EvaluateJetDerivatives(options.patching.jet_order, alpha(p), model.membership_uv(0, k), model.membership_uv(1, k)));
+    const FundamentalForm<double> I = JetFirstFundamentalForm(EvaluateJetDerivatives(
+        options.patching.jet_order, alpha(p), model.membership_uv(0, k), model.membership_uv(1, k)));
     const double s2 = scale(p)[0] * scale(p)[0];
     rest_metric[k] = s2 * Eigen::Vector3d(I.e, I.f, I.g);
   }
@@ -217,8 +217,7 @@ void DrapeSolver::Impl::BuildPoints(const PolyFitModel& model) {
   for (int k = 0; k < model.num_memberships(); ++k) {
     const int v = membership_vertex[k];
     points.emplace_back(options.patching.jet_order, model.membership_uv(0, k), model.membership_uv(1, k),
-                        model.patches[model.membership_patch[k]].frame.rotation, &skin_linear[v],
-                        &skin_translation[v]);
+                        model.patches[model.membership_patch[k]].frame.rotation, &skin_linear[v], &skin_translation[v]);
   }
 }
 
@@ -264,8 +263,7 @@ void DrapeSolver::Impl::CollectBoundary(const PolyFitModel& model) {
     const JetPatch& pa = model.patches[b.patch_a];
     const JetPatch& pb = model.patches[b.patch_b];
     boundary_position_gap.push_back(pa.PointInWorld(b.uv_a.x(), b.uv_a.y()) - pb.PointInWorld(b.uv_b.x(), b.uv_b.y()));
-    boundary_normal_gap.push_back(pa.NormalInWorld(b.uv_a.x(), b.uv_a.y()) -
-                                  pb.NormalInWorld(b.uv_b.x(), b.uv_b.y()));
+    boundary_normal_gap.push_back(pa.NormalInWorld(b.uv_a.x(), b.uv_a.y()) - pb.NormalInWorld(b.uv_b.x(), b.uv_b.y()));
   }
 }
 
@@ -305,9 +303,9 @@ void DrapeSolver::Impl::AddVertexTerms(const PolyFitModel& model) {
       const double metric_area = rest.vertex_area[v] / range.size();
       const double metric_weight = std::sqrt(stretch_weight() * o.material.mu * metric_area / 2.0);
       if (metric_weight > 0.0) {
-        auto* functor = new SkinnedMetricFunctor(order, model.membership_uv(0, k), model.membership_uv(1, k),
-                                                 rest_metric[k], model.patches[p].frame.rotation, &skin_linear[v],
-                                                 metric_weight, &metric_factor);
+        auto* functor =
+            new SkinnedMetricFunctor(order, model.membership_uv(0, k), model.membership_uv(1, k), rest_metric[k],
+                                     model.patches[p].frame.rotation, &skin_linear[v], metric_weight, &metric_factor);
         ceres::CostFunction* cost =
             DispatchJetCoefficients(order, "SkinnedMetricFunctor", [&](auto c) -> ceres::CostFunction* {
               return new ceres::AutoDiffCostFunction<SkinnedMetricFunctor, 3, decltype(c)::value, 1>(functor);

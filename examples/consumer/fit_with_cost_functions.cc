@@ -23,8 +23,7 @@ int main() {
     for (int j = 0; j < 11; ++j) {
       const double u = -1 + 0.2 * i, v = -1 + 0.2 * j;
       const Eigen::Vector3d p(u, v, polyfit::EvaluateJetHeight(2, truth, u, v));
-      problem.AddResidualBlock(polyfit::JetHeightResidual::Create(2, p, 1.0), nullptr, alpha,
-                               rotation, origin);
+      problem.AddResidualBlock(polyfit::JetHeightResidual::Create(2, p, 1.0), nullptr, alpha, rotation, origin);
     }
   }
   problem.SetParameterBlockConstant(rotation);

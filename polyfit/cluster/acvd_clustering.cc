@@ -14,8 +14,8 @@
 #include "polyfit/cluster/kmeans.h"
 #include "polyfit/eval/kd_tree.h"
 #include "polyfit/mesh/face_centroids.h"
-#include "polyfit/mesh/per_face_normals.h"
 #include "polyfit/mesh/mesh_topology.h"
+#include "polyfit/mesh/per_face_normals.h"
 
 namespace polyfit {
 
@@ -87,9 +87,8 @@ std::vector<int> Apportion(int total, const std::vector<double>& weights) {
 
 // Farthest-point seeds among `faces` (a random area-weighted subset of them
 // when there are many, which keeps seeding linear in the mesh size).
-std::vector<int> FarthestPointSeeds(const std::vector<int>& faces, int count,
-                                    const Eigen::Matrix3Xd& centroids, const Eigen::VectorXd& areas,
-                                    std::mt19937_64& rng) {
+std::vector<int> FarthestPointSeeds(const std::vector<int>& faces, int count, const Eigen::Matrix3Xd& centroids,
+                                    const Eigen::VectorXd& areas, std::mt19937_64& rng) {
   std::vector<int> candidates;
   const size_t max_candidates = std::max<size_t>(64, 40 * static_cast<size_t>(count));
   if (faces.size() <= max_candidates) {

@@ -20,8 +20,8 @@ class KdTree3 {
 
  private:
   struct Node {
-    int begin, end;     // range in order_
-    int left, right;    // children, -1 for a leaf
+    int begin, end;   // range in order_
+    int left, right;  // children, -1 for a leaf
     int axis;
     double split;
   };

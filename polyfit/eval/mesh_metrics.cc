@@ -21,8 +21,8 @@ Eigen::Matrix3Xd SampleSurfaceUniform(const TriangleMesh& mesh, int count, std::
   Eigen::Matrix3Xd points(3, count);
   for (int i = 0; i < count; ++i) {
     const double target = uniform(rng) * total;
-    const size_t f = std::min<size_t>(std::lower_bound(cumulative.begin(), cumulative.end(), target) - cumulative.begin(),
-                                      cumulative.size() - 1);
+    const size_t f = std::min<size_t>(
+        std::lower_bound(cumulative.begin(), cumulative.end(), target) - cumulative.begin(), cumulative.size() - 1);
     double r1 = uniform(rng), r2 = uniform(rng);
     if (r1 + r2 > 1.0) {
       r1 = 1.0 - r1;

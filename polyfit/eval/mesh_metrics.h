@@ -21,9 +21,7 @@ Eigen::Matrix3Xd SampleSurfaceUniform(const TriangleMesh& mesh, int count, std::
 struct Normalization {
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   double scale = 1.0;
-  Eigen::Matrix3Xd Apply(const Eigen::Matrix3Xd& points) const {
-    return (points.colwise() - centre) * scale;
-  }
+  Eigen::Matrix3Xd Apply(const Eigen::Matrix3Xd& points) const { return (points.colwise() - centre) * scale; }
 };
 
 // Centre at the bounding-box centre, scaled so that the farthest vertex is

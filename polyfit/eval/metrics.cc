@@ -1,18 +1,17 @@
 #include "polyfit/eval/metrics.h"
 
-#include <Eigen/LU>
-
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+
+#include <Eigen/LU>
 
 #include "polyfit/eval/kd_tree.h"
 #include "polyfit/util/parallel_for.h"
 
 namespace polyfit {
 
-SurfaceErrorAccumulator EvaluatePatchAgainstSurface(const JetPatch& patch,
-                                                    const Eigen::Matrix3Xd& surface_points,
+SurfaceErrorAccumulator EvaluatePatchAgainstSurface(const JetPatch& patch, const Eigen::Matrix3Xd& surface_points,
                                                     const Eigen::Matrix3Xd& surface_normals) {
   constexpr double kRadToDeg = 57.29577951308232;
   SurfaceErrorAccumulator acc;
@@ -52,8 +51,7 @@ SurfaceErrorAccumulator EvaluatePatchAgainstSurface(const JetPatch& patch,
   return acc;
 }
 
-SurfaceErrorAccumulator EvaluatePatchSet(const SyntheticPatchSet& set,
-                                         const std::vector<JetPatch>& patches) {
+SurfaceErrorAccumulator EvaluatePatchSet(const SyntheticPatchSet& set, const std::vector<JetPatch>& patches) {
   if (patches.size() != set.patches.size()) {
     throw std::invalid_argument("EvaluatePatchSet: one fitted patch per synthetic patch expected");
   }
@@ -70,11 +68,14 @@ double MeanSquaredNearest(const Eigen::Matrix3Xd& from, const KdTree3& to) {
   const int n = static_cast<int>(from.cols());
   const int num_threads = ResolveNumThreads(0);
   std::vector<double> sums(num_threads, 0.0);
-  ParallelFor(n, num_threads, [&](int thread, int i) {
-    double d2;
-    to.Nearest(from.col(i), &d2);
-    sums[thread] += d2;
-  }, 1024);
+  ParallelFor(
+      n, num_threads,
+      [&](int thread, int i) {
+        double d2;
+        to.Nearest(from.col(i), &d2);
+        sums[thread] += d2;
+      },
+      1024);
   double total = 0.0;
   for (double s : sums) total += s;
   return total / n;

@@ -34,14 +34,12 @@ struct SurfaceErrorAccumulator {
 // the normal error the unoriented angle between n_i and the fitted normal
 // there. (Intersecting the line g_i + t n_i instead has heavy tails: where
 // the fit is off by tens of degrees the line grazes it far away.)
-SurfaceErrorAccumulator EvaluatePatchAgainstSurface(const JetPatch& patch,
-                                                    const Eigen::Matrix3Xd& surface_points,
+SurfaceErrorAccumulator EvaluatePatchAgainstSurface(const JetPatch& patch, const Eigen::Matrix3Xd& surface_points,
                                                     const Eigen::Matrix3Xd& surface_normals);
 
 // EvaluatePatchAgainstSurface over a synthetic set, patches[p] fitted to
 // set.patches[p].
-SurfaceErrorAccumulator EvaluatePatchSet(const SyntheticPatchSet& set,
-                                         const std::vector<JetPatch>& patches);
+SurfaceErrorAccumulator EvaluatePatchSet(const SyntheticPatchSet& set, const std::vector<JetPatch>& patches);
 
 struct ChamferDistance {
   double a_to_b = 0.0;  // mean over a of the squared distance to the nearest b

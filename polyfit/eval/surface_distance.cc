@@ -53,8 +53,8 @@ Eigen::Vector3d SurfaceDistance::ClosestPoint(const Eigen::Vector3d& p, int* fac
 
 Eigen::VectorXd SurfaceDistance::SquaredDistances(const Eigen::Matrix3Xd& points, int num_threads) const {
   Eigen::VectorXd d(points.cols());
-  ParallelFor(static_cast<int>(points.cols()), num_threads,
-              [&](int, int i) { d[i] = SquaredDistance(points.col(i)); }, 256);
+  ParallelFor(
+      static_cast<int>(points.cols()), num_threads, [&](int, int i) { d[i] = SquaredDistance(points.col(i)); }, 256);
   return d;
 }
 

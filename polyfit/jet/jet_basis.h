@@ -14,16 +14,12 @@ namespace polyfit {
 
 constexpr int kMaxJetOrder = 8;
 
-constexpr int NumJetCoefficients(int order) {
-  return (order + 1) * (order + 2) / 2;
-}
+constexpr int NumJetCoefficients(int order) { return (order + 1) * (order + 2) / 2; }
 
 constexpr int kMaxJetCoefficients = NumJetCoefficients(kMaxJetOrder);
 
 // Index of alpha_{a,b}, the coefficient of u^a v^b.
-constexpr int JetCoefficientIndex(int a, int b) {
-  return (a + b) * (a + b + 1) / 2 + b;
-}
+constexpr int JetCoefficientIndex(int a, int b) { return (a + b) * (a + b + 1) / 2 + b; }
 
 // Powers u^0..u^order and v^0..v^order by recurrence (no pow()).
 template <typename T>

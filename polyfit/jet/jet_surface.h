@@ -15,8 +15,8 @@ namespace polyfit {
 
 template <typename T>
 struct JetHeightDerivatives {
-  T z, z_u, z_v;           // value and gradient
-  T z_uu, z_uv, z_vv;      // Hessian
+  T z, z_u, z_v;       // value and gradient
+  T z_uu, z_uv, z_vv;  // Hessian
 };
 
 // z(u, v) for the coefficients alpha (NumJetCoefficients(order) values).
@@ -35,8 +35,7 @@ inline T EvaluateJetHeight(int order, const T* alpha, const T& u, const T& v) {
 
 // z and its partial derivatives up to second order.
 template <typename T>
-inline JetHeightDerivatives<T> EvaluateJetDerivatives(int order, const T* alpha,
-                                                      const T& u, const T& v) {
+inline JetHeightDerivatives<T> EvaluateJetDerivatives(int order, const T* alpha, const T& u, const T& v) {
   T u_pow[kMaxJetOrder + 1];
   T v_pow[kMaxJetOrder + 1];
   JetPowers(order, u, v, u_pow, v_pow);

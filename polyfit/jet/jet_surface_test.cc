@@ -41,8 +41,7 @@ TEST(JetSurface, HeightMatchesExplicitPolynomial) {
   alpha[JetCoefficientIndex(2, 0)] = 0.5;
   alpha[JetCoefficientIndex(1, 2)] = 3.0;
   const double u = 0.3, v = -0.7;
-  EXPECT_NEAR(EvaluateJetHeight(3, alpha, u, v),
-              1 + 2 * u - v + 0.5 * u * u + 3 * u * v * v, 1e-15);
+  EXPECT_NEAR(EvaluateJetHeight(3, alpha, u, v), 1 + 2 * u - v + 0.5 * u * u + 3 * u * v * v, 1e-15);
 }
 
 TEST(JetSurface, DerivativesMatchAutodiffAndFiniteDifferences) {

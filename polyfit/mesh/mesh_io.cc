@@ -5,8 +5,8 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <stdexcept>
 #include <mutex>
+#include <stdexcept>
 #include <unordered_map>
 #include <vector>
 
@@ -86,9 +86,7 @@ std::string Trimmed(std::string s) {
   return s;
 }
 
-[[noreturn]] void Fail(const std::string& path, const std::string& reason) {
-  throw MeshIoError(path + ": " + reason);
-}
+[[noreturn]] void Fail(const std::string& path, const std::string& reason) { throw MeshIoError(path + ": " + reason); }
 
 template <typename WriteFn>
 void WriteMeshFile(const std::string& path, WriteFn&& write) {
@@ -157,8 +155,7 @@ TriangleMesh ReadTriangleMesh(const std::string& path, MeshReadSummary* summary)
       const aiVector3D& a = mesh->mVertices[v];
       const Eigen::Vector3d p(a.x, a.y, a.z);
       if (!p.allFinite()) {
-        Fail(path, "mesh " + std::to_string(m) + " vertex " + std::to_string(v) +
-                       " has a non-finite coordinate");
+        Fail(path, "mesh " + std::to_string(m) + " vertex " + std::to_string(v) + " has a non-finite coordinate");
       }
       auto [it, inserted] = welded.emplace(KeyOf(p), static_cast<int>(positions.size()));
       if (inserted) positions.push_back(p);
@@ -171,8 +168,7 @@ TriangleMesh ReadTriangleMesh(const std::string& path, MeshReadSummary* summary)
       int idx[3];
       for (int c = 0; c < 3; ++c) {
         if (face.mIndices[c] >= mesh->mNumVertices) {
-          Fail(path, "mesh " + std::to_string(m) + " face " + std::to_string(f) +
-                         " refers to a vertex out of range");
+          Fail(path, "mesh " + std::to_string(m) + " face " + std::to_string(f) + " refers to a vertex out of range");
         }
         idx[c] = remap[face.mIndices[c]];
       }
@@ -194,8 +190,8 @@ TriangleMesh ReadTriangleMesh(const std::string& path, MeshReadSummary* summary)
     }
   }
   if (faces.empty()) {
-    Fail(path, dropped_degenerate > 0 ? "every triangle is degenerate"
-                                      : "holds no triangles (a point cloud or lines only?)");
+    Fail(path,
+         dropped_degenerate > 0 ? "every triangle is degenerate" : "holds no triangles (a point cloud or lines only?)");
   }
 
   // Drop vertices no face uses (welding and dropped faces can leave some).
@@ -275,8 +271,7 @@ void WriteObj(const std::string& path, const TriangleMesh& mesh) {
     out.precision(9);
     out << "# written by PolyFit\n";
     for (Eigen::Index v = 0; v < mesh.vertices.cols(); ++v) {
-      out << "v " << mesh.vertices(0, v) << ' ' << mesh.vertices(1, v) << ' ' << mesh.vertices(2, v)
-          << '\n';
+      out << "v " << mesh.vertices(0, v) << ' ' << mesh.vertices(1, v) << ' ' << mesh.vertices(2, v) << '\n';
     }
     const bool uv = mesh.has_texcoords();
     if (uv) {

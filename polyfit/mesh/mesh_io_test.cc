@@ -45,8 +45,8 @@ TEST_F(MeshIoTest, PlyRoundTripKeepsGeometryAndTopology) {
   double max_error = 0.0;
   for (int f = 0; f < sphere.num_faces(); ++f) {
     for (int c = 0; c < 3; ++c) {
-      max_error = std::max(max_error, (back.vertices.col(back.faces(c, f)) -
-                                       sphere.vertices.col(sphere.faces(c, f))).norm());
+      max_error =
+          std::max(max_error, (back.vertices.col(back.faces(c, f)) - sphere.vertices.col(sphere.faces(c, f))).norm());
     }
   }
   EXPECT_LT(max_error, 1e-6);
@@ -150,8 +150,7 @@ TEST_F(MeshIoTest, NonFiniteCoordinateIsNamed) {
   const std::string path = Write("nan.off", "OFF\n3 1 0\n0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n");
   const std::string error = ReadError(path);
   EXPECT_NE(error.find("nan.off"), std::string::npos) << error;
-  EXPECT_TRUE(error.find("non-finite") != std::string::npos || error.find("unreadable") != std::string::npos)
-      << error;
+  EXPECT_TRUE(error.find("non-finite") != std::string::npos || error.find("unreadable") != std::string::npos) << error;
 }
 
 TEST_F(MeshIoTest, IndexOutOfRangeIsNamed) {

@@ -53,8 +53,8 @@ TriangleMesh ReadObjTemplate(const std::string& path) {
           v = std::stoi(corner.substr(0, slash));
           if (slash != std::string::npos) {
             const size_t slash2 = corner.find('/', slash + 1);
-            const std::string ts = corner.substr(slash + 1, slash2 == std::string::npos ? std::string::npos
-                                                                                        : slash2 - slash - 1);
+            const std::string ts =
+                corner.substr(slash + 1, slash2 == std::string::npos ? std::string::npos : slash2 - slash - 1);
             if (!ts.empty()) t = std::stoi(ts);
           }
         } catch (const std::exception&) {
@@ -103,8 +103,7 @@ enum class PlyFormat { kAscii, kBinaryLittle, kBinaryBig };
 size_t PlyTypeSize(const std::string& type) {
   if (type == "char" || type == "uchar" || type == "int8" || type == "uint8") return 1;
   if (type == "short" || type == "ushort" || type == "int16" || type == "uint16") return 2;
-  if (type == "int" || type == "uint" || type == "float" || type == "int32" || type == "uint32" ||
-      type == "float32")
+  if (type == "int" || type == "uint" || type == "float" || type == "int32" || type == "uint32" || type == "float32")
     return 4;
   if (type == "double" || type == "float64") return 8;
   return 0;
@@ -156,10 +155,10 @@ Eigen::Matrix3Xd ReadPlyVertices(const std::string& path) {
     if (word == "format") {
       std::string f;
       tokens >> f;
-      format = f == "ascii" ? PlyFormat::kAscii
+      format = f == "ascii"                  ? PlyFormat::kAscii
                : f == "binary_little_endian" ? PlyFormat::kBinaryLittle
-               : f == "binary_big_endian" ? PlyFormat::kBinaryBig
-                                          : (Fail(path, "unknown PLY format '" + f + "'"), PlyFormat::kAscii);
+               : f == "binary_big_endian"    ? PlyFormat::kBinaryBig
+                                             : (Fail(path, "unknown PLY format '" + f + "'"), PlyFormat::kAscii);
     } else if (word == "element") {
       std::string name;
       long long count;

@@ -16,7 +16,7 @@ TriangleMesh MakeIcosphere(int levels, double radius) {
       0, 0, 0, 0, t, t, -t, -t, -1, 1, -1, 1;
   mesh.faces.resize(3, 20);
   mesh.faces << 0, 0, 0, 0, 0, 1, 5, 11, 10, 7, 3, 3, 3, 3, 3, 4, 2, 6, 8, 9,  //
-      11, 5, 1, 7, 10, 5, 11, 10, 7, 1, 9, 4, 2, 6, 8, 9, 4, 2, 6, 8,             //
+      11, 5, 1, 7, 10, 5, 11, 10, 7, 1, 9, 4, 2, 6, 8, 9, 4, 2, 6, 8,          //
       5, 1, 7, 10, 11, 9, 4, 2, 6, 8, 4, 2, 6, 8, 9, 5, 11, 10, 7, 1;
   for (int level = 0; level < levels; ++level) mesh = SubdivideMidpoint(mesh);
   mesh.vertices.colwise().normalize();

@@ -104,8 +104,7 @@ TriangleMesh SubdivideMidpoint(const TriangleMesh& mesh) {
   return out;
 }
 
-TriangleMesh SubdivideMesh(const TriangleMesh& mesh, const SubdivisionOptions& options,
-                           SubdivisionSummary* summary) {
+TriangleMesh SubdivideMesh(const TriangleMesh& mesh, const SubdivisionOptions& options, SubdivisionSummary* summary) {
   SubdivisionSummary local;
   local.levels = std::max(0, options.levels);
   local.scheme_used = options.scheme;

@@ -19,8 +19,8 @@ std::string TriangleMesh::Validate() const {
     for (int c = 0; c < 3; ++c) {
       const int index = faces(c, f);
       if (index < 0 || index >= num_vertices) {
-        return "face " + std::to_string(f) + " refers to vertex " + std::to_string(index) +
-               " but there are " + std::to_string(num_vertices) + " vertices";
+        return "face " + std::to_string(f) + " refers to vertex " + std::to_string(index) + " but there are " +
+               std::to_string(num_vertices) + " vertices";
       }
     }
   }

@@ -109,8 +109,7 @@ std::string PolyFitModel::Validate() const {
   }
   const int num_v = num_vertices();
   if (num_v == 0) return "no vertices";
-  if (membership_offsets.front() != 0 ||
-      membership_offsets.back() != static_cast<int>(membership_patch.size()) ||
+  if (membership_offsets.front() != 0 || membership_offsets.back() != static_cast<int>(membership_patch.size()) ||
       membership_uv.cols() != static_cast<Eigen::Index>(membership_patch.size())) {
     return "membership sizes disagree";
   }
@@ -191,12 +190,12 @@ PolyFitModel LoadPolyFitModel(const std::string& path) {
   const auto num_coefficients = r.Get<std::uint32_t>("header");
   if (num_coefficients != static_cast<std::uint32_t>(kMaxJetCoefficients)) r.Fail("unexpected coefficient count");
   // Sizes are checked against the file length before allocating.
-  const unsigned long long expected =
-      num_patches * (4ull * 4 + 8 * (2 + 9 + 3 + kMaxJetCoefficients)) + num_faces * 16ull +
-      (num_vertices + 1ull) * 4 + num_memberships * 20ull + sizeof(kEndMagic);
+  const unsigned long long expected = num_patches * (4ull * 4 + 8 * (2 + 9 + 3 + kMaxJetCoefficients)) +
+                                      num_faces * 16ull + (num_vertices + 1ull) * 4 + num_memberships * 20ull +
+                                      sizeof(kEndMagic);
   if (expected != r.remaining()) {
-    r.Fail("size " + std::to_string(r.remaining()) + " bytes after the header, expected " +
-           std::to_string(expected) + " (truncated or corrupt)");
+    r.Fail("size " + std::to_string(r.remaining()) + " bytes after the header, expected " + std::to_string(expected) +
+           " (truncated or corrupt)");
   }
   PolyFitModel model;
   model.patches.resize(num_patches);

@@ -16,12 +16,11 @@
 namespace polyfit {
 
 std::string JetFitFlagsToString(uint32_t flags) {
-  static const std::pair<uint32_t, const char*> kNames[] = {
-      {kJetFitReducedOrder, "reduced_order"},
-      {kJetFitRankDeficient, "rank_deficient"},
-      {kJetFitDegenerate, "degenerate"},
-      {kJetFitDroppedNonFinite, "dropped_non_finite"},
-      {kJetFitNotHeightField, "not_height_field"}};
+  static const std::pair<uint32_t, const char*> kNames[] = {{kJetFitReducedOrder, "reduced_order"},
+                                                            {kJetFitRankDeficient, "rank_deficient"},
+                                                            {kJetFitDegenerate, "degenerate"},
+                                                            {kJetFitDroppedNonFinite, "dropped_non_finite"},
+                                                            {kJetFitNotHeightField, "not_height_field"}};
   std::string s;
   for (const auto& [flag, name] : kNames) {
     if (!(flags & flag)) continue;
@@ -62,8 +61,8 @@ struct JetFitter::Impl {
   Eigen::Matrix3Xd x0, x;
   std::vector<double> sqrt_w;
   Eigen::Matrix<double, Eigen::Dynamic, 2> jacobian;
-  std::tuple<LocalJetSolver<3>, LocalJetSolver<6>, LocalJetSolver<10>, LocalJetSolver<15>,
-             LocalJetSolver<21>, LocalJetSolver<28>, LocalJetSolver<36>, LocalJetSolver<45>>
+  std::tuple<LocalJetSolver<3>, LocalJetSolver<6>, LocalJetSolver<10>, LocalJetSolver<15>, LocalJetSolver<21>,
+             LocalJetSolver<28>, LocalJetSolver<36>, LocalJetSolver<45>>
       solvers;
 
   template <typename F>
@@ -216,8 +215,7 @@ struct JetFitter::Impl {
       if (options.refine_orientation && solver.well_conditioned()) {
         Eigen::Matrix3d tilt = Eigen::Matrix3d::Identity();
         if (options.refinement.solver == OrientationSolver::kCeres) {
-          patch.refinement_iterations =
-              RefineOrientationWithCeres(options.refinement, order, x0, m, sw, &tilt);
+          patch.refinement_iterations = RefineOrientationWithCeres(options.refinement, order, x0, m, sw, &tilt);
           x.leftCols(m).noalias() = tilt.transpose() * x0.leftCols(m);
           patch.flags |= solver.Solve(order, x, m, sw);
         } else {
@@ -245,16 +243,14 @@ JetFitter::JetFitter(const JetFitOptions& options) : impl_(new Impl) {
 JetFitter::~JetFitter() = default;
 JetFitter::JetFitter(JetFitter&&) noexcept = default;
 
-JetPatch JetFitter::Fit(const Eigen::Ref<const Eigen::Matrix3Xd>& points_in_world,
-                        const double* weights) {
+JetPatch JetFitter::Fit(const Eigen::Ref<const Eigen::Matrix3Xd>& points_in_world, const double* weights) {
   return impl_->Fit(points_in_world, weights);
 }
 
 std::string JetFitSummary::BriefReport() const {
   std::ostringstream s;
-  s << "Fitted " << num_patches << " patches (" << num_points << " points) in "
-    << total_time_s * 1e3 << " ms on " << num_threads << " thread(s), RMS residual "
-    << rms_residual;
+  s << "Fitted " << num_patches << " patches (" << num_points << " points) in " << total_time_s * 1e3 << " ms on "
+    << num_threads << " thread(s), RMS residual " << rms_residual;
   if (num_reduced_order) s << ", " << num_reduced_order << " reduced order";
   if (num_rank_deficient) s << ", " << num_rank_deficient << " rank deficient";
   if (num_degenerate) s << ", " << num_degenerate << " degenerate";
@@ -264,13 +260,12 @@ std::string JetFitSummary::BriefReport() const {
 }
 
 JetFitSummary FitJetPatches(const JetFitOptions& options, const Eigen::Matrix3Xd& points_in_world,
-                            const std::vector<int>& patch_offsets,
-                            const std::vector<double>* weights, std::vector<JetPatch>* patches) {
+                            const std::vector<int>& patch_offsets, const std::vector<double>* weights,
+                            std::vector<JetPatch>* patches) {
   const auto start = std::chrono::steady_clock::now();
   const std::string error = options.Validate();
   if (!error.empty()) throw std::invalid_argument("JetFitOptions: " + error);
-  if (patch_offsets.empty() || patch_offsets.front() != 0 ||
-      patch_offsets.back() != points_in_world.cols()) {
+  if (patch_offsets.empty() || patch_offsets.front() != 0 || patch_offsets.back() != points_in_world.cols()) {
     throw std::invalid_argument("FitJetPatches: patch_offsets must run from 0 to the number of points");
   }
   for (size_t p = 1; p < patch_offsets.size(); ++p) {
@@ -290,8 +285,8 @@ JetFitSummary FitJetPatches(const JetFitOptions& options, const Eigen::Matrix3Xd
   ParallelFor(num_patches, num_threads, [&](int thread, int p) {
     const int begin = patch_offsets[p];
     const int size = patch_offsets[p + 1] - begin;
-    (*patches)[p] = fitters[thread].Fit(points_in_world.middleCols(begin, size),
-                                        weights ? weights->data() + begin : nullptr);
+    (*patches)[p] =
+        fitters[thread].Fit(points_in_world.middleCols(begin, size), weights ? weights->data() + begin : nullptr);
   });
 
   JetFitSummary summary;
@@ -308,8 +303,7 @@ JetFitSummary FitJetPatches(const JetFitOptions& options, const Eigen::Matrix3Xd
     summary.num_not_height_field += (patch.flags & kJetFitNotHeightField) != 0;
   }
   summary.rms_residual = summary.num_points ? std::sqrt(ssr / summary.num_points) : 0.0;
-  summary.total_time_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary.total_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return summary;
 }
 

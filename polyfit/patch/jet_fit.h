@@ -59,8 +59,7 @@ class JetFitter {
   JetFitter(JetFitter&&) noexcept;
 
   // points_in_world: 3 by M. weights: M non-negative weights, or null.
-  JetPatch Fit(const Eigen::Ref<const Eigen::Matrix3Xd>& points_in_world,
-               const double* weights = nullptr);
+  JetPatch Fit(const Eigen::Ref<const Eigen::Matrix3Xd>& points_in_world, const double* weights = nullptr);
 
  private:
   struct Impl;
@@ -88,10 +87,8 @@ struct JetFitSummary {
 // in parallel. patch_offsets: #patches + 1 non-decreasing indices from 0 to
 // #points. weights: #points values or null. Throws std::invalid_argument on
 // invalid options or offsets.
-JetFitSummary FitJetPatches(const JetFitOptions& options,
-                            const Eigen::Matrix3Xd& points_in_world,
-                            const std::vector<int>& patch_offsets,
-                            const std::vector<double>* weights,
+JetFitSummary FitJetPatches(const JetFitOptions& options, const Eigen::Matrix3Xd& points_in_world,
+                            const std::vector<int>& patch_offsets, const std::vector<double>* weights,
                             std::vector<JetPatch>* patches);
 
 }  // namespace polyfit

@@ -124,13 +124,13 @@ std::vector<Row> RunCgal(const polyfit::SyntheticPatchSet& set, int repeats) {
     best = std::min(best, Seconds(start));
   }
   const auto acc = polyfit::EvaluatePatchSet(set, patches);
-  return {{"CGAL Monge_via_jet_fitting (4,4)", best / n * 1e6, 0.0, acc.height_rmse(), acc.normal_error_deg()},
-          {"CGAL internal LS jet (accuracy only)", 0.0, 0.0, internal_acc.height_rmse(),
-           internal_acc.normal_error_deg()}};
+  return {
+      {"CGAL Monge_via_jet_fitting (4,4)", best / n * 1e6, 0.0, acc.height_rmse(), acc.normal_error_deg()},
+      {"CGAL internal LS jet (accuracy only)", 0.0, 0.0, internal_acc.height_rmse(), internal_acc.normal_error_deg()}};
 }
 
-Row RunPolyFit(const std::string& name, polyfit::JetFitOptions options,
-               const polyfit::SyntheticPatchSet& set, int repeats) {
+Row RunPolyFit(const std::string& name, polyfit::JetFitOptions options, const polyfit::SyntheticPatchSet& set,
+               int repeats) {
   const int n = static_cast<int>(set.patches.size());
   std::vector<polyfit::JetPatch> patches;
   Row row;
@@ -138,9 +138,11 @@ Row RunPolyFit(const std::string& name, polyfit::JetFitOptions options,
   double best1 = 1e30, best2 = 1e30;
   for (int r = 0; r < repeats; ++r) {
     options.num_threads = 1;
-    best1 = std::min(best1, polyfit::FitJetPatches(options, set.points_in_world, set.offsets, nullptr, &patches).total_time_s);
+    best1 = std::min(best1,
+                     polyfit::FitJetPatches(options, set.points_in_world, set.offsets, nullptr, &patches).total_time_s);
     options.num_threads = 2;
-    best2 = std::min(best2, polyfit::FitJetPatches(options, set.points_in_world, set.offsets, nullptr, &patches).total_time_s);
+    best2 = std::min(best2,
+                     polyfit::FitJetPatches(options, set.points_in_world, set.offsets, nullptr, &patches).total_time_s);
   }
   const auto acc = polyfit::EvaluatePatchSet(set, patches);
   row.us_per_patch = best1 / n * 1e6;
@@ -165,7 +167,8 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  std::printf("| M | noise | method | us/patch (1 thread) | patches/s (2 threads) | height RMSE | normal error (deg) |\n");
+  std::printf(
+      "| M | noise | method | us/patch (1 thread) | patches/s (2 threads) | height RMSE | normal error (deg) |\n");
   std::printf("|---|---|---|---|---|---|---|\n");
   for (int m : {32, 64, 256, 1024}) {
     const int count = std::max(100, static_cast<int>(scale * (m <= 64 ? 20000 : m == 256 ? 5000 : 2000)));

@@ -19,12 +19,11 @@ bool AllFinite(const JetPatch& p) {
   for (double c : p.coefficients) {
     if (!std::isfinite(c)) return false;
   }
-  return p.frame.rotation.allFinite() && p.frame.translation.allFinite() &&
-         std::isfinite(p.frame.scale) && p.frame.scale > 0 && std::isfinite(p.rms_residual);
+  return p.frame.rotation.allFinite() && p.frame.translation.allFinite() && std::isfinite(p.frame.scale) &&
+         p.frame.scale > 0 && std::isfinite(p.rms_residual);
 }
 
-Eigen::Matrix3Xd RandomPlane(int m, const Eigen::Vector3d& offset, unsigned seed,
-                             Eigen::Vector3d* normal) {
+Eigen::Matrix3Xd RandomPlane(int m, const Eigen::Vector3d& offset, unsigned seed, Eigen::Vector3d* normal) {
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> uni(-1, 1);
   const Eigen::Matrix3d r = Eigen::Quaterniond::UnitRandom().toRotationMatrix();
@@ -108,8 +107,7 @@ TEST(JetFitter, LargeOffsetDoesNotChangeTheFit) {
   const Eigen::Matrix3Xd far_surface = sp.surface_points_in_world.colwise() + offset;
   const double e_near =
       EvaluatePatchAgainstSurface(near, sp.surface_points_in_world, sp.surface_normals_in_world).height_rmse();
-  const double e_far =
-      EvaluatePatchAgainstSurface(far, far_surface, sp.surface_normals_in_world).height_rmse();
+  const double e_far = EvaluatePatchAgainstSurface(far, far_surface, sp.surface_normals_in_world).height_rmse();
   EXPECT_NEAR(e_far, e_near, 1e-7);
 }
 

@@ -49,9 +49,7 @@ struct JetPatch {
   // Iterations taken by the orientation refinement (0 when off).
   int refinement_iterations = 0;
 
-  double Height(double u, double v) const {
-    return EvaluateJetHeight(order, coefficients.data(), u, v);
-  }
+  double Height(double u, double v) const { return EvaluateJetHeight(order, coefficients.data(), u, v); }
   Eigen::Vector3d PointInWorld(double u, double v) const {
     return frame.PointToWorld(Eigen::Vector3d(u, v, Height(u, v)));
   }

@@ -156,9 +156,7 @@ class LocalJetSolver {
   // Sum of squared weighted residuals of the last Solve().
   double ssr() const { return ssr_; }
   // Weighted residuals sqrt(w) (z - h(u, v)) of the last Solve().
-  Eigen::Map<const Eigen::VectorXd> residual() const {
-    return Eigen::Map<const Eigen::VectorXd>(r_buffer_.data(), m_);
-  }
+  Eigen::Map<const Eigen::VectorXd> residual() const { return Eigen::Map<const Eigen::VectorXd>(r_buffer_.data(), m_); }
   bool well_conditioned() const { return use_llt_; }
 
   // j: m by c (c small). j <- (I - P) j, P the orthogonal projector onto the
@@ -167,8 +165,7 @@ class LocalJetSolver {
   void ProjectOut(Eigen::MatrixBase<Derived>& j) const {
     const int k = NumJetCoefficients(order_);
     const ConstDesignMap a(a_buffer_.data(), m_, k, Eigen::OuterStride<>(Padded(m_)));
-    Eigen::Matrix<double, K, Derived::ColsAtCompileTime> atj =
-        scaling_.asDiagonal() * (a.transpose() * j);
+    Eigen::Matrix<double, K, Derived::ColsAtCompileTime> atj = scaling_.asDiagonal() * (a.transpose() * j);
     atj = scaling_.asDiagonal() * llt_.solve(atj);
     j.noalias() -= a * atj;
   }

@@ -19,8 +19,7 @@ class VarProTiltCost : public ceres::CostFunction {
     mutable_parameter_block_sizes()->push_back(3);
   }
 
-  bool Evaluate(double const* const* parameters, double* residuals,
-                double** jacobians) const override {
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
     using J3 = ceres::Jet<double, 3>;
     const int m = static_cast<int>(local_.cols());
     const J3 n[3] = {J3(parameters[0][0], 0), J3(parameters[0][1], 1), J3(parameters[0][2], 2)};
@@ -63,9 +62,8 @@ class VarProTiltCost : public ceres::CostFunction {
 
 }  // namespace
 
-int RefineOrientationWithCeres(const OrientationRefinementOptions& options, int order,
-                               const Eigen::Matrix3Xd& local, int m, const double* sqrt_w,
-                               Eigen::Matrix3d* tilt) {
+int RefineOrientationWithCeres(const OrientationRefinementOptions& options, int order, const Eigen::Matrix3Xd& local,
+                               int m, const double* sqrt_w, Eigen::Matrix3d* tilt) {
   double normal[3] = {0.0, 0.0, 1.0};
   ceres::Problem::Options problem_options;
   problem_options.manifold_ownership = ceres::TAKE_OWNERSHIP;

@@ -24,9 +24,7 @@ namespace polyfit {
 template <typename T>
 Eigen::Matrix<T, 3, 3> RotationFromZAxis(const T* n) {
   Eigen::Matrix<T, 3, 3> kx;
-  kx << T(0.0), T(0.0), n[0],
-        T(0.0), T(0.0), n[1],
-        -n[0], -n[1], T(0.0);
+  kx << T(0.0), T(0.0), n[0], T(0.0), T(0.0), n[1], -n[0], -n[1], T(0.0);
   return Eigen::Matrix<T, 3, 3>::Identity() + kx + kx * kx / (T(1.0) + n[2]);
 }
 
@@ -34,9 +32,8 @@ Eigen::Matrix<T, 3, 3> RotationFromZAxis(const T* n) {
 // n (in the initial frame, starting at e_z) on ceres::SphereManifold<3>.
 // local: 3 by >= m points in the initial frame; sqrt_w: m or null.
 // On return *tilt = RotationFromZAxis(n). Returns the iterations used.
-int RefineOrientationWithCeres(const OrientationRefinementOptions& options,
-                               int order, const Eigen::Matrix3Xd& local, int m,
-                               const double* sqrt_w, Eigen::Matrix3d* tilt);
+int RefineOrientationWithCeres(const OrientationRefinementOptions& options, int order, const Eigen::Matrix3Xd& local,
+                               int m, const double* sqrt_w, Eigen::Matrix3d* tilt);
 
 }  // namespace polyfit
 

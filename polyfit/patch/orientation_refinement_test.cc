@@ -2,10 +2,9 @@
 
 #include <cmath>
 
+#include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <gtest/gtest.h>
-
-#include <Eigen/Geometry>
 
 #include "polyfit/eval/metrics.h"
 #include "polyfit/patch/local_jet_solver.h"
@@ -63,8 +62,7 @@ TEST(OrientationRefinement, KaufmanGradientMatchesFiniteDifferences) {
 SurfaceErrorAccumulator FitAndScore(const JetFitOptions& options, const SyntheticPatchSet& set,
                                     double* rms_residual = nullptr) {
   std::vector<JetPatch> patches;
-  const JetFitSummary summary =
-      FitJetPatches(options, set.points_in_world, set.offsets, nullptr, &patches);
+  const JetFitSummary summary = FitJetPatches(options, set.points_in_world, set.offsets, nullptr, &patches);
   if (rms_residual) *rms_residual = summary.rms_residual;
   const SurfaceErrorAccumulator acc = EvaluatePatchSet(set, patches);
   return acc;

@@ -13,7 +13,8 @@ namespace polyfit {
 
 std::string AdaptivePatchOptions::Validate() const {
   if (std::string p = clustering.Validate(); !p.empty()) return "clustering: " + p;
-  if (jet.order < 1 || jet.order > kMaxJetOrder) return "jet.order must be in [1, " + std::to_string(kMaxJetOrder) + "]";
+  if (jet.order < 1 || jet.order > kMaxJetOrder)
+    return "jet.order must be in [1, " + std::to_string(kMaxJetOrder) + "]";
   if (!(max_fit_error > 0.0)) return "max_fit_error must be > 0";
   if (max_splits < 0) return "max_splits must be >= 0";
   return {};

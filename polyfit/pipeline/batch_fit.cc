@@ -16,8 +16,8 @@
 
 #include "polyfit/mesh/mesh_io.h"
 #include "polyfit/util/atomic_file.h"
-#include "polyfit/util/parallel_for.h"
 #include "polyfit/util/json_number.h"
+#include "polyfit/util/parallel_for.h"
 
 namespace polyfit {
 namespace {
@@ -148,7 +148,8 @@ Eigen::Matrix<std::uint8_t, 3, Eigen::Dynamic> PatchColours(const PolyFitModel& 
 void WriteReports(const std::string& dir, const BatchFitSummary& summary) {
   WriteFileAtomically((fs::path(dir) / "report.csv").string(), [&](std::ostream& out) {
     out << "name,input,status,input_vertices,input_faces,fitted_faces,subdivision_levels,patches,"
-           "time_s,cluster_s,fit_s,chamfer_x1e3,chamfer_floor_x1e3,surface_chamfer_x1e3,height_rmse,normal_error_deg,not_height_field_patches,error\n";
+           "time_s,cluster_s,fit_s,chamfer_x1e3,chamfer_floor_x1e3,surface_chamfer_x1e3,height_rmse,normal_error_deg,"
+           "not_height_field_patches,error\n";
     for (const BatchFitItemSummary& item : summary.items) {
       const MeshFitSummary& s = item.summary;
       out << CsvField(item.name) << ',' << CsvField(item.input) << ',' << StatusName(item.status) << ','
@@ -168,12 +169,13 @@ void WriteReports(const std::string& dir, const BatchFitSummary& summary) {
     if (!item.error.empty()) j["error"] = item.error;
     items.push_back(j);
   }
-  const json report = {{"fitted", summary.num_fitted},
-                       {"skipped", summary.num_skipped},
-                       {"failed", summary.num_failed},
-                       {"total_time_s", summary.total_time_s},
-                       {"chamfer_normalisation", "unit sphere of the input (bounding-box centre, farthest vertex at 1)"},
-                       {"meshes", items}};
+  const json report = {
+      {"fitted", summary.num_fitted},
+      {"skipped", summary.num_skipped},
+      {"failed", summary.num_failed},
+      {"total_time_s", summary.total_time_s},
+      {"chamfer_normalisation", "unit sphere of the input (bounding-box centre, farthest vertex at 1)"},
+      {"meshes", items}};
   WriteFileAtomically((fs::path(dir) / "report.json").string(),
                       [&](std::ostream& out) { out << report.dump(1) << '\n'; });
 }

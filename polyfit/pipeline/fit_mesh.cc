@@ -40,8 +40,8 @@ std::string MeshFitSummary::BriefReport() const {
   std::snprintf(line, sizeof(line),
                 "%d faces -> %d patches (%d subdivision levels), %.3f s (cluster %.3f, fit %.3f); "
                 "Chamfer x1e3 %.4f (floor %.4f, to surface %.4f), height RMSE %.2e, normal error %.2f deg",
-                input_faces, clustering.num_patches, subdivision.levels, total_time_s, cluster_time_s,
-                fit_time_s, 1e3 * chamfer, 1e3 * chamfer_floor, 1e3 * surface_chamfer, height_rmse, normal_error_deg);
+                input_faces, clustering.num_patches, subdivision.levels, total_time_s, cluster_time_s, fit_time_s,
+                1e3 * chamfer, 1e3 * chamfer_floor, 1e3 * surface_chamfer, height_rmse, normal_error_deg);
   return line;
 }
 
@@ -75,9 +75,8 @@ void BuildPatchMemberships(const TriangleMesh& mesh, const std::vector<int>& fac
 }
 
 JetFitSummary FitPatchJets(const JetFitOptions& options, const TriangleMesh& mesh, PolyFitModel* model) {
-  const int num_patches = model->face_patch.empty()
-                              ? 0
-                              : *std::max_element(model->face_patch.begin(), model->face_patch.end()) + 1;
+  const int num_patches =
+      model->face_patch.empty() ? 0 : *std::max_element(model->face_patch.begin(), model->face_patch.end()) + 1;
   const int num_memberships = static_cast<int>(model->membership_patch.size());
   std::vector<int> patch_offsets(num_patches + 1, 0);
   for (int p : model->membership_patch) ++patch_offsets[p + 1];
@@ -174,8 +173,8 @@ MeshFitSummary FitMesh(const MeshFitOptions& options, const TriangleMesh& input,
                                                            options.evaluation_seed, options.num_threads)
                                   .sum();
     const Normalization normalization = UnitSphereNormalization(input.vertices);
-    summary.height_rmse = normalization.scale *
-                          std::sqrt((reconstruction.vertices - mesh.vertices).colwise().squaredNorm().mean());
+    summary.height_rmse =
+        normalization.scale * std::sqrt((reconstruction.vertices - mesh.vertices).colwise().squaredNorm().mean());
     // Normals compared where both are defined: at each face's centroid, the
     // face's normal against its patch's jet normal there, area-weighted
     // (vertex normals would blur sharp creases into false errors).

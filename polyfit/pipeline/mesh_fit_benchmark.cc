@@ -13,7 +13,6 @@
 #include "polyfit/mesh/primitives.h"
 #include "polyfit/pipeline/fit_mesh.h"
 
-
 int main(int argc, char** argv) {
   int patches = 400, threads = 0;
   bool seams = false;
@@ -55,7 +54,10 @@ int main(int argc, char** argv) {
         options.clustering.num_patches = patches;
         options.reconstruction.seam_mode = mode == 0 ? polyfit::SeamMode::kOwner : polyfit::SeamMode::kAverage;
         options.reconstruction.boundary_smoothing_iterations = mode == 2 ? 1 : mode == 3 ? 3 : 0;
-        const char* label = mode == 0 ? "owner" : mode == 1 ? "average" : mode == 2 ? "average+smooth1" : "average+smooth3";
+        const char* label = mode == 0   ? "owner"
+                            : mode == 1 ? "average"
+                            : mode == 2 ? "average+smooth1"
+                                        : "average+smooth3";
         const polyfit::MeshFitSummary s = polyfit::FitMesh(options, mesh, nullptr, nullptr);
         std::printf("%-28s %-16s %14.5f %14.3e %12.2f %12.3e\n", name.c_str(), label, 1e3 * s.surface_chamfer,
                     s.height_rmse, s.normal_error_deg, s.reconstruction.mean_seam_gap);
@@ -71,8 +73,8 @@ int main(int argc, char** argv) {
   options.num_threads = threads;
   FILE* csv = csv_path.empty() ? nullptr : std::fopen(csv_path.c_str(), "w");
   if (csv) std::fprintf(csv, "mesh,faces,patches,cluster_s,fit_s,reconstruct_s,total_s,cluster_iterations\n");
-  std::printf("%-28s %9s %8s %10s %8s %8s %8s %6s %18s\n", "mesh", "faces", "patches", "cluster s", "fit s",
-              "recon s", "total s", "iters", "area min/max/std");
+  std::printf("%-28s %9s %8s %10s %8s %8s %8s %6s %18s\n", "mesh", "faces", "patches", "cluster s", "fit s", "recon s",
+              "total s", "iters", "area min/max/std");
   for (const auto& [name, mesh] : meshes) {
     // Best of three: the machine is shared.
     polyfit::MeshFitSummary best;

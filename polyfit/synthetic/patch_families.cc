@@ -21,12 +21,11 @@ const char* SurfaceFamilyName(SurfaceFamily family) {
 }
 
 SurfaceFamily ParseSurfaceFamily(const std::string& name) {
-  for (SurfaceFamily f : {SurfaceFamily::kJet4, SurfaceFamily::kTrigonometric,
-                          SurfaceFamily::kGaussian, SurfaceFamily::kBessel, SurfaceFamily::kSum}) {
+  for (SurfaceFamily f : {SurfaceFamily::kJet4, SurfaceFamily::kTrigonometric, SurfaceFamily::kGaussian,
+                          SurfaceFamily::kBessel, SurfaceFamily::kSum}) {
     if (name == SurfaceFamilyName(f)) return f;
   }
-  throw std::invalid_argument("unknown surface family '" + name +
-                              "' (expected jet4, trig, gaussian, bessel or sum)");
+  throw std::invalid_argument("unknown surface family '" + name + "' (expected jet4, trig, gaussian, bessel or sum)");
 }
 
 namespace {
@@ -85,8 +84,7 @@ Eigen::Vector2d SyntheticSurface::Gradient(double u, double v) const {
     const Eigen::Vector2d d = p - trig_.centre;
     const double r = d.norm();
     const double th = trig_.parameter;
-    const double fr = r > 1e-12 ? -trig_.amplitude * th * std::sin(th * r) / r
-                                : -trig_.amplitude * th * th;
+    const double fr = r > 1e-12 ? -trig_.amplitude * th * std::sin(th * r) / r : -trig_.amplitude * th * th;
     g += fr * d;
   }
   if (gauss_.amplitude != 0) {
@@ -99,8 +97,8 @@ Eigen::Vector2d SyntheticSurface::Gradient(double u, double v) const {
     const double r = d.norm();
     const double k = bessel_.parameter;
     // J0'(x) = -J1(x); J1(x) / x -> 1/2 at 0.
-    const double fr = r > 1e-12 ? -bessel_.amplitude * k * std::cyl_bessel_j(1.0, k * r) / r
-                                : -bessel_.amplitude * k * k * 0.5;
+    const double fr =
+        r > 1e-12 ? -bessel_.amplitude * k * std::cyl_bessel_j(1.0, k * r) / r : -bessel_.amplitude * k * k * 0.5;
     g += fr * d;
   }
   return g;
@@ -123,12 +121,10 @@ SyntheticPatch GenerateSyntheticPatch(const SyntheticPatchOptions& options, std:
   std::normal_distribution<double> noise(0.0, options.noise_sigma > 0 ? options.noise_sigma : 1.0);
   for (int i = 0; i < m; ++i) {
     const double u = Uniform(rng, -1, 1), v = Uniform(rng, -1, 1);
-    const Eigen::Vector3d p = patch.rotation * Eigen::Vector3d(u, v, patch.surface.Height(u, v)) +
-                              patch.translation;
+    const Eigen::Vector3d p = patch.rotation * Eigen::Vector3d(u, v, patch.surface.Height(u, v)) + patch.translation;
     const Eigen::Vector2d g = patch.surface.Gradient(u, v);
     patch.surface_points_in_world.col(i) = p;
-    patch.surface_normals_in_world.col(i) =
-        patch.rotation * Eigen::Vector3d(-g.x(), -g.y(), 1.0).normalized();
+    patch.surface_normals_in_world.col(i) = patch.rotation * Eigen::Vector3d(-g.x(), -g.y(), 1.0).normalized();
     patch.points_in_world.col(i) = p;
     if (options.noise_sigma > 0) {
       patch.points_in_world.col(i) += Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
@@ -137,8 +133,7 @@ SyntheticPatch GenerateSyntheticPatch(const SyntheticPatchOptions& options, std:
   return patch;
 }
 
-SyntheticPatchSet GenerateSyntheticPatchSet(const SyntheticPatchOptions& options, int count,
-                                            uint64_t seed) {
+SyntheticPatchSet GenerateSyntheticPatchSet(const SyntheticPatchOptions& options, int count, uint64_t seed) {
   std::mt19937_64 rng(seed);
   SyntheticPatchSet set;
   set.patches.reserve(count);

@@ -77,8 +77,7 @@ struct SyntheticPatchSet {
   Eigen::Matrix3Xd points_in_world;
   std::vector<int> offsets;
 };
-SyntheticPatchSet GenerateSyntheticPatchSet(const SyntheticPatchOptions& options, int count,
-                                            uint64_t seed);
+SyntheticPatchSet GenerateSyntheticPatchSet(const SyntheticPatchOptions& options, int count, uint64_t seed);
 
 }  // namespace polyfit
 

@@ -8,8 +8,8 @@ namespace {
 
 TEST(SyntheticSurface, GradientMatchesFiniteDifferences) {
   std::mt19937_64 rng(1);
-  for (SurfaceFamily f : {SurfaceFamily::kJet4, SurfaceFamily::kTrigonometric,
-                          SurfaceFamily::kGaussian, SurfaceFamily::kBessel, SurfaceFamily::kSum}) {
+  for (SurfaceFamily f : {SurfaceFamily::kJet4, SurfaceFamily::kTrigonometric, SurfaceFamily::kGaussian,
+                          SurfaceFamily::kBessel, SurfaceFamily::kSum}) {
     for (int trial = 0; trial < 20; ++trial) {
       const SyntheticSurface s = SyntheticSurface::Random(f, rng);
       const double u = std::uniform_real_distribution<double>(-1, 1)(rng);
@@ -56,8 +56,8 @@ TEST(SyntheticPatch, NoiseHasTheRequestedSpread) {
   options.noise_sigma = 0.01;
   std::mt19937_64 rng(5);
   const SyntheticPatch p = GenerateSyntheticPatch(options, rng);
-  const double rms = std::sqrt((p.points_in_world - p.surface_points_in_world).squaredNorm() /
-                               (3.0 * options.num_points));
+  const double rms =
+      std::sqrt((p.points_in_world - p.surface_points_in_world).squaredNorm() / (3.0 * options.num_points));
   EXPECT_NEAR(rms, 0.01, 3e-4);
 }
 

@@ -19,7 +19,6 @@
 #include "polyfit/mesh/mesh_io.h"
 #include "polyfit/pipeline/batch_fit.h"
 #include "polyfit/util/status.h"
-#include "polyfit/util/status.h"
 
 namespace {
 
@@ -37,8 +36,8 @@ class Progress {
       std::snprintf(line, sizeof(line), "[%d/%d] %s: %s", done, total, status, item.error.c_str());
     } else {
       const auto& s = item.summary;
-      std::snprintf(line, sizeof(line), "[%d/%d] %s %s: %d faces, %d patches, %.3f s, Chamfer x1e3 %.4f", done,
-                    total, status, item.name.c_str(), s.input_faces, s.clustering.num_patches, s.total_time_s,
+      std::snprintf(line, sizeof(line), "[%d/%d] %s %s: %d faces, %d patches, %.3f s, Chamfer x1e3 %.4f", done, total,
+                    status, item.name.c_str(), s.input_faces, s.clustering.num_patches, s.total_time_s,
                     1e3 * s.chamfer);
     }
     if (!terminal_) {
@@ -133,9 +132,8 @@ int main(int argc, char** argv) {
       batch.fit.evaluate = !no_eval;
       Progress progress;
       const polyfit::BatchFitSummary summary = polyfit::FitMeshFiles(
-          batch, inputs, [&progress](int done, int total, const polyfit::BatchFitItemSummary& item) {
-            progress(done, total, item);
-          });
+          batch, inputs,
+          [&progress](int done, int total, const polyfit::BatchFitItemSummary& item) { progress(done, total, item); });
       std::printf("%d fitted, %d skipped, %d failed in %.2f s; report: %s/report.csv\n", summary.num_fitted,
                   summary.num_skipped, summary.num_failed, summary.total_time_s, batch.output_dir.c_str());
       return summary.num_failed > 0 ? polyfit::kExitPartial : polyfit::kExitSuccess;
@@ -146,11 +144,12 @@ int main(int argc, char** argv) {
       const polyfit::ChamferDistance chamfer = polyfit::MeshChamferDistance(a, b, samples, 7);
       const polyfit::ChamferDistance floor = polyfit::MeshChamferDistance(a, a, samples, 7);
       const polyfit::ChamferDistance surface = polyfit::MeshToSurfaceChamferDistance(a, b, samples, 7);
-      std::printf("Chamfer x1e3 %.6f (A->B %.6f, B->A %.6f), %d samples each, A's unit-sphere normalisation\n"
-                  "  sampling floor (A against a second sampling of A) x1e3 %.6f\n"
-                  "  samples to surface (no floor) x1e3 %.6f (A->B %.6f, B->A %.6f)\n",
-                  1e3 * chamfer.sum(), 1e3 * chamfer.a_to_b, 1e3 * chamfer.b_to_a, samples, 1e3 * floor.sum(),
-                  1e3 * surface.sum(), 1e3 * surface.a_to_b, 1e3 * surface.b_to_a);
+      std::printf(
+          "Chamfer x1e3 %.6f (A->B %.6f, B->A %.6f), %d samples each, A's unit-sphere normalisation\n"
+          "  sampling floor (A against a second sampling of A) x1e3 %.6f\n"
+          "  samples to surface (no floor) x1e3 %.6f (A->B %.6f, B->A %.6f)\n",
+          1e3 * chamfer.sum(), 1e3 * chamfer.a_to_b, 1e3 * chamfer.b_to_a, samples, 1e3 * floor.sum(),
+          1e3 * surface.sum(), 1e3 * surface.a_to_b, 1e3 * surface.b_to_a);
       return 0;
     }
   } catch (const polyfit::Error& e) {

@@ -22,8 +22,8 @@ void WriteFileAtomically(const std::string& path, WriteFn&& write) {
   namespace fs = std::filesystem;
   static std::atomic<unsigned> counter{0};
   const std::string temp = path + ".tmp" +
-                           std::to_string(std::hash<std::thread::id>{}(std::this_thread::get_id()) % 100000) +
-                           "_" + std::to_string(counter.fetch_add(1));
+                           std::to_string(std::hash<std::thread::id>{}(std::this_thread::get_id()) % 100000) + "_" +
+                           std::to_string(counter.fetch_add(1));
   auto remove_temp = [&temp] {
     std::error_code ec;
     fs::remove(temp, ec);

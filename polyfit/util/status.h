@@ -55,12 +55,12 @@ class Error : public std::runtime_error {
 // Exit codes of polyfit, polysft and onefit.
 enum ExitCode : int {
   kExitSuccess = 0,
-  kExitFailure = 1,      // an unexpected error (a bug: please report it)
-  kExitUsage = 2,        // bad command line or invalid options
-  kExitInputError = 3,   // an input file or key cannot be used
-  kExitOutputError = 4,  // an output cannot be written
+  kExitFailure = 1,        // an unexpected error (a bug: please report it)
+  kExitUsage = 2,          // bad command line or invalid options
+  kExitInputError = 3,     // an input file or key cannot be used
+  kExitOutputError = 4,    // an output cannot be written
   kExitSolverFailure = 5,  // the solver found no usable result (outputs say how far it got)
-  kExitPartial = 6       // a batch finished, but some of its items failed
+  kExitPartial = 6         // a batch finished, but some of its items failed
 };
 
 inline int ExitCodeFor(ErrorKind kind) {

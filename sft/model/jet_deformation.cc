@@ -105,8 +105,7 @@ JetDeformationModel::JetDeformationModel(const JetDeformationOptions& options,
   }
 }
 
-void JetDeformationModel::Evaluate(const double* theta, Eigen::Matrix3Xd* vertices,
-                                   Eigen::MatrixXd* jacobian) const {
+void JetDeformationModel::Evaluate(const double* theta, Eigen::Matrix3Xd* vertices, Eigen::MatrixXd* jacobian) const {
   if (texture_space_) {
     const int n = num_vertices(), m = static_cast<int>(st_monomials_.rows());
     const double* omega = theta + rotation_offset();

@@ -55,9 +55,9 @@ inline double SegmentDistance2(double px, double py, double ax, double ay, doubl
 }
 
 struct TriangleTerm {
-  J9 coverage;      // D_j
-  J9 depth;         // z_j, normalised inverse depth
-  J9 color[3];      // C_j
+  J9 coverage;  // D_j
+  J9 depth;     // z_j, normalised inverse depth
+  J9 color[3];  // C_j
   int vertices[3];
 };
 
@@ -117,7 +117,8 @@ bool TriangleTermAt(const TermContext& c, int f, int px, int py, TriangleTerm* t
   const double cx = mesh.pixels(0, ic), cy = mesh.pixels(1, ic);
   // Closest boundary point (in doubles, to choose the edge).
   double t[3];
-  const double d2[3] = {SegmentDistance2(px, py, ax, ay, bx, by, &t[0]), SegmentDistance2(px, py, bx, by, cx, cy, &t[1]),
+  const double d2[3] = {SegmentDistance2(px, py, ax, ay, bx, by, &t[0]),
+                        SegmentDistance2(px, py, bx, by, cx, cy, &t[1]),
                         SegmentDistance2(px, py, cx, cy, ax, ay, &t[2])};
   const int nearest = static_cast<int>(std::min_element(d2, d2 + 3) - d2);
   const double area = Cross2(bx - ax, by - ay, cx - ax, cy - ay);
@@ -382,35 +383,38 @@ void SoftRasterizer::Render(const ScreenMesh& mesh, int width, int height, const
   std::vector<std::vector<VertexGradient>> tile_gradients(tiles.size());
   std::vector<int> covered(tiles.size(), 0);
   std::vector<RenderScratch> scratch(ResolveNumThreads(o.num_threads));
-  ParallelFor(static_cast<int>(tiles.size()), o.num_threads, [&](int thread, int tile) {
-    const std::vector<int>& list = tiles[tile];
-    if (list.empty()) return;
-    std::vector<VertexGradient>& grads = tile_gradients[tile];
-    grads.clear();
-    if (with_gradients) grads.reserve(kTile * kTile * 12);
-    RenderScratch& s = scratch[thread];
-    const int tx = tile % tiles_x, ty = tile / tiles_x;
-    for (int py = std::max(ty * kTile, roi.y); py < std::min((ty + 1) * kTile, roi.y + roi.height); ++py) {
-      for (int px = std::max(tx * kTile, roi.x); px < std::min((tx + 1) * kTile, roi.x + roi.width); ++px) {
-        s.terms.clear();
-        TriangleTerm term;
-        for (const int f : list) {
-          if (TriangleTermAt(context, f, px, py, &term)) s.terms.push_back(term);
+  ParallelFor(
+      static_cast<int>(tiles.size()), o.num_threads,
+      [&](int thread, int tile) {
+        const std::vector<int>& list = tiles[tile];
+        if (list.empty()) return;
+        std::vector<VertexGradient>& grads = tile_gradients[tile];
+        grads.clear();
+        if (with_gradients) grads.reserve(kTile * kTile * 12);
+        RenderScratch& s = scratch[thread];
+        const int tx = tile % tiles_x, ty = tile / tiles_x;
+        for (int py = std::max(ty * kTile, roi.y); py < std::min((ty + 1) * kTile, roi.y + roi.height); ++py) {
+          for (int px = std::max(tx * kTile, roi.x); px < std::min((tx + 1) * kTile, roi.x + roi.width); ++px) {
+            s.terms.clear();
+            TriangleTerm term;
+            for (const int f : list) {
+              if (TriangleTermAt(context, f, px, py, &term)) s.terms.push_back(term);
+            }
+            if (s.terms.empty()) continue;
+            ++covered[tile];
+            const PixelBlend blend =
+                BlendPixel(s.terms, background.empty() ? flat : background.at<cv::Vec3f>(py, px), o, &s.e);
+            out->color.at<cv::Vec3f>(py, px) = cv::Vec3f(blend.color[0], blend.color[1], blend.color[2]);
+            out->silhouette.at<float>(py, px) = static_cast<float>(blend.silhouette);
+            if (!with_gradients) continue;
+            const int pixel = py * width + px;
+            out->begin[pixel] = static_cast<int>(grads.size());  // tile-local; made global below
+            AppendPixelGradients(s.terms, blend, o.gamma, &grads);
+            out->end[pixel] = static_cast<int>(grads.size());
+          }
         }
-        if (s.terms.empty()) continue;
-        ++covered[tile];
-        const PixelBlend blend =
-            BlendPixel(s.terms, background.empty() ? flat : background.at<cv::Vec3f>(py, px), o, &s.e);
-        out->color.at<cv::Vec3f>(py, px) = cv::Vec3f(blend.color[0], blend.color[1], blend.color[2]);
-        out->silhouette.at<float>(py, px) = static_cast<float>(blend.silhouette);
-        if (!with_gradients) continue;
-        const int pixel = py * width + px;
-        out->begin[pixel] = static_cast<int>(grads.size());  // tile-local; made global below
-        AppendPixelGradients(s.terms, blend, o.gamma, &grads);
-        out->end[pixel] = static_cast<int>(grads.size());
-      }
-    }
-  }, 1);
+      },
+      1);
 
   for (int c : covered) out->num_covered_pixels += c;
   if (with_gradients) ConcatenateTileGradients(tile_gradients, tiles_x, width, height, out);

@@ -13,8 +13,8 @@
 #include <opencv2/core.hpp>
 
 #include "polyfit/mesh/triangle_mesh.h"
-#include "sft/camera/pinhole_camera.h"
 #include "polyfit/util/status.h"
+#include "sft/camera/pinhole_camera.h"
 
 namespace polyfit {
 

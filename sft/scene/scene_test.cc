@@ -22,9 +22,7 @@ namespace fs = std::filesystem;
 
 class SceneTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    GenerateSheetScene(SheetSceneOptions::Small(64, 6, 3), dir_.path().string());
-  }
+  void SetUp() override { GenerateSheetScene(SheetSceneOptions::Small(64, 6, 3), dir_.path().string()); }
   std::string Error() const {
     try {
       LoadScene(dir_.path().string());

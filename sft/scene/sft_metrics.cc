@@ -41,8 +41,7 @@ double ComputeRmseMm(const Eigen::Matrix3Xd& vertices, const Eigen::Matrix3Xd& g
   return 1e3 * std::sqrt((vertices - ground_truth).colwise().squaredNorm().mean());
 }
 
-double ComputePointChamfer1e4(const TriangleMesh& reconstruction, const Eigen::Matrix3Xd& cloud,
-                              std::uint64_t seed) {
+double ComputePointChamfer1e4(const TriangleMesh& reconstruction, const Eigen::Matrix3Xd& cloud, std::uint64_t seed) {
   const Eigen::Matrix3Xd samples = SampleSurfaceUniform(reconstruction, static_cast<int>(cloud.cols()), seed);
   return 1e4 * ComputeChamferDistance(samples, cloud).sum();
 }

@@ -74,77 +74,80 @@ bool RenderCost::Compute(const double* theta, double* residuals, double* jacobia
   // Per-thread scratch rows (4 by P), allocated once per evaluation.
   std::vector<Eigen::Matrix<double, 4, Eigen::Dynamic, Eigen::RowMajor>> scratch(
       threads, Eigen::Matrix<double, 4, Eigen::Dynamic, Eigen::RowMajor>(4, P));
-  ParallelFor(roi.height, threads, [&](int thread, int row) {
-    const int y = roi.y + row;
-    Eigen::Matrix<double, 4, Eigen::Dynamic, Eigen::RowMajor>& local = scratch[thread];
-    double r[4];
-    for (int col = 0; col < roi.width; ++col) {
-      const int x = roi.x + col;
-      const int r0 = (row * roi.width + col) * channels_;
-      const cv::Vec3f rendered = render_.color.at<cv::Vec3f>(y, x), observed = data_.image.at<cv::Vec3f>(y, x);
-      for (int ch = 0; ch < 3; ++ch) r[ch] = data_.photometric_weight * (rendered[ch] - observed[ch]);
-      // Robust loss per pixel: residual scaled by sqrt(rho(s) / s), Jacobian
-      // by sqrt(rho'(s)) (iteratively reweighted least squares).
-      double residual_scale = 1.0, jacobian_scale = data_.photometric_weight;
-      if (data_.robust_loss != RobustLoss::kNone) {
-        const double s = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
-        const double b2 = data_.robust_scale * data_.robust_scale;
-        double rho = s, rho1 = 1.0;
-        if (data_.robust_loss == RobustLoss::kHuber && s > b2) {
-          rho = 2.0 * std::sqrt(s * b2) - b2;
-          rho1 = std::sqrt(b2 / s);
-        } else if (data_.robust_loss == RobustLoss::kCauchy) {
-          rho = b2 * std::log1p(s / b2);
-          rho1 = 1.0 / (1.0 + s / b2);
+  ParallelFor(
+      roi.height, threads,
+      [&](int thread, int row) {
+        const int y = roi.y + row;
+        Eigen::Matrix<double, 4, Eigen::Dynamic, Eigen::RowMajor>& local = scratch[thread];
+        double r[4];
+        for (int col = 0; col < roi.width; ++col) {
+          const int x = roi.x + col;
+          const int r0 = (row * roi.width + col) * channels_;
+          const cv::Vec3f rendered = render_.color.at<cv::Vec3f>(y, x), observed = data_.image.at<cv::Vec3f>(y, x);
+          for (int ch = 0; ch < 3; ++ch) r[ch] = data_.photometric_weight * (rendered[ch] - observed[ch]);
+          // Robust loss per pixel: residual scaled by sqrt(rho(s) / s), Jacobian
+          // by sqrt(rho'(s)) (iteratively reweighted least squares).
+          double residual_scale = 1.0, jacobian_scale = data_.photometric_weight;
+          if (data_.robust_loss != RobustLoss::kNone) {
+            const double s = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+            const double b2 = data_.robust_scale * data_.robust_scale;
+            double rho = s, rho1 = 1.0;
+            if (data_.robust_loss == RobustLoss::kHuber && s > b2) {
+              rho = 2.0 * std::sqrt(s * b2) - b2;
+              rho1 = std::sqrt(b2 / s);
+            } else if (data_.robust_loss == RobustLoss::kCauchy) {
+              rho = b2 * std::log1p(s / b2);
+              rho1 = 1.0 / (1.0 + s / b2);
+            }
+            residual_scale = s > 0.0 ? std::sqrt(rho / s) : 1.0;
+            jacobian_scale *= std::sqrt(rho1);
+          }
+          for (int ch = 0; ch < 3; ++ch) r[ch] *= residual_scale;
+          if (channels_ == 4) {
+            r[3] = data_.silhouette_weight * (render_.silhouette.at<float>(y, x) - data_.mask.at<float>(y, x));
+          }
+          if (residuals != nullptr) {
+            for (int ch = 0; ch < channels_; ++ch) residuals[r0 + ch] = r[ch];
+          }
+          if (normal) {
+            for (int ch = 0; ch < channels_; ++ch) accumulators_[thread].squared_norm += r[ch] * r[ch];
+          }
+          if (!want_jacobian) continue;
+          const int pixel = y * width + x;
+          if (render_.end[pixel] == render_.begin[pixel] && jacobian == nullptr) continue;  // a zero row
+          // local (4 by P) = sum over the pixel's vertices of d(4 by 3) times
+          // their 3 by P rows; written out, as Eigen's dynamic-size product
+          // costs more than the arithmetic at this size.
+          local.setZero();
+          for (int k = render_.begin[pixel]; k < render_.end[pixel]; ++k) {
+            const VertexGradient& g = render_.gradients[k];
+            const double* s0 = screen_theta_.data() + static_cast<size_t>(3 * g.vertex) * P;
+            const double* s1 = s0 + P;
+            const double* s2 = s1 + P;
+            for (int a = 0; a < 4; ++a) {
+              const double d0 = g.d[a][0], d1 = g.d[a][1], d2 = g.d[a][2];
+              double* out = local.data() + static_cast<size_t>(a) * P;
+              for (int c = 0; c < P; ++c) out[c] += d0 * s0[c] + d1 * s1[c] + d2 * s2[c];
+            }
+          }
+          local.topRows(3) *= jacobian_scale;
+          local.row(3) *= data_.silhouette_weight;
+          if (jacobian != nullptr) {
+            double* jrow = jacobian + static_cast<size_t>(r0) * P;
+            for (int ch = 0; ch < channels_; ++ch) {
+              for (int c = 0; c < P; ++c) jrow[ch * P + c] = local(ch, c);
+            }
+          }
+          if (normal) {
+            Accumulator& a = accumulators_[thread];
+            if (a.count + channels_ > kBlockRows) flush(a);
+            a.rows.middleRows(a.count, channels_) = local.topRows(channels_);
+            for (int ch = 0; ch < channels_; ++ch) a.values[a.count + ch] = r[ch];
+            a.count += channels_;
+          }
         }
-        residual_scale = s > 0.0 ? std::sqrt(rho / s) : 1.0;
-        jacobian_scale *= std::sqrt(rho1);
-      }
-      for (int ch = 0; ch < 3; ++ch) r[ch] *= residual_scale;
-      if (channels_ == 4) {
-        r[3] = data_.silhouette_weight * (render_.silhouette.at<float>(y, x) - data_.mask.at<float>(y, x));
-      }
-      if (residuals != nullptr) {
-        for (int ch = 0; ch < channels_; ++ch) residuals[r0 + ch] = r[ch];
-      }
-      if (normal) {
-        for (int ch = 0; ch < channels_; ++ch) accumulators_[thread].squared_norm += r[ch] * r[ch];
-      }
-      if (!want_jacobian) continue;
-      const int pixel = y * width + x;
-      if (render_.end[pixel] == render_.begin[pixel] && jacobian == nullptr) continue;  // a zero row
-      // local (4 by P) = sum over the pixel's vertices of d(4 by 3) times
-      // their 3 by P rows; written out, as Eigen's dynamic-size product
-      // costs more than the arithmetic at this size.
-      local.setZero();
-      for (int k = render_.begin[pixel]; k < render_.end[pixel]; ++k) {
-        const VertexGradient& g = render_.gradients[k];
-        const double* s0 = screen_theta_.data() + static_cast<size_t>(3 * g.vertex) * P;
-        const double* s1 = s0 + P;
-        const double* s2 = s1 + P;
-        for (int a = 0; a < 4; ++a) {
-          const double d0 = g.d[a][0], d1 = g.d[a][1], d2 = g.d[a][2];
-          double* out = local.data() + static_cast<size_t>(a) * P;
-          for (int c = 0; c < P; ++c) out[c] += d0 * s0[c] + d1 * s1[c] + d2 * s2[c];
-        }
-      }
-      local.topRows(3) *= jacobian_scale;
-      local.row(3) *= data_.silhouette_weight;
-      if (jacobian != nullptr) {
-        double* jrow = jacobian + static_cast<size_t>(r0) * P;
-        for (int ch = 0; ch < channels_; ++ch) {
-          for (int c = 0; c < P; ++c) jrow[ch * P + c] = local(ch, c);
-        }
-      }
-      if (normal) {
-        Accumulator& a = accumulators_[thread];
-        if (a.count + channels_ > kBlockRows) flush(a);
-        a.rows.middleRows(a.count, channels_) = local.topRows(channels_);
-        for (int ch = 0; ch < channels_; ++ch) a.values[a.count + ch] = r[ch];
-        a.count += channels_;
-      }
-    }
-  }, 1);
+      },
+      1);
   if (normal) {
     *squared_norm = 0.0;
     for (Accumulator& a : accumulators_) *squared_norm += a.squared_norm;

@@ -15,12 +15,12 @@
 #include "cost_functions/compressed_cost.h"
 #include "polyfit/mesh/mesh_io.h"
 #include "polyfit/mesh/unique_edges.h"
-#include "sft/scene/sft_metrics.h"
 #include "polyfit/util/atomic_file.h"
 #include "polyfit/util/json_number.h"
 #include "polyfit/util/parallel_for.h"
-#include "sft/solver/polysft_settings.h"
+#include "sft/scene/sft_metrics.h"
 #include "sft/solver/frame_costs.h"
+#include "sft/solver/polysft_settings.h"
 
 namespace polyfit {
 namespace {
@@ -141,7 +141,10 @@ struct LevelData {
 class PolySftController {
  public:
   PolySftController(const PolySftOptions& options, const SftScene& scene, const SftFrameCallback& on_frame)
-      : options_(options), scene_(scene), on_frame_(on_frame), start_(Clock::now()),
+      : options_(options),
+        scene_(scene),
+        on_frame_(on_frame),
+        start_(Clock::now()),
         vertex_texcoords_(VertexTexcoords(scene.template_mesh.faces, scene.template_mesh.corner_texcoords,
                                           scene.template_mesh.num_vertices())),
         model_(options.deformation, scene.template_mesh.vertices, &vertex_texcoords_) {}
@@ -190,10 +193,9 @@ class PolySftController {
     if (use_temporal_) summary_.terms.emplace_back("temporal", o.temporal_weight);
     // Data terms are normalised to about 1 per unit weight: the regularisers
     // far above them decide the shape alone.
-    const double data =
-        std::max(use_photometric_ ? o.photometric_weight : 0.0, use_masks_ ? o.silhouette_weight : 0.0);
-    const double stiffest = std::max(use_inextensibility_ ? o.inextensibility_weight : 0.0,
-                                     use_temporal_ ? o.temporal_weight : 0.0);
+    const double data = std::max(use_photometric_ ? o.photometric_weight : 0.0, use_masks_ ? o.silhouette_weight : 0.0);
+    const double stiffest =
+        std::max(use_inextensibility_ ? o.inextensibility_weight : 0.0, use_temporal_ ? o.temporal_weight : 0.0);
     if (data > 0.0 && stiffest >= 1e4 * data) {
       summary_.warnings.emplace_back("stiff weights (a regulariser at " + std::to_string(stiffest / data) +
                                      " times the data terms): the images barely move the surface and results may "
@@ -360,7 +362,8 @@ class PolySftController {
     d.silhouette_weight = std::sqrt(options_.silhouette_weight / level_pixels);
     d.robust_loss = options_.robust_loss;
     d.robust_scale = options_.robust_scale * d.photometric_weight;
-    if (d.roi.area() > 0) problem->AddResidualBlock(new CompressedRenderCost(std::move(d)), nullptr, frame.theta.data());
+    if (d.roi.area() > 0)
+      problem->AddResidualBlock(new CompressedRenderCost(std::move(d)), nullptr, frame.theta.data());
     return true;
   }
 

@@ -19,11 +19,11 @@
 
 #include <Eigen/Core>
 
+#include "polyfit/util/status.h"
 #include "sft/model/jet_deformation.h"
 #include "sft/render/soft_rasterizer.h"
 #include "sft/scene/scene.h"
 #include "sft/solver/robust_loss.h"
-#include "polyfit/util/status.h"
 
 namespace polyfit {
 

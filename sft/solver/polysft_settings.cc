@@ -20,8 +20,7 @@ struct Setting {
 
 // An enum setting by its names.
 template <typename Enum>
-Setting EnumSetting(const char* key, Enum PolySftOptions::*member,
-                    std::vector<std::pair<Enum, const char*>> names) {
+Setting EnumSetting(const char* key, Enum PolySftOptions::*member, std::vector<std::pair<Enum, const char*>> names) {
   return {key,
           [member, names](const PolySftOptions& o) {
             for (const auto& [value, name] : names) {
@@ -43,10 +42,10 @@ Setting EnumSetting(const char* key, Enum PolySftOptions::*member,
           }};
 }
 
-#define POLYFIT_SETTING(key, field)                                                      \
-  Setting {                                                                              \
-    key, [](const PolySftOptions& o) { return json(o.field); },                          \
-        [](const json& j, PolySftOptions* o) { j.get_to(o->field); }                     \
+#define POLYFIT_SETTING(key, field)                                  \
+  Setting {                                                          \
+    key, [](const PolySftOptions& o) { return json(o.field); },      \
+        [](const json& j, PolySftOptions* o) { j.get_to(o->field); } \
   }
 
 const std::vector<Setting>& Settings() {

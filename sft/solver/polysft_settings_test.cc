@@ -64,9 +64,8 @@ TEST(PolySftSettingsTest, AMetricsFileGivesItsSettings) {
   PolySftOptions changed;
   changed.window_size = 4;
   const std::string path = (dir.path() / "metrics.json").string();
-  std::ofstream(path) << nlohmann::json{{"frames", nlohmann::json::array()},
-                                        {"settings", PolySftSettingsToJson(changed)}}
-                             .dump();
+  std::ofstream(path)
+      << nlohmann::json{{"frames", nlohmann::json::array()}, {"settings", PolySftSettingsToJson(changed)}}.dump();
   PolySftOptions read;
   ApplyPolySftSettingsFile(path, &read);
   EXPECT_EQ(read.window_size, 4);

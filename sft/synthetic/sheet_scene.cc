@@ -43,8 +43,7 @@ cv::Mat MakeTexture(int size, std::mt19937_64& rng) {
     switch (k % 3) {
       case 0: cv::circle(texture, centre, radius, colour, cv::FILLED, cv::LINE_AA); break;
       case 1:
-        cv::rectangle(texture, centre, centre + cv::Point(radius * 2, radius / 2 + 1), colour, cv::FILLED,
-                      cv::LINE_AA);
+        cv::rectangle(texture, centre, centre + cv::Point(radius * 2, radius / 2 + 1), colour, cv::FILLED, cv::LINE_AA);
         break;
       default: cv::circle(texture, centre, radius, colour, std::max(1, radius / 4), cv::LINE_AA); break;
     }
@@ -127,18 +126,16 @@ Eigen::Matrix3Xd SheetVerticesAt(const SheetSceneOptions& o, double tau) {
   const bool rigid = o.motion == SheetMotion::kRigid || o.motion == SheetMotion::kMixed;
   // Curvature up to 1 / 0.13 m: the sheet's ends fold about 65 degrees.
   // Rolled: the sheet wraps 270 degrees at first, 180 at the end.
-  const double curvature = bend ? std::sin(M_PI * tau) / 0.13
-                           : o.motion == SheetMotion::kRoll
-                               ? (1.5 * M_PI - 0.5 * M_PI * tau) / o.sheet_width
-                               : 0.0;
-  const Eigen::Matrix3d rotation =
-      rigid ? (Eigen::AngleAxisd(0.35 * std::sin(M_PI * tau), Eigen::Vector3d::UnitY()) *
-               Eigen::AngleAxisd(0.2 * std::sin(2 * M_PI * tau), Eigen::Vector3d::UnitX()))
-                  .toRotationMatrix()
-            : Eigen::Matrix3d::Identity();
-  const Eigen::Vector3d translation =
-      rigid ? Eigen::Vector3d(0.03 * std::sin(2 * M_PI * tau), 0.015 * std::sin(M_PI * tau), 0.05 * std::sin(M_PI * tau))
-            : Eigen::Vector3d::Zero();
+  const double curvature = bend                             ? std::sin(M_PI * tau) / 0.13
+                           : o.motion == SheetMotion::kRoll ? (1.5 * M_PI - 0.5 * M_PI * tau) / o.sheet_width
+                                                            : 0.0;
+  const Eigen::Matrix3d rotation = rigid ? (Eigen::AngleAxisd(0.35 * std::sin(M_PI * tau), Eigen::Vector3d::UnitY()) *
+                                            Eigen::AngleAxisd(0.2 * std::sin(2 * M_PI * tau), Eigen::Vector3d::UnitX()))
+                                               .toRotationMatrix()
+                                         : Eigen::Matrix3d::Identity();
+  const Eigen::Vector3d translation = rigid ? Eigen::Vector3d(0.03 * std::sin(2 * M_PI * tau),
+                                                              0.015 * std::sin(M_PI * tau), 0.05 * std::sin(M_PI * tau))
+                                            : Eigen::Vector3d::Zero();
   // The wave: the profile z = A sin(2 pi (w / lambda + phase)) across the
   // sheet's height, travelling, followed by arc length so that the sheet is
   // not stretched (a developable surface, like paper). Tabulated: arc
@@ -173,8 +170,8 @@ Eigen::Matrix3Xd SheetVerticesAt(const SheetSceneOptions& o, double tau) {
       *z = 0.0;
       return;
     }
-    const size_t k = std::min<size_t>(std::lower_bound(table_s.begin(), table_s.end(), s) - table_s.begin(),
-                                      table_s.size() - 1);
+    const size_t k =
+        std::min<size_t>(std::lower_bound(table_s.begin(), table_s.end(), s) - table_s.begin(), table_s.size() - 1);
     const size_t k0 = k == 0 ? 0 : k - 1;
     const double t = table_s[k] > table_s[k0] ? (s - table_s[k0]) / (table_s[k] - table_s[k0]) : 0.0;
     *w = table_w[k0] + t * (table_w[k] - table_w[k0]);
@@ -200,8 +197,8 @@ Eigen::Matrix3Xd SheetVerticesAt(const SheetSceneOptions& o, double tau) {
   return vertices;
 }
 
-void RenderHard(const TriangleMesh& mesh, const cv::Mat& texture, double fx, double fy, double cx, double cy,
-                int ss, const cv::Mat& background, cv::Mat* color, cv::Mat* coverage) {
+void RenderHard(const TriangleMesh& mesh, const cv::Mat& texture, double fx, double fy, double cx, double cy, int ss,
+                const cv::Mat& background, cv::Mat* color, cv::Mat* coverage) {
   const int width = background.cols, height = background.rows;
   const int sw = width * ss, sh = height * ss;
   // Per sample: depth and colour of the nearest surface.
@@ -286,7 +283,8 @@ TriangleMesh MakeSheetTemplate(const SheetSceneOptions& o) {
   sheet.faces.resize(3, 2 * nx * ny);
   sheet.corner_texcoords.resize(2, 6 * nx * ny);
   const auto uv = [&](int vertex) {
-    return Eigen::Vector2d(static_cast<double>(vertex % (nx + 1)) / nx, 1.0 - static_cast<double>(vertex / (nx + 1)) / ny);
+    return Eigen::Vector2d(static_cast<double>(vertex % (nx + 1)) / nx,
+                           1.0 - static_cast<double>(vertex / (nx + 1)) / ny);
   };
   int f = 0;
   for (int j = 0; j < ny; ++j) {
@@ -336,23 +334,27 @@ const char* SheetMotionName(SheetMotion motion) {
 }
 
 void WriteSceneJson(const SheetSceneOptions& o, const fs::path& dir, double cx, double cy) {
-  nlohmann::json scene = {
-      {"camera",
-       {{"fx", o.focal_length}, {"fy", o.focal_length}, {"cx", cx}, {"cy", cy}, {"width", o.width}, {"height", o.height}}},
-      {"template", "template.obj"},
-      {"texture", "texture.png"},
-      {"frames", "frames/%06d.png"},
-      {"ground_truth", "gt/%06d.ply"},
-      {"ground_truth_kind", "vertices"},
-      {"frame_count", o.frame_count},
-      {"first_frame", 0},
-      {"units", "m"},
-      {"generator",
-       {{"motion", SheetMotionName(o.motion)},
-        {"seed", o.seed},
-        {"wavelength", o.wavelength},
-        {"wave_amplitude", o.wave_amplitude},
-        {"noise_sigma", o.noise_sigma}}}};
+  nlohmann::json scene = {{"camera",
+                           {{"fx", o.focal_length},
+                            {"fy", o.focal_length},
+                            {"cx", cx},
+                            {"cy", cy},
+                            {"width", o.width},
+                            {"height", o.height}}},
+                          {"template", "template.obj"},
+                          {"texture", "texture.png"},
+                          {"frames", "frames/%06d.png"},
+                          {"ground_truth", "gt/%06d.ply"},
+                          {"ground_truth_kind", "vertices"},
+                          {"frame_count", o.frame_count},
+                          {"first_frame", 0},
+                          {"units", "m"},
+                          {"generator",
+                           {{"motion", SheetMotionName(o.motion)},
+                            {"seed", o.seed},
+                            {"wavelength", o.wavelength},
+                            {"wave_amplitude", o.wave_amplitude},
+                            {"noise_sigma", o.noise_sigma}}}};
   if (o.write_masks) scene["masks"] = "masks/%06d.png";
   WriteFileAtomically((dir / "scene.json").string(), [&](std::ostream& out) { out << scene.dump(2) << '\n'; });
 }
@@ -382,8 +384,7 @@ void GenerateSheetScene(const SheetSceneOptions& o, const std::string& directory
     const double tau = o.frame_count > 1 ? static_cast<double>(t) / (o.frame_count - 1) : 0.0;
     sheet.vertices = SheetVerticesAt(o, tau);
     cv::Mat color, coverage;
-    RenderHard(sheet, texture, o.focal_length, o.focal_length, cx, cy, o.supersampling, background, &color,
-               &coverage);
+    RenderHard(sheet, texture, o.focal_length, o.focal_length, cx, cy, o.supersampling, background, &color, &coverage);
     if (o.noise_sigma > 0.0) {
       for (auto it = color.begin<cv::Vec3f>(); it != color.end<cv::Vec3f>(); ++it) {
         for (int ch = 0; ch < 3; ++ch) (*it)[ch] = std::clamp((*it)[ch] + noise(rng), 0.0f, 1.0f);

@@ -19,9 +19,9 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "sft/scene/scene.h"
 #include "polyfit/util/atomic_file.h"
 #include "polyfit/util/status.h"
+#include "sft/scene/scene.h"
 #include "sft/solver/polysft.h"
 #include "sft/solver/polysft_settings.h"
 #include "sft/synthetic/sheet_scene.h"
@@ -29,8 +29,7 @@
 namespace {
 
 // The reconstruction's edges drawn over each frame.
-void WriteOverlays(const std::string& out_dir, const polyfit::SftScene& scene,
-                   const polyfit::PolySftSummary& summary) {
+void WriteOverlays(const std::string& out_dir, const polyfit::SftScene& scene, const polyfit::PolySftSummary& summary) {
   namespace fs = std::filesystem;
   fs::create_directories(fs::path(out_dir) / "overlays");
   for (size_t t = 0; t < summary.frames.size(); ++t) {
@@ -109,7 +108,8 @@ int RunGenerate(GenerateFlags& f) {
 
 void PrintFrame(const polyfit::SftFrameSummary& f) {
   std::printf("frame %4d  %6.3f s  cost %.3e  %2d it", f.index, f.time_s, f.cost, f.iterations);
-  if (std::isfinite(f.e3d)) std::printf("  e3D %.4f  e_n %5.2f deg  RMSE %6.2f mm", f.e3d, f.normal_error_deg, f.rmse_mm);
+  if (std::isfinite(f.e3d))
+    std::printf("  e3D %.4f  e_n %5.2f deg  RMSE %6.2f mm", f.e3d, f.normal_error_deg, f.rmse_mm);
   if (std::isfinite(f.chamfer_1e4)) std::printf("  Chamfer x1e4 %.4f", f.chamfer_1e4);
   std::printf("\n");
   std::fflush(stdout);
