@@ -114,7 +114,7 @@ struct DrapeSolver::Impl {
   ClothRest rest;
   int num_coefficients = 0;
   static constexpr int kStride = kMaxJetCoefficients + 4;  // alpha, s, T per patch
-  std::vector<double> params, previous_params;
+  std::vector<double> params, previous_params, rest_params;
   // Per membership: its point's slide (du, dv) along its patch.
   std::vector<double> slides, previous_slides;
   // Per membership.
@@ -177,6 +177,9 @@ struct DrapeSolver::Impl {
   void Positions(const PolyFitModel& model, Eigen::Matrix3Xd* out);
   // Closest body points of `positions`; returns how many are inside.
   int QueryContacts(const Eigen::Matrix3Xd& positions);
+  // The public patch-parameter layout (alpha, s, T per patch, packed).
+  void SetPatchParameters(const std::vector<double>& packed);
+  std::vector<double> PackedPatchParameters(const std::vector<double>& strided) const;
 
   double stretch_weight() const { return options.physics.weights.inextensibility * options.physics.stretch_base; }
 };
@@ -191,6 +194,7 @@ void DrapeSolver::Impl::InitializeParameters(const PolyFitModel& model) {
     Eigen::Map<Eigen::Vector3d>(translation(p)) = patch.frame.translation;
   }
   previous_params = params;
+  rest_params = params;
   slides.assign(2 * model.num_memberships(), 0.0);
   previous_slides = slides;
   membership_vertex.resize(model.num_memberships());
@@ -471,6 +475,33 @@ ceres::Solver::Options DrapeSolver::Impl::SolverOptions(int pass, int num_vertic
   return solver;
 }
 
+void DrapeSolver::Impl::SetPatchParameters(const std::vector<double>& packed) {
+  const int stride = num_coefficients + 4;
+  if (static_cast<int>(packed.size()) * kStride != static_cast<int>(params.size()) * stride) {
+    throw std::invalid_argument("DrapeSolver: " + std::to_string(packed.size()) + " patch parameters, expected " +
+                                std::to_string(params.size() / kStride * stride));
+  }
+  for (size_t p = 0; p < params.size() / kStride; ++p) {
+    const double* in = packed.data() + p * stride;
+    std::copy(in, in + num_coefficients, alpha(static_cast<int>(p)));
+    scale(static_cast<int>(p))[0] = in[num_coefficients];
+    std::copy(in + num_coefficients + 1, in + stride, translation(static_cast<int>(p)));
+  }
+}
+
+std::vector<double> DrapeSolver::Impl::PackedPatchParameters(const std::vector<double>& strided) const {
+  const int stride = num_coefficients + 4;
+  const size_t patches = strided.size() / kStride;
+  std::vector<double> packed(patches * stride);
+  for (size_t p = 0; p < patches; ++p) {
+    const double* in = strided.data() + p * kStride;
+    double* out = packed.data() + p * stride;
+    std::copy(in, in + num_coefficients, out);
+    std::copy(in + kMaxJetCoefficients, in + kMaxJetCoefficients + 4, out + num_coefficients);
+  }
+  return packed;
+}
+
 DrapeSolver::DrapeSolver(const SkinnedBody& body, const TriangleMesh& garment, const SkinWeights& weights,
                          const DrapeSolverOptions& options)
     : garment_(garment) {
@@ -570,6 +601,73 @@ DrapeStepSummary DrapeSolver::Step(const std::vector<Eigen::Isometry3d>& rest_to
   m.history1 = positions_;
   summary.time_s = Seconds(start);
   return summary;
+}
+
+int DrapeSolver::num_patch_parameters() const { return impl_->num_coefficients + 4; }
+
+std::vector<double> DrapeSolver::RestPatchParameters() const {
+  return impl_->PackedPatchParameters(impl_->rest_params);
+}
+
+std::vector<double> DrapeSolver::PatchParameters() const { return impl_->PackedPatchParameters(impl_->params); }
+
+void DrapeSolver::Pose(const std::vector<Eigen::Isometry3d>& rest_to_posed, double k_ext) {
+  Impl& m = *impl_;
+  if (static_cast<int>(rest_to_posed.size()) != m.body.skeleton.num_joints()) {
+    throw std::invalid_argument("DrapeSolver::Pose: one transform per joint is needed");
+  }
+  m.PoseBodyAndGarment(rest_to_posed, &body_vertices_);
+  m.metric_factor = std::sqrt(k_ext);
+  m.SetMotionTargets(model_);
+}
+
+void DrapeSolver::SetHistory(const Eigen::Matrix3Xd& previous, const Eigen::Matrix3Xd& before_previous) {
+  if (previous.cols() != positions_.cols() || before_previous.cols() != positions_.cols()) {
+    throw std::invalid_argument("DrapeSolver::SetHistory: 3 by #V positions are needed");
+  }
+  impl_->history1 = previous;
+  impl_->history2 = before_previous;
+}
+
+Eigen::Matrix3Xd DrapeSolver::PositionsOf(const std::vector<double>& patch_parameters) {
+  Impl& m = *impl_;
+  const std::vector<double> saved_params = m.params, saved_slides = m.slides;
+  m.SetPatchParameters(patch_parameters);
+  std::fill(m.slides.begin(), m.slides.end(), 0.0);
+  Eigen::Matrix3Xd x(3, positions_.cols());
+  m.Positions(model_, &x);
+  m.params = saved_params;
+  m.slides = saved_slides;
+  return x;
+}
+
+double DrapeSolver::Evaluate(const std::vector<double>& patch_parameters, std::vector<double>* gradient) {
+  Impl& m = *impl_;
+  // The solver's state is kept; priors vanish (their means set to the
+  // evaluated point), slides are zero and held constant.
+  const std::vector<double> saved_params = m.params, saved_previous = m.previous_params, saved_slides = m.slides,
+                            saved_previous_slides = m.previous_slides;
+  m.SetPatchParameters(patch_parameters);
+  m.previous_params = m.params;
+  std::fill(m.slides.begin(), m.slides.end(), 0.0);
+  std::fill(m.previous_slides.begin(), m.previous_slides.end(), 0.0);
+  Eigen::Matrix3Xd x(3, positions_.cols());
+  m.Positions(model_, &x);
+  m.QueryContacts(x);
+  m.LinearizeCollisions(model_);
+  ceres::Problem::EvaluateOptions evaluate;
+  for (int p = 0; p < model_.num_patches(); ++p) {
+    evaluate.parameter_blocks.insert(evaluate.parameter_blocks.end(), {m.alpha(p), m.scale(p), m.translation(p)});
+  }
+  evaluate.num_threads = m.options.num_threads;
+  double cost = 0.0;
+  const bool ok = m.problem->Evaluate(evaluate, &cost, nullptr, gradient, nullptr);
+  m.params = saved_params;
+  m.previous_params = saved_previous;
+  m.slides = saved_slides;
+  m.previous_slides = saved_previous_slides;
+  if (!ok) throw std::runtime_error("DrapeSolver::Evaluate: a term could not be evaluated");
+  return cost;
 }
 
 Eigen::VectorXd DrapeSolver::SignedDistances(const Eigen::Matrix3Xd& points) const {

@@ -159,6 +159,25 @@ class DrapeSolver {
   // transform per joint); k_ext multiplies the metric term (the schedule).
   DrapeStepSummary Step(const std::vector<Eigen::Isometry3d>& rest_to_posed, double k_ext = 1.0);
 
+  // The same objective as a loss, for training a network that predicts
+  // the patch parameters (drape/network): Pose() poses the body and sets
+  // the motion targets from the history without solving; Evaluate()
+  // gives the energy at given patch parameters, with every slide at zero
+  // (a network predicts none) and collisions linearised at the positions
+  // those parameters give, and its gradient. Parameters, per patch:
+  // alpha (NumJetCoefficients(order)), s, T; num_patch_parameters() each.
+  // Not thread-safe: use one solver per thread.
+  void Pose(const std::vector<Eigen::Isometry3d>& rest_to_posed, double k_ext = 1.0);
+  double Evaluate(const std::vector<double>& patch_parameters, std::vector<double>* gradient);
+  int num_patch_parameters() const;
+  // The rest patch parameters (the fit), the current ones (the last Step),
+  // and the positions (3 by #V) of given ones with zero slides, posed.
+  std::vector<double> RestPatchParameters() const;
+  std::vector<double> PatchParameters() const;
+  Eigen::Matrix3Xd PositionsOf(const std::vector<double>& patch_parameters);
+  // The positions inertia predicts from: at t - 1 and t - 2 (3 by #V each).
+  void SetHistory(const Eigen::Matrix3Xd& previous, const Eigen::Matrix3Xd& before_previous);
+
   // The garment now (3 by #V): each vertex the mean of its patches' points.
   const Eigen::Matrix3Xd& positions() const { return positions_; }
   const Eigen::Matrix3Xd& body_vertices() const { return body_vertices_; }

@@ -113,6 +113,48 @@ TEST(DrapeSolverTest, PushesAShirtStartingInsideTheBodyOut) {
   EXPECT_GT(d.minCoeff(), -0.005);
 }
 
+TEST(DrapeSolverTest, EvaluateGivesTheEnergyAndItsGradientAtGivenPatchParameters) {
+  const SkinnedBody body = MakeProceduralBody();
+  // Radius 0.138 m: 2 mm inside the torso, so collisions are on.
+  const TriangleMesh shirt = MakeTube(0.138, 0.1, 0.4, 24, 8);
+  DrapeSolverOptions options;
+  options.patching.vertices_per_patch = 40;
+  DrapeSolver solver(body, shirt, RigidWeights(shirt.num_vertices(), 1), options);
+  std::vector<Eigen::Isometry3d> pose(body.skeleton.num_joints(), Eigen::Isometry3d::Identity());
+  for (auto& t : pose) t.translation() = Eigen::Vector3d(0.0, -0.01, 0.005);  // a small drop
+  solver.Pose(pose);
+  std::vector<double> theta = solver.RestPatchParameters();
+  ASSERT_EQ(static_cast<int>(theta.size()), solver.num_patches() * solver.num_patch_parameters());
+  std::mt19937_64 rng(9);
+  std::normal_distribution<double> normal(0.0, 1e-3);
+  for (double& t : theta) t += normal(rng);
+  const std::vector<double> before = solver.PatchParameters();
+  std::vector<double> gradient;
+  const double energy = solver.Evaluate(theta, &gradient);
+  EXPECT_EQ(solver.PatchParameters(), before);  // the solver's own state is untouched
+  ASSERT_EQ(gradient.size(), theta.size());
+  EXPECT_GT(energy, 0.0);
+  EXPECT_NEAR(solver.Evaluate(theta, nullptr), energy, 1e-12 * energy);
+  // Directional derivatives against central differences.
+  for (int trial = 0; trial < 4; ++trial) {
+    std::vector<double> direction(theta.size()), plus = theta, minus = theta;
+    double slope = 0.0;
+    const double h = 1e-7;
+    for (size_t i = 0; i < theta.size(); ++i) {
+      direction[i] = normal(rng) * 1e3;
+      plus[i] += h * direction[i];
+      minus[i] -= h * direction[i];
+      slope += gradient[i] * direction[i];
+    }
+    const double numeric = (solver.Evaluate(plus, nullptr) - solver.Evaluate(minus, nullptr)) / (2.0 * h);
+    EXPECT_NEAR(numeric, slope, 1e-5 * std::abs(slope) + 1e-6) << "trial " << trial;
+  }
+  // Positions of the rest parameters, posed: the rest garment moved by the pose.
+  const Eigen::Matrix3Xd x = solver.PositionsOf(solver.RestPatchParameters());
+  EXPECT_LT((x - (solver.rest_garment().vertices.colwise() + Eigen::Vector3d(0.0, -0.01, 0.005))).cwiseAbs().maxCoeff(),
+            1e-12);
+}
+
 TEST(DrapeSolverTest, StiffWeightRatiosStayFinite) {
   const SkinnedBody body = MakeProceduralBody();
   const TriangleMesh shirt = MakeTube(0.15, 0.1, 0.4, 32, 10);

@@ -103,7 +103,7 @@ int main(int argc, char** argv) {
     return app.exit(e) == 0 ? polyfit::kExitSuccess : polyfit::kExitUsage;
   }
 
-  try {
+  return polyfit::RunReportingErrors("onefit", [&]() -> int {
     if (!shape.empty()) options.shape = polyfit::BodyShape::Parse(shape);
     options.solver.slide.enabled = !no_slide;
     if (cholesky) options.solver.solve.linear_solver = polyfit::DrapeLinearSolver::kSparseCholesky;
@@ -113,14 +113,5 @@ int main(int argc, char** argv) {
     std::printf("wrote %s (meshes/, renders/, frames.csv, metrics.json)\n", options.out_dir.c_str());
     return summary.termination_type == polyfit::TerminationType::kFailure ? polyfit::kExitSolverFailure
                                                                           : polyfit::kExitSuccess;
-  } catch (const polyfit::Error& e) {
-    std::cerr << "onefit: " << e.what() << '\n';
-    return polyfit::ExitCodeFor(e.kind());
-  } catch (const std::invalid_argument& e) {
-    std::cerr << "onefit: " << e.what() << '\n';
-    return polyfit::kExitUsage;
-  } catch (const std::exception& e) {
-    std::cerr << "onefit: " << e.what() << '\n';
-    return polyfit::kExitFailure;
-  }
+  });
 }

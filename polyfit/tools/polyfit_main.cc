@@ -110,7 +110,7 @@ int main(int argc, char** argv) {
     return app.exit(e) == 0 ? polyfit::kExitSuccess : polyfit::kExitUsage;
   }
 
-  try {
+  return polyfit::RunReportingErrors("polyfit", [&]() -> int {
     if (fit->parsed()) {
       if (patches == "auto") {
         batch.fit.clustering.num_patches = 0;
@@ -150,17 +150,8 @@ int main(int argc, char** argv) {
           "  samples to surface (no floor) x1e3 %.6f (A->B %.6f, B->A %.6f)\n",
           1e3 * chamfer.sum(), 1e3 * chamfer.a_to_b, 1e3 * chamfer.b_to_a, samples, 1e3 * floor.sum(),
           1e3 * surface.sum(), 1e3 * surface.a_to_b, 1e3 * surface.b_to_a);
-      return 0;
+      return polyfit::kExitSuccess;
     }
-  } catch (const polyfit::Error& e) {
-    std::cerr << "polyfit: " << e.what() << "\n";
-    return polyfit::ExitCodeFor(e.kind());
-  } catch (const std::invalid_argument& e) {
-    std::cerr << "polyfit: " << e.what() << "\n";
-    return polyfit::kExitUsage;
-  } catch (const std::exception& e) {
-    std::cerr << "polyfit: " << e.what() << "\n";
-    return polyfit::kExitFailure;
-  }
-  return polyfit::kExitSuccess;
+    return polyfit::kExitSuccess;
+  });
 }

@@ -5,6 +5,7 @@
 #ifndef POLYFIT_UTIL_STATUS_H_
 #define POLYFIT_UTIL_STATUS_H_
 
+#include <iostream>
 #include <stdexcept>
 #include <string>
 
@@ -70,6 +71,24 @@ inline int ExitCodeFor(ErrorKind kind) {
     case ErrorKind::kOutput: return kExitOutputError;
   }
   return kExitFailure;
+}
+
+// Runs a command line's body (returning its exit code) and maps what it
+// throws to the codes above, printing "program: message" on stderr.
+template <typename Body>
+int RunReportingErrors(const char* program, Body&& body) {
+  try {
+    return body();
+  } catch (const Error& e) {
+    std::cerr << program << ": " << e.what() << '\n';
+    return ExitCodeFor(e.kind());
+  } catch (const std::invalid_argument& e) {
+    std::cerr << program << ": " << e.what() << '\n';
+    return kExitUsage;
+  } catch (const std::exception& e) {
+    std::cerr << program << ": " << e.what() << '\n';
+    return kExitFailure;
+  }
 }
 
 }  // namespace polyfit

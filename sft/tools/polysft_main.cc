@@ -156,7 +156,7 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? polyfit::kExitSuccess : polyfit::kExitUsage;
   }
-  try {
+  return polyfit::RunReportingErrors("polysft", [&]() -> int {
     if (generate->parsed()) return RunGenerate(generate_flags);
     if (demo->parsed()) {
       solve.scene_dir = demo_dir + "/scene";
@@ -165,14 +165,5 @@ int main(int argc, char** argv) {
       std::printf("generated %s\n", solve.scene_dir.c_str());
     }
     return RunSolve(solve);
-  } catch (const polyfit::Error& e) {
-    std::cerr << "polysft: " << e.what() << "\n";
-    return polyfit::ExitCodeFor(e.kind());
-  } catch (const std::invalid_argument& e) {
-    std::cerr << "polysft: " << e.what() << "\n";
-    return polyfit::kExitUsage;
-  } catch (const std::exception& e) {
-    std::cerr << "polysft: " << e.what() << "\n";
-    return polyfit::kExitFailure;
-  }
+  });
 }
