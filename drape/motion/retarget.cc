@@ -20,6 +20,21 @@ Eigen::Quaterniond YawBetween(const Eigen::Vector3d& from, const Eigen::Vector3d
 MotionRetargeter::MotionRetargeter(const MotionClip& clip, const Skeleton& skeleton)
     : clip_(clip), skeleton_(skeleton) {
   if (clip_.num_frames() == 0) throw BvhError("MotionRetargeter: the clip has no frame");
+  MatchJoints();
+  // The clip's rest pose: every rotation identity, root at the origin.
+  std::vector<Eigen::Vector3d> clip_rest(clip_.num_joints());
+  for (int k = 0; k < clip_.num_joints(); ++k) {
+    const int parent = clip_.joints[k].parent;
+    clip_rest[k] = parent < 0 ? Eigen::Vector3d::Zero() : Eigen::Vector3d(clip_rest[parent] + clip_.joints[k].offset);
+  }
+  AlignHeadings(clip_rest);
+  ComputeScale(clip_rest);
+  FindFloors();
+  AlignRestBones(clip_rest);
+}
+
+// Rig joints to clip joints by name.
+void MotionRetargeter::MatchJoints() {
   const int n = skeleton_.num_joints();
   clip_joint_.assign(n, -1);
   for (int j = 0; j < n; ++j) {
@@ -34,15 +49,10 @@ MotionRetargeter::MotionRetargeter(const MotionClip& clip, const Skeleton& skele
   if (num_matched_ == 0) throw BvhError("MotionRetargeter: no rig joint is named in the clip");
   if (clip_joint_[0] < 0)
     throw BvhError("MotionRetargeter: the clip has no joint named '" + skeleton_.names[0] + "' (the rig's root)");
+}
 
-  // The clip's rest pose: every rotation identity, root at the origin.
-  std::vector<Eigen::Vector3d> clip_rest(clip_.num_joints());
-  for (int k = 0; k < clip_.num_joints(); ++k) {
-    const int parent = clip_.joints[k].parent;
-    clip_rest[k] = parent < 0 ? Eigen::Vector3d::Zero() : Eigen::Vector3d(clip_rest[parent] + clip_.joints[k].offset);
-  }
+void MotionRetargeter::AlignHeadings(const std::vector<Eigen::Vector3d>& clip_rest) {
   const auto rig_head = [&](int j) -> Eigen::Vector3d { return skeleton_.rest_heads.col(j); };
-
   // C_rest: the clip's left (from the right hip to the left) onto the rig's.
   Eigen::Quaterniond rest_turn = Eigen::Quaterniond::Identity();
   Eigen::Vector3d clip_left = Eigen::Vector3d::UnitX();
@@ -63,7 +73,11 @@ MotionRetargeter::MotionRetargeter(const MotionClip& clip, const Skeleton& skele
   const Eigen::Quaterniond heading = YawBetween(root0 * clip_forward, clip_forward);
   clip_to_rig_ = rest_turn * heading;
   rest_turn_ = rest_turn;
+}
 
+void MotionRetargeter::ComputeScale(const std::vector<Eigen::Vector3d>& clip_rest) {
+  const int n = skeleton_.num_joints();
+  const auto rig_head = [&](int j) -> Eigen::Vector3d { return skeleton_.rest_heads.col(j); };
   // Scale: the legs' lengths (hip to ankle) when both have them, else every
   // matched bone's. The clips' spines are much shorter than MakeHuman's, so
   // heights would mislead.
@@ -95,7 +109,11 @@ MotionRetargeter::MotionRetargeter(const MotionClip& clip, const Skeleton& skele
     }
   }
   scale_ = (rig_length > 1e-9 && clip_length > 1e-9) ? rig_length / clip_length : 1.0;
+}
 
+void MotionRetargeter::FindFloors() {
+  const int n = skeleton_.num_joints();
+  const auto rig_head = [&](int j) -> Eigen::Vector3d { return skeleton_.rest_heads.col(j); };
   // Floors: the rig's lowest matched joint at rest; the clip's lowest joint
   // over the whole clip (a toe on the ground). Per frame, the clip's lowest
   // joint above its floor.
@@ -111,7 +129,12 @@ MotionRetargeter::MotionRetargeter(const MotionClip& clip, const Skeleton& skele
     }
   }
   clip_floor_ = *std::min_element(clip_lowest_.begin(), clip_lowest_.end());
+}
 
+void MotionRetargeter::AlignRestBones(const std::vector<Eigen::Vector3d>& clip_rest) {
+  const int n = skeleton_.num_joints();
+  const auto rig_head = [&](int j) -> Eigen::Vector3d { return skeleton_.rest_heads.col(j); };
+  const Eigen::Quaterniond rest_turn = rest_turn_;
   // A_j: rig rest bone vectors onto the clip's (turned into the rig's frame).
   rest_alignment_.assign(n, Eigen::Quaterniond::Identity());
   for (int j = 0; j < n; ++j) {

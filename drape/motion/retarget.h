@@ -51,6 +51,14 @@ class MotionRetargeter {
   Eigen::Vector3d RootVelocity(int f) const;
 
  private:
+  // Construction, in order. clip_rest: the clip's joint positions with every
+  // rotation identity and the root at the origin.
+  void MatchJoints();
+  void AlignHeadings(const std::vector<Eigen::Vector3d>& clip_rest);
+  void ComputeScale(const std::vector<Eigen::Vector3d>& clip_rest);
+  void FindFloors();
+  void AlignRestBones(const std::vector<Eigen::Vector3d>& clip_rest);
+
   MotionClip clip_;
   Skeleton skeleton_;
   std::vector<int> clip_joint_;                                      // per rig joint, or -1

@@ -15,12 +15,23 @@
 
 #include "drape/simulate/drape_simulation.h"
 
-int main(int argc, char** argv) {
-  CLI::App app{"onefit: garment draping on patch-wise jets"};
-  app.require_subcommand(1);
+namespace {
+
+// The flags of `onefit simulate`, onto the options (defaults stay in them):
+// one line per flag, hence the length.
+struct SimulateFlags {
   polyfit::DrapeSimulationOptions options;
   std::string shape;
-  CLI::App* simulate = app.add_subcommand("simulate", "drape a garment through a motion clip, frame by frame");
+  bool no_slide = false;
+  bool cholesky = false;
+};
+
+CLI::App* AddSimulateCommand(CLI::App* app, SimulateFlags* f) {
+  polyfit::DrapeSimulationOptions& options = f->options;
+  std::string& shape = f->shape;
+  bool& no_slide = f->no_slide;
+  bool& cholesky = f->cholesky;
+  CLI::App* simulate = app->add_subcommand("simulate", "drape a garment through a motion clip, frame by frame");
   simulate->add_option("--body", options.body_dir,
                        "MakeHuman body folder (../shared/data/drape/body); none: procedural body");
   simulate->add_option("--garment", options.garment_path, ".mhclo garment, or a mesh in the body's rest pose (m)")
@@ -49,7 +60,6 @@ int main(int argc, char** argv) {
       ->add_option("--max-fit-error", options.solver.patching.max_fit_error,
                    "split patches whose jet misses a vertex by more (m)")
       ->capture_default_str();
-  bool no_slide = false;
   simulate->add_flag("--no-slide", no_slide, "keep every vertex at its rest (u, v) on its patch");
   simulate
       ->add_option("--slide-agreement", options.solver.slide.agreement,
@@ -62,7 +72,6 @@ int main(int argc, char** argv) {
       ->add_option("--max-refine-iterations", options.solver.solve.max_refine_iterations,
                    "LM iterations per later pass")
       ->capture_default_str();
-  bool cholesky = false;
   simulate->add_flag("--cholesky", cholesky,
                      "sparse Cholesky steps at any size (default: CG from 1500 garment vertices)");
   simulate->add_option("--trace", options.solver.solve.trace, "Ceres reports on stderr: 1 per solve, 2 per iteration")
@@ -97,21 +106,33 @@ int main(int argc, char** argv) {
                    "smoothing steps scaled by distance to the body over this (m)")
       ->capture_default_str();
   simulate->add_option("--threads", options.solver.num_threads, "threads")->capture_default_str();
+  return simulate;
+}
+
+int RunSimulate(SimulateFlags& f) {
+  polyfit::DrapeSimulationOptions& options = f.options;
+  if (!f.shape.empty()) options.shape = polyfit::BodyShape::Parse(f.shape);
+  options.solver.slide.enabled = !f.no_slide;
+  if (f.cholesky) options.solver.solve.linear_solver = polyfit::DrapeLinearSolver::kSparseCholesky;
+  const polyfit::DrapeSimulationSummary summary = polyfit::RunDrapeSimulation(options);
+  for (const std::string& warning : summary.warnings) std::cerr << "warning: " << warning << '\n';
+  std::printf("%s\n", summary.BriefReport().c_str());
+  std::printf("wrote %s (meshes/, renders/, frames.csv, metrics.json)\n", options.out_dir.c_str());
+  return summary.termination_type == polyfit::TerminationType::kFailure ? polyfit::kExitSolverFailure
+                                                                        : polyfit::kExitSuccess;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"onefit: garment draping on patch-wise jets"};
+  app.require_subcommand(1);
+  SimulateFlags simulate;
+  AddSimulateCommand(&app, &simulate);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? polyfit::kExitSuccess : polyfit::kExitUsage;
   }
-
-  return polyfit::RunReportingErrors("onefit", [&]() -> int {
-    if (!shape.empty()) options.shape = polyfit::BodyShape::Parse(shape);
-    options.solver.slide.enabled = !no_slide;
-    if (cholesky) options.solver.solve.linear_solver = polyfit::DrapeLinearSolver::kSparseCholesky;
-    const polyfit::DrapeSimulationSummary summary = polyfit::RunDrapeSimulation(options);
-    for (const std::string& warning : summary.warnings) std::cerr << "warning: " << warning << '\n';
-    std::printf("%s\n", summary.BriefReport().c_str());
-    std::printf("wrote %s (meshes/, renders/, frames.csv, metrics.json)\n", options.out_dir.c_str());
-    return summary.termination_type == polyfit::TerminationType::kFailure ? polyfit::kExitSolverFailure
-                                                                          : polyfit::kExitSuccess;
-  });
+  return polyfit::RunReportingErrors("onefit", [&]() -> int { return RunSimulate(simulate); });
 }

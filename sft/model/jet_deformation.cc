@@ -107,6 +107,15 @@ JetDeformationModel::JetDeformationModel(const JetDeformationOptions& options,
 
 void JetDeformationModel::Evaluate(const double* theta, Eigen::Matrix3Xd* vertices, Eigen::MatrixXd* jacobian) const {
   if (texture_space_) {
+    EvaluateTextureSpace(theta, vertices, jacobian);
+  } else {
+    EvaluatePatchJet(theta, vertices, jacobian);
+  }
+}
+
+void JetDeformationModel::EvaluateTextureSpace(const double* theta, Eigen::Matrix3Xd* vertices,
+                                               Eigen::MatrixXd* jacobian) const {
+  {
     const int n = num_vertices(), m = static_cast<int>(st_monomials_.rows());
     const double* omega = theta + rotation_offset();
     const Eigen::Map<const Eigen::Vector3d> translation(theta + translation_offset());
@@ -132,8 +141,11 @@ void JetDeformationModel::Evaluate(const double* theta, Eigen::Matrix3Xd* vertic
         rows(k, translation_offset() + k) = 1.0;
       }
     }
-    return;
   }
+}
+
+void JetDeformationModel::EvaluatePatchJet(const double* theta, Eigen::Matrix3Xd* vertices,
+                                           Eigen::MatrixXd* jacobian) const {
   const int n = num_vertices(), order = patch_.order;
   const int num_alpha = NumJetCoefficients(order);
   double alpha[kMaxJetCoefficients];

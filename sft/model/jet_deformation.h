@@ -76,6 +76,8 @@ class JetDeformationModel {
   void Evaluate(const double* theta, Eigen::Matrix3Xd* vertices, Eigen::MatrixXd* jacobian = nullptr) const;
 
  private:
+  void EvaluateTextureSpace(const double* theta, Eigen::Matrix3Xd* vertices, Eigen::MatrixXd* jacobian) const;
+  void EvaluatePatchJet(const double* theta, Eigen::Matrix3Xd* vertices, Eigen::MatrixXd* jacobian) const;
   JetDeformationOptions options_;
   JetPatch patch_;
   Eigen::Matrix2Xd uv_;

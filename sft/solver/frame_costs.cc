@@ -27,6 +27,84 @@ bool RenderCost::EvaluateNormalEquations(const double* theta, double* squared_no
   return Compute(theta, nullptr, nullptr, squared_norm, jtj, jtr);
 }
 
+namespace {
+
+// Robust loss per pixel (iteratively reweighted least squares): the RGB
+// residual r scaled by sqrt(rho(s) / s), its Jacobian by sqrt(rho'(s)),
+// s = |r|^2, b the loss's scale.
+void ApplyRobustLoss(RobustLoss loss, double b, double* r, double* jacobian_scale) {
+  if (loss == RobustLoss::kNone) return;
+  const double s = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+  const double b2 = b * b;
+  double rho = s, rho1 = 1.0;
+  if (loss == RobustLoss::kHuber && s > b2) {
+    rho = 2.0 * std::sqrt(s * b2) - b2;
+    rho1 = std::sqrt(b2 / s);
+  } else if (loss == RobustLoss::kCauchy) {
+    rho = b2 * std::log1p(s / b2);
+    rho1 = 1.0 / (1.0 + s / b2);
+  }
+  const double residual_scale = s > 0.0 ? std::sqrt(rho / s) : 1.0;
+  for (int ch = 0; ch < 3; ++ch) r[ch] *= residual_scale;
+  *jacobian_scale *= std::sqrt(rho1);
+}
+
+}  // namespace
+
+void RenderCost::ChainPixelJacobian(int pixel, int P, PixelRows* local) const {
+  // local (4 by P) = sum over the pixel's vertices of d (4 by 3) times their
+  // 3 by P rows; written out, as Eigen's dynamic-size product costs more
+  // than the arithmetic at this size.
+  local->setZero();
+  for (int k = render_.begin[pixel]; k < render_.end[pixel]; ++k) {
+    const VertexGradient& g = render_.gradients[k];
+    const double* s0 = screen_theta_.data() + static_cast<size_t>(3 * g.vertex) * P;
+    const double* s1 = s0 + P;
+    const double* s2 = s1 + P;
+    for (int a = 0; a < 4; ++a) {
+      const double d0 = g.d[a][0], d1 = g.d[a][1], d2 = g.d[a][2];
+      double* out = local->data() + static_cast<size_t>(a) * P;
+      for (int c = 0; c < P; ++c) out[c] += d0 * s0[c] + d1 * s1[c] + d2 * s2[c];
+    }
+  }
+}
+
+void RenderCost::ResetAccumulators(int threads, int P, bool want_jacobian) const {
+  accumulators_.resize(threads);
+  for (Accumulator& a : accumulators_) {
+    a.squared_norm = 0.0;
+    if (want_jacobian) {
+      a.jtj.setZero(P, P);
+      a.jtr.setZero(P);
+      a.rows.resize(kBlockRows, P);
+      a.values.resize(kBlockRows);
+      a.count = 0;
+    }
+  }
+}
+
+void RenderCost::Flush(Accumulator* a) {
+  if (a->count == 0) return;
+  a->jtj.selfadjointView<Eigen::Lower>().rankUpdate(a->rows.topRows(a->count).transpose());
+  a->jtr.noalias() += a->rows.topRows(a->count).transpose() * a->values.head(a->count);
+  a->count = 0;
+}
+
+void RenderCost::ReduceAccumulators(int P, bool want_jacobian, double* squared_norm, Eigen::MatrixXd* jtj,
+                                    Eigen::VectorXd* jtr) const {
+  *squared_norm = 0.0;
+  for (Accumulator& a : accumulators_) *squared_norm += a.squared_norm;
+  if (!want_jacobian) return;
+  jtj->setZero(P, P);
+  jtr->setZero(P);
+  for (Accumulator& a : accumulators_) {
+    Flush(&a);
+    *jtj += a.jtj;
+    *jtr += a.jtr;
+  }
+  *jtj = jtj->selfadjointView<Eigen::Lower>();
+}
+
 bool RenderCost::Compute(const double* theta, double* residuals, double* jacobian, double* squared_norm,
                          Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr) const {
   const JetDeformationModel& model = *data_.model;
@@ -50,59 +128,24 @@ bool RenderCost::Compute(const double* theta, double* residuals, double* jacobia
   const int width = data_.camera.width;
   // Normal equations: per thread, Jacobian rows of covered pixels are
   // gathered in blocks and added with one symmetric rank-k update each.
-  constexpr int kBlockRows = 64;
   const int threads = std::max(1, std::min(ResolveNumThreads(data_.rasterizer->options().num_threads), roi.height));
-  if (normal) {
-    accumulators_.resize(threads);
-    for (Accumulator& a : accumulators_) {
-      a.squared_norm = 0.0;
-      if (want_jacobian) {
-        a.jtj.setZero(P, P);
-        a.jtr.setZero(P);
-        a.rows.resize(kBlockRows, P);
-        a.values.resize(kBlockRows);
-        a.count = 0;
-      }
-    }
+  if (normal) ResetAccumulators(threads, P, want_jacobian);
+  if (static_cast<int>(scratch_.size()) < threads || (!scratch_.empty() && scratch_[0].cols() != P)) {
+    scratch_.assign(threads, PixelRows(4, P));
   }
-  auto flush = [P](Accumulator& a) {
-    if (a.count == 0) return;
-    a.jtj.selfadjointView<Eigen::Lower>().rankUpdate(a.rows.topRows(a.count).transpose());
-    a.jtr.noalias() += a.rows.topRows(a.count).transpose() * a.values.head(a.count);
-    a.count = 0;
-  };
-  // Per-thread scratch rows (4 by P), allocated once per evaluation.
-  std::vector<Eigen::Matrix<double, 4, Eigen::Dynamic, Eigen::RowMajor>> scratch(
-      threads, Eigen::Matrix<double, 4, Eigen::Dynamic, Eigen::RowMajor>(4, P));
   ParallelFor(
       roi.height, threads,
       [&](int thread, int row) {
         const int y = roi.y + row;
-        Eigen::Matrix<double, 4, Eigen::Dynamic, Eigen::RowMajor>& local = scratch[thread];
+        PixelRows& local = scratch_[thread];
         double r[4];
         for (int col = 0; col < roi.width; ++col) {
           const int x = roi.x + col;
           const int r0 = (row * roi.width + col) * channels_;
           const cv::Vec3f rendered = render_.color.at<cv::Vec3f>(y, x), observed = data_.image.at<cv::Vec3f>(y, x);
           for (int ch = 0; ch < 3; ++ch) r[ch] = data_.photometric_weight * (rendered[ch] - observed[ch]);
-          // Robust loss per pixel: residual scaled by sqrt(rho(s) / s), Jacobian
-          // by sqrt(rho'(s)) (iteratively reweighted least squares).
-          double residual_scale = 1.0, jacobian_scale = data_.photometric_weight;
-          if (data_.robust_loss != RobustLoss::kNone) {
-            const double s = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
-            const double b2 = data_.robust_scale * data_.robust_scale;
-            double rho = s, rho1 = 1.0;
-            if (data_.robust_loss == RobustLoss::kHuber && s > b2) {
-              rho = 2.0 * std::sqrt(s * b2) - b2;
-              rho1 = std::sqrt(b2 / s);
-            } else if (data_.robust_loss == RobustLoss::kCauchy) {
-              rho = b2 * std::log1p(s / b2);
-              rho1 = 1.0 / (1.0 + s / b2);
-            }
-            residual_scale = s > 0.0 ? std::sqrt(rho / s) : 1.0;
-            jacobian_scale *= std::sqrt(rho1);
-          }
-          for (int ch = 0; ch < 3; ++ch) r[ch] *= residual_scale;
+          double jacobian_scale = data_.photometric_weight;
+          ApplyRobustLoss(data_.robust_loss, data_.robust_scale, r, &jacobian_scale);
           if (channels_ == 4) {
             r[3] = data_.silhouette_weight * (render_.silhouette.at<float>(y, x) - data_.mask.at<float>(y, x));
           }
@@ -115,21 +158,7 @@ bool RenderCost::Compute(const double* theta, double* residuals, double* jacobia
           if (!want_jacobian) continue;
           const int pixel = y * width + x;
           if (render_.end[pixel] == render_.begin[pixel] && jacobian == nullptr) continue;  // a zero row
-          // local (4 by P) = sum over the pixel's vertices of d(4 by 3) times
-          // their 3 by P rows; written out, as Eigen's dynamic-size product
-          // costs more than the arithmetic at this size.
-          local.setZero();
-          for (int k = render_.begin[pixel]; k < render_.end[pixel]; ++k) {
-            const VertexGradient& g = render_.gradients[k];
-            const double* s0 = screen_theta_.data() + static_cast<size_t>(3 * g.vertex) * P;
-            const double* s1 = s0 + P;
-            const double* s2 = s1 + P;
-            for (int a = 0; a < 4; ++a) {
-              const double d0 = g.d[a][0], d1 = g.d[a][1], d2 = g.d[a][2];
-              double* out = local.data() + static_cast<size_t>(a) * P;
-              for (int c = 0; c < P; ++c) out[c] += d0 * s0[c] + d1 * s1[c] + d2 * s2[c];
-            }
-          }
+          ChainPixelJacobian(pixel, P, &local);
           local.topRows(3) *= jacobian_scale;
           local.row(3) *= data_.silhouette_weight;
           if (jacobian != nullptr) {
@@ -140,7 +169,7 @@ bool RenderCost::Compute(const double* theta, double* residuals, double* jacobia
           }
           if (normal) {
             Accumulator& a = accumulators_[thread];
-            if (a.count + channels_ > kBlockRows) flush(a);
+            if (a.count + channels_ > kBlockRows) Flush(&a);
             a.rows.middleRows(a.count, channels_) = local.topRows(channels_);
             for (int ch = 0; ch < channels_; ++ch) a.values[a.count + ch] = r[ch];
             a.count += channels_;
@@ -148,20 +177,7 @@ bool RenderCost::Compute(const double* theta, double* residuals, double* jacobia
         }
       },
       1);
-  if (normal) {
-    *squared_norm = 0.0;
-    for (Accumulator& a : accumulators_) *squared_norm += a.squared_norm;
-    if (want_jacobian) {
-      jtj->setZero(P, P);
-      jtr->setZero(P);
-      for (Accumulator& a : accumulators_) {
-        flush(a);
-        *jtj += a.jtj;
-        *jtr += a.jtr;
-      }
-      *jtj = jtj->selfadjointView<Eigen::Lower>();
-    }
-  }
+  if (normal) ReduceAccumulators(P, want_jacobian, squared_norm, jtj, jtr);
   return true;
 }
 

@@ -55,8 +55,17 @@ class RenderCost : public ceres::CostFunction {
     Eigen::VectorXd values;
     int count = 0;
   };
+  // Rows of the Jacobian of one pixel's 4 residuals (RGB, silhouette).
+  using PixelRows = Eigen::Matrix<double, 4, Eigen::Dynamic, Eigen::RowMajor>;
+  static constexpr int kBlockRows = 64;
+
   bool Compute(const double* theta, double* residuals, double* jacobian, double* squared_norm, Eigen::MatrixXd* jtj,
                Eigen::VectorXd* jtr) const;
+  void ChainPixelJacobian(int pixel, int P, PixelRows* local) const;
+  void ResetAccumulators(int threads, int P, bool want_jacobian) const;
+  static void Flush(Accumulator* a);
+  void ReduceAccumulators(int P, bool want_jacobian, double* squared_norm, Eigen::MatrixXd* jtj,
+                          Eigen::VectorXd* jtr) const;
 
   Data data_;
   int channels_;
@@ -67,6 +76,7 @@ class RenderCost : public ceres::CostFunction {
   // Row-major: a vertex's three rows are contiguous.
   mutable Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> screen_theta_;
   mutable std::vector<Accumulator> accumulators_;
+  mutable std::vector<PixelRows> scratch_;  // per thread
 };
 
 // RenderCost compressed (cost_functions/compressed_cost.h) from its normal
