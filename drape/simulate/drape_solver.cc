@@ -641,6 +641,23 @@ Eigen::Matrix3Xd DrapeSolver::PositionsOf(const std::vector<double>& patch_param
   return x;
 }
 
+Eigen::Matrix3Xd DrapeSolver::PositionsAt(const std::vector<double>& patch_parameters,
+                                          const std::vector<Eigen::Isometry3d>& rest_to_posed) {
+  Impl& m = *impl_;
+  if (static_cast<int>(rest_to_posed.size()) != m.body.skeleton.num_joints()) {
+    throw std::invalid_argument("DrapeSolver::PositionsAt: one transform per joint is needed");
+  }
+  const std::vector<Eigen::Matrix3d> saved_linear = m.skin_linear;
+  const std::vector<Eigen::Vector3d> saved_translation = m.skin_translation;
+  for (int v = 0; v < static_cast<int>(m.skin_linear.size()); ++v) {
+    m.weights.Blend(v, rest_to_posed, &m.skin_linear[v], &m.skin_translation[v]);
+  }
+  Eigen::Matrix3Xd x = PositionsOf(patch_parameters);
+  m.skin_linear = saved_linear;
+  m.skin_translation = saved_translation;
+  return x;
+}
+
 double DrapeSolver::Evaluate(const std::vector<double>& patch_parameters, std::vector<double>* gradient) {
   Impl& m = *impl_;
   // The solver's state is kept; priors vanish (their means set to the

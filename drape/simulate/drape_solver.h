@@ -175,6 +175,10 @@ class DrapeSolver {
   std::vector<double> RestPatchParameters() const;
   std::vector<double> PatchParameters() const;
   Eigen::Matrix3Xd PositionsOf(const std::vector<double>& patch_parameters);
+  // The same with the garment posed by `rest_to_posed` instead of the
+  // current pose (the body is not posed: cheap, for a history of frames).
+  Eigen::Matrix3Xd PositionsAt(const std::vector<double>& patch_parameters,
+                               const std::vector<Eigen::Isometry3d>& rest_to_posed);
   // The positions inertia predicts from: at t - 1 and t - 2 (3 by #V each).
   void SetHistory(const Eigen::Matrix3Xd& previous, const Eigen::Matrix3Xd& before_previous);
 

@@ -1,0 +1,158 @@
+#include "drape/network/onefit_features.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "polyfit/jet/jet_basis.h"
+
+namespace polyfit {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// gamma(p): p, then sin and cos of 2^l pi p per frequency (3 (1 + 2L)).
+void Encode(const Eigen::Vector3d& p, double* out) {
+  int k = 0;
+  for (int c = 0; c < 3; ++c) out[k++] = p[c];
+  for (int l = 0; l < kPositionalFrequencies; ++l) {
+    const double f = std::ldexp(kPi, l);
+    for (int c = 0; c < 3; ++c) {
+      out[k++] = std::sin(f * p[c]);
+      out[k++] = std::cos(f * p[c]);
+    }
+  }
+}
+
+constexpr int kEncodedSize = 3 * (1 + 2 * kPositionalFrequencies);
+
+// The first two columns of a rotation: a continuous 6D descriptor.
+void SixD(const Eigen::Matrix3d& r, double* out) {
+  for (int c = 0; c < 2; ++c) {
+    for (int k = 0; k < 3; ++k) out[3 * c + k] = r(k, c);
+  }
+}
+
+// Per joint, its rotation relative to its parent's (6D each).
+Eigen::VectorXd LocalRotations(const Skeleton& skeleton, const JointTransforms& pose) {
+  const int n = skeleton.num_joints();
+  if (static_cast<int>(pose.size()) != n)
+    throw std::invalid_argument("BodyFeatures: one transform per joint is needed");
+  Eigen::VectorXd out(6 * n);
+  for (int j = 0; j < n; ++j) {
+    const int p = skeleton.parents[j];
+    const Eigen::Matrix3d local =
+        p < 0 ? pose[j].linear() : Eigen::Matrix3d(pose[p].linear().transpose() * pose[j].linear());
+    SixD(local, out.data() + 6 * j);
+  }
+  return out;
+}
+
+// Where the root is, and how it is turned (the root's rest head, posed).
+Eigen::Vector3d RootPosition(const Skeleton& skeleton, const JointTransforms& pose) {
+  return pose[0] * Eigen::Vector3d(skeleton.rest_heads.col(0));
+}
+
+}  // namespace
+
+int PatchFeatureSize(int jet_order, int num_joints) {
+  return NumJetCoefficients(jet_order) + 1 + 6 + kEncodedSize + num_joints + kEncodedSize;
+}
+
+int BodyFeatureSize(int num_joints) { return 3 * 6 * num_joints + 2 * 3 + 2 * 3 + 5; }
+
+Eigen::MatrixXd PatchFeatures(const PolyFitModel& model, const std::vector<double>& rest_parameters,
+                              const SkinWeights& weights, const Skeleton& skeleton) {
+  const int num_patches = model.num_patches();
+  if (num_patches == 0) throw std::invalid_argument("PatchFeatures: the garment has no patch");
+  const int stride = static_cast<int>(rest_parameters.size()) / num_patches;
+  const int num_coefficients = stride - 4;
+  if (stride * num_patches != static_cast<int>(rest_parameters.size()) || num_coefficients < 1) {
+    throw std::invalid_argument("PatchFeatures: rest parameters do not fit the patches");
+  }
+  if (weights.num_vertices() != model.num_vertices()) {
+    throw std::invalid_argument("PatchFeatures: skinning weights for another garment");
+  }
+  const int num_joints = skeleton.num_joints();
+  // Members' mean skinning weights per patch.
+  Eigen::MatrixXd patch_weights = Eigen::MatrixXd::Zero(num_joints, num_patches);
+  Eigen::VectorXd members = Eigen::VectorXd::Zero(num_patches);
+  for (int v = 0; v < model.num_vertices(); ++v) {
+    for (int k : model.memberships(v)) {
+      const int p = model.membership_patch[k];
+      for (int i = weights.offsets[v]; i < weights.offsets[v + 1]; ++i) {
+        patch_weights(weights.joint[i], p) += weights.value[i];
+      }
+      members[p] += 1.0;
+    }
+  }
+  const int size = num_coefficients + 1 + 6 + kEncodedSize + num_joints + kEncodedSize;
+  Eigen::MatrixXd features(size, num_patches);
+  for (int p = 0; p < num_patches; ++p) {
+    const double* rest = rest_parameters.data() + p * stride;
+    double* out = features.col(p).data();
+    int k = 0;
+    for (int c = 0; c < num_coefficients; ++c) out[k++] = rest[c];
+    out[k++] = std::log(std::max(rest[num_coefficients], 1e-12));
+    SixD(model.patches[p].frame.rotation, out + k);
+    k += 6;
+    const Eigen::Vector3d centre(rest[num_coefficients + 1], rest[num_coefficients + 2], rest[num_coefficients + 3]);
+    Encode(centre, out + k);
+    k += kEncodedSize;
+    const Eigen::VectorXd w =
+        members[p] > 0.0 ? Eigen::VectorXd(patch_weights.col(p) / members[p]) : Eigen::VectorXd::Zero(num_joints);
+    for (int j = 0; j < num_joints; ++j) out[k++] = w[j];
+    Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+    for (int j = 0; j < num_joints; ++j) offset += w[j] * (centre - skeleton.rest_heads.col(j));
+    Encode(offset, out + k);
+  }
+  return features;
+}
+
+Eigen::VectorXd BodyFeatures(const Skeleton& skeleton, const JointTransforms& before_previous,
+                             const JointTransforms& previous, const JointTransforms& now, double fps,
+                             const BodyShape& shape) {
+  if (!(fps > 0.0)) throw std::invalid_argument("BodyFeatures: fps must be positive");
+  const int n = skeleton.num_joints();
+  const Eigen::VectorXd r2 = LocalRotations(skeleton, before_previous);
+  const Eigen::VectorXd r1 = LocalRotations(skeleton, previous);
+  const Eigen::VectorXd r0 = LocalRotations(skeleton, now);
+  Eigen::VectorXd out(BodyFeatureSize(n));
+  int k = 0;
+  out.segment(k, 6 * n) = r0;
+  k += 6 * n;
+  out.segment(k, 6 * n) = r0 - r1;
+  k += 6 * n;
+  out.segment(k, 6 * n) = r1 - r2;
+  k += 6 * n;
+  const Eigen::Vector3d down(0.0, -1.0, 0.0);
+  for (const JointTransforms* pose : {&now, &previous}) {
+    out.segment<3>(k) = (*pose)[0].linear().transpose() * down;
+    k += 3;
+  }
+  const Eigen::Vector3d v0 = (RootPosition(skeleton, now) - RootPosition(skeleton, previous)) * fps;
+  const Eigen::Vector3d v1 = (RootPosition(skeleton, previous) - RootPosition(skeleton, before_previous)) * fps;
+  out.segment<3>(k) = now[0].linear().transpose() * v0;
+  k += 3;
+  out.segment<3>(k) = previous[0].linear().transpose() * v1;
+  k += 3;
+  for (double value : {shape.gender, shape.muscle, shape.weight, shape.height, shape.proportions}) out[k++] = value;
+  return out;
+}
+
+FeatureNormalizer FeatureNormalizer::Fit(const Eigen::MatrixXd& samples) {
+  FeatureNormalizer n;
+  n.mean = samples.rowwise().mean();
+  n.inv_std.resize(samples.rows());
+  for (Eigen::Index i = 0; i < samples.rows(); ++i) {
+    const double variance = samples.cols() > 1 ? (samples.row(i).array() - n.mean[i]).square().mean() : 0.0;
+    n.inv_std[i] = variance > 1e-12 ? 1.0 / std::sqrt(variance) : 1.0;
+  }
+  return n;
+}
+
+Eigen::MatrixXd FeatureNormalizer::Apply(const Eigen::MatrixXd& x) const {
+  if (x.rows() != mean.size()) throw std::invalid_argument("FeatureNormalizer: the features have the wrong size");
+  return (x.colwise() - mean).array().colwise() * inv_std.array();
+}
+
+}  // namespace polyfit

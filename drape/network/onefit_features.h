@@ -1,0 +1,70 @@
+// The inputs of OneFit's network (the paper's Sec. 4 and supplement 7.5),
+// computed on a CPU.
+//
+// Per garment patch k (once per garment, not per frame), from its rest
+// PolyFit description and its binding to the body:
+//   alpha_k                     the rest jet's coefficients (NumJetCoefficients)
+//   log s_k                     its scale
+//   r1, r2                      the first two columns of its frame R_k (6D)
+//   gamma(T_k)                  its centre T_k and a positional encoding of it
+//   w_k                         its members' mean skinning weight per joint (#J)
+//   gamma(sum_j w_kj (T_k - h_j))  its offset from the joints it follows,
+//                               skinning-weighted, and its encoding
+// with gamma(p) = (p, sin(2^l pi p), cos(2^l pi p)), l = 0 .. L-1.
+//
+// Per frame (shared by every patch), from the pose and its two
+// predecessors (the dynamic part, a window rather than a GRU):
+//   the 6D local rotation of every joint relative to its parent, at t, and
+//   its changes t - (t-1) and (t-1) - (t-2); gravity's direction and the
+//   root's velocity (m/s), both in the root's frame, at t and t-1; the
+//   body's five macro shape values.
+#ifndef POLYFIT_DRAPE_NETWORK_ONEFIT_FEATURES_H_
+#define POLYFIT_DRAPE_NETWORK_ONEFIT_FEATURES_H_
+
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "drape/body/body_shape.h"
+#include "drape/body/makehuman_body.h"
+#include "drape/garment/skin_transfer.h"
+#include "polyfit/model/polyfit_model.h"
+
+namespace polyfit {
+
+// Frequencies of the positional encoding.
+inline constexpr int kPositionalFrequencies = 4;
+
+int PatchFeatureSize(int jet_order, int num_joints);
+int BodyFeatureSize(int num_joints);
+
+// #features by #patches. rest_parameters: per patch alpha, s, T as
+// DrapeSolver::RestPatchParameters gives them; model: the patches' frames
+// and memberships; weights: the garment's skinning weights.
+Eigen::MatrixXd PatchFeatures(const PolyFitModel& model, const std::vector<double>& rest_parameters,
+                              const SkinWeights& weights, const Skeleton& skeleton);
+
+// A frame's pose: the rest-to-posed transform of every joint.
+using JointTransforms = std::vector<Eigen::Isometry3d>;
+
+// #features. poses: frames t - 2, t - 1, t (the first two may repeat t at
+// a clip's start); fps: frames per second (for the root's velocity).
+Eigen::VectorXd BodyFeatures(const Skeleton& skeleton, const JointTransforms& before_previous,
+                             const JointTransforms& previous, const JointTransforms& now, double fps,
+                             const BodyShape& shape);
+
+// Per-feature mean and inverse spread, from training samples (columns),
+// applied as (x - mean) * inv_std. Features that never vary keep scale 1.
+struct FeatureNormalizer {
+  Eigen::VectorXd mean;
+  Eigen::VectorXd inv_std;
+
+  static FeatureNormalizer Fit(const Eigen::MatrixXd& samples);
+  Eigen::MatrixXd Apply(const Eigen::MatrixXd& x) const;
+  bool empty() const { return mean.size() == 0; }
+};
+
+}  // namespace polyfit
+
+#endif  // POLYFIT_DRAPE_NETWORK_ONEFIT_FEATURES_H_

@@ -1,0 +1,112 @@
+#include "drape/network/onefit_network.h"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace polyfit {
+namespace {
+
+std::vector<int> Sizes(int input, const std::vector<int>& hidden, int output) {
+  std::vector<int> sizes{input};
+  sizes.insert(sizes.end(), hidden.begin(), hidden.end());
+  sizes.push_back(output);
+  return sizes;
+}
+
+}  // namespace
+
+std::string OneFitNetworkOptions::Validate() const {
+  if (patch_embedding < 1 || body_embedding < 1) return "embeddings must have at least one value";
+  for (const std::vector<int>* hidden : {&patch_hidden, &body_hidden, &decoder_hidden}) {
+    for (int n : *hidden) {
+      if (n < 1) return "hidden layers must have at least one unit";
+    }
+  }
+  if (!(initial_output_scale > 0.0)) return "initial_output_scale must be > 0";
+  return {};
+}
+
+OneFitNetwork::OneFitNetwork(int patch_features, int body_features, int num_coefficients,
+                             const OneFitNetworkOptions& options)
+    : patch_encoder_(Sizes(patch_features, options.patch_hidden, options.patch_embedding)),
+      body_encoder_(Sizes(body_features, options.body_hidden, options.body_embedding)),
+      decoder_(Sizes(options.patch_embedding + options.body_embedding, options.decoder_hidden, num_coefficients + 4)),
+      num_coefficients_(num_coefficients) {
+  if (const std::string problem = options.Validate(); !problem.empty()) {
+    throw std::invalid_argument("OneFitNetworkOptions: " + problem);
+  }
+}
+
+void OneFitNetwork::Initialize(std::uint64_t seed, double output_scale, double* weights) const {
+  patch_encoder_.Initialize(seed, 1.0, weights);
+  body_encoder_.Initialize(seed + 1, 1.0, weights + body_encoder_offset());
+  decoder_.Initialize(seed + 2, output_scale, weights + decoder_offset());
+}
+
+void OneFitNetwork::Forward(const double* weights, const Eigen::MatrixXd& patch_features,
+                            const Eigen::VectorXd& body_features, Eigen::MatrixXd* outputs, Cache* cache) const {
+  const Eigen::Index num_patches = patch_features.cols();
+  Eigen::MatrixXd z_t, z_b;
+  patch_encoder_.Forward(weights, patch_features, &z_t, cache != nullptr ? &cache->patch : nullptr);
+  body_encoder_.Forward(weights + body_encoder_offset(), body_features, &z_b,
+                        cache != nullptr ? &cache->body : nullptr);
+  Eigen::MatrixXd joint(z_t.rows() + z_b.rows(), num_patches);
+  joint.topRows(z_t.rows()) = z_t;
+  joint.bottomRows(z_b.rows()) = z_b.col(0).replicate(1, num_patches);
+  decoder_.Forward(weights + decoder_offset(), joint, outputs, cache != nullptr ? &cache->decoder : nullptr);
+  if (cache != nullptr) cache->num_patches = static_cast<int>(num_patches);
+}
+
+void OneFitNetwork::Backward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_outputs,
+                             double* gradient) const {
+  Eigen::MatrixXd d_joint;
+  decoder_.Backward(weights + decoder_offset(), cache.decoder, d_outputs, gradient + decoder_offset(), &d_joint);
+  const int e_t = patch_encoder_.output_size();
+  const Eigen::MatrixXd d_z_t = d_joint.topRows(e_t);
+  const Eigen::MatrixXd d_z_b = d_joint.bottomRows(d_joint.rows() - e_t).rowwise().sum();
+  patch_encoder_.Backward(weights, cache.patch, d_z_t, gradient);
+  body_encoder_.Backward(weights + body_encoder_offset(), cache.body, d_z_b, gradient + body_encoder_offset());
+}
+
+std::vector<double> PatchParametersFromOutputs(const std::vector<double>& rest,
+                                               const std::vector<Eigen::Matrix3d>& frames,
+                                               const Eigen::MatrixXd& outputs) {
+  const int num_patches = static_cast<int>(outputs.cols());
+  const int stride = static_cast<int>(outputs.rows());
+  const int k = stride - 4;
+  if (static_cast<int>(rest.size()) != stride * num_patches || static_cast<int>(frames.size()) != num_patches) {
+    throw std::invalid_argument("PatchParametersFromOutputs: sizes disagree");
+  }
+  std::vector<double> params(rest.size());
+  for (int p = 0; p < num_patches; ++p) {
+    const double* r = rest.data() + p * stride;
+    double* out = params.data() + p * stride;
+    for (int c = 0; c < k; ++c) out[c] = r[c] + outputs(c, p);
+    out[k] = r[k] * std::exp(outputs(k, p));
+    const Eigen::Vector3d t =
+        Eigen::Map<const Eigen::Vector3d>(r + k + 1) + r[k] * frames[p] * outputs.col(p).tail<3>();
+    Eigen::Map<Eigen::Vector3d>(out + k + 1) = t;
+  }
+  return params;
+}
+
+Eigen::MatrixXd ChainPatchParameterGradient(const std::vector<double>& rest, const std::vector<Eigen::Matrix3d>& frames,
+                                            const Eigen::MatrixXd& outputs, const std::vector<double>& gradient) {
+  const int num_patches = static_cast<int>(outputs.cols());
+  const int stride = static_cast<int>(outputs.rows());
+  const int k = stride - 4;
+  if (static_cast<int>(gradient.size()) != stride * num_patches) {
+    throw std::invalid_argument("ChainPatchParameterGradient: sizes disagree");
+  }
+  Eigen::MatrixXd d(stride, num_patches);
+  for (int p = 0; p < num_patches; ++p) {
+    const double* g = gradient.data() + p * stride;
+    const double s0 = rest[p * stride + k];
+    for (int c = 0; c < k; ++c) d(c, p) = g[c];
+    d(k, p) = g[k] * s0 * std::exp(outputs(k, p));
+    d.col(p).tail<3>() = s0 * frames[p].transpose() * Eigen::Map<const Eigen::Vector3d>(g + k + 1);
+  }
+  return d;
+}
+
+}  // namespace polyfit

@@ -1,0 +1,91 @@
+// OneFit's network (the paper's Sec. 4, supplement 7.5, sized for a CPU):
+//
+//   Z_T = E_T(patch features)        per patch, once per garment
+//   Z_B = E_B(body features)         per frame, shared by all patches
+//   y_k = D(concat(Z_T,k, Z_B))      per patch: (d alpha, d s, d T)
+//
+// E_T, E_B and D are MLPs (mlp.h) with skip connections; their weights are
+// one flat vector [E_T | E_B | D]. The output of patch k turns its rest
+// parameters (alpha_0, s_0, T_0, frame R_0) into the drape's:
+//
+//   alpha = alpha_0 + d alpha,   s = s_0 exp(d s),   T = T_0 + s_0 R_0 d T
+//
+// in the body's rest pose, which the garment's skinning then poses, as in
+// the reference drape (drape/simulate/drape_solver.h). Inputs are
+// normalised features (onefit_features.h).
+#ifndef POLYFIT_DRAPE_NETWORK_ONEFIT_NETWORK_H_
+#define POLYFIT_DRAPE_NETWORK_ONEFIT_NETWORK_H_
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "drape/network/mlp.h"
+
+namespace polyfit {
+
+struct OneFitNetworkOptions {
+  std::vector<int> patch_hidden = {64, 64};
+  int patch_embedding = 32;
+  std::vector<int> body_hidden = {128, 128};
+  int body_embedding = 32;
+  std::vector<int> decoder_hidden = {128, 128, 128};
+  // The last layers start scaled by this: a new network predicts about
+  // the rest patches, posed by skinning alone.
+  double initial_output_scale = 0.01;
+  std::uint64_t seed = 1;
+
+  std::string Validate() const;
+};
+
+class OneFitNetwork {
+ public:
+  OneFitNetwork() = default;
+  // num_coefficients: the jets' (NumJetCoefficients(order)).
+  OneFitNetwork(int patch_features, int body_features, int num_coefficients, const OneFitNetworkOptions& options);
+
+  int num_parameters() const {
+    return patch_encoder_.num_parameters() + body_encoder_.num_parameters() + decoder_.num_parameters();
+  }
+  int num_outputs() const { return decoder_.output_size(); }  // per patch: NumJetCoefficients + 4
+  int num_coefficients() const { return num_coefficients_; }
+  const Mlp& patch_encoder() const { return patch_encoder_; }
+  const Mlp& body_encoder() const { return body_encoder_; }
+  const Mlp& decoder() const { return decoder_; }
+  // Offsets of E_B's and D's weights in the flat vector (E_T's is 0).
+  int body_encoder_offset() const { return patch_encoder_.num_parameters(); }
+  int decoder_offset() const { return body_encoder_offset() + body_encoder_.num_parameters(); }
+
+  void Initialize(std::uint64_t seed, double output_scale, double* weights) const;
+
+  struct Cache {
+    MlpCache patch, body, decoder;
+    int num_patches = 0;
+  };
+  // patch_features: #patch features by #patches; body_features: one frame.
+  // outputs: num_outputs() by #patches.
+  void Forward(const double* weights, const Eigen::MatrixXd& patch_features, const Eigen::VectorXd& body_features,
+               Eigen::MatrixXd* outputs, Cache* cache = nullptr) const;
+  // Adds dL/dweights to gradient given dL/doutputs.
+  void Backward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_outputs, double* gradient) const;
+
+ private:
+  Mlp patch_encoder_, body_encoder_, decoder_;
+  int num_coefficients_ = 0;
+};
+
+// alpha, s, T per patch (packed as DrapeSolver's patch parameters) from the
+// rest ones, the patches' frames R_0 (column-major 3 by 3 each) and the
+// network's outputs (num_coefficients + 4 by #patches).
+std::vector<double> PatchParametersFromOutputs(const std::vector<double>& rest,
+                                               const std::vector<Eigen::Matrix3d>& frames,
+                                               const Eigen::MatrixXd& outputs);
+// dL/doutputs from dL/d(patch parameters) at those outputs.
+Eigen::MatrixXd ChainPatchParameterGradient(const std::vector<double>& rest, const std::vector<Eigen::Matrix3d>& frames,
+                                            const Eigen::MatrixXd& outputs, const std::vector<double>& gradient);
+
+}  // namespace polyfit
+
+#endif  // POLYFIT_DRAPE_NETWORK_ONEFIT_NETWORK_H_

@@ -1,0 +1,243 @@
+#include "drape/network/onefit_trainer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <stdexcept>
+
+#include <ceres/gradient_problem.h>
+#include <ceres/gradient_problem_solver.h>
+
+#include "polyfit/util/parallel_for.h"
+
+namespace polyfit {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Seconds(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+// A mini-batch's loss as Ceres' first-order function of the weights.
+class BatchLoss : public ceres::FirstOrderFunction {
+ public:
+  BatchLoss(OneFitTrainer* trainer, const std::vector<OneFitSample>* samples) : trainer_(trainer), samples_(samples) {}
+  bool Evaluate(const double* weights, double* cost, double* gradient) const override {
+    *cost = trainer_->Loss(weights, *samples_, gradient);
+    return std::isfinite(*cost);
+  }
+  int NumParameters() const override { return trainer_->num_parameters(); }
+
+ private:
+  OneFitTrainer* trainer_;
+  const std::vector<OneFitSample>* samples_;
+};
+
+}  // namespace
+
+std::string OneFitTrainerOptions::Validate() const {
+  if (std::string p = network.Validate(); !p.empty()) return "network: " + p;
+  if (std::string p = drape.Validate(); !p.empty()) return "drape: " + p;
+  if (batch_size < 1 || iterations_per_batch < 1 || num_batches < 1) {
+    return "batch_size, iterations_per_batch and num_batches must be >= 1";
+  }
+  if (lbfgs_rank < 1) return "lbfgs_rank must be >= 1";
+  if (num_threads < 1) return "num_threads must be >= 1";
+  return {};
+}
+
+std::string OneFitTrainingSummary::BriefReport() const {
+  char line[256];
+  const double first = batches.empty() ? 0.0 : batches.front().initial_loss;
+  const double last = batches.empty() ? 0.0 : batches.back().final_loss;
+  std::snprintf(line, sizeof(line), "%s: %zu batches, loss %.4g -> %.4g J, %.1f s",
+                TerminationTypeToString(termination_type), batches.size(), first, last, total_time_s);
+  std::string report = line;
+  if (!message.empty()) report += " (" + message + ")";
+  return report;
+}
+
+// Per garment: one drape (the loss) per thread, and what the network reads.
+struct OneFitTrainer::GarmentData {
+  std::string name;
+  std::vector<std::unique_ptr<DrapeSolver>> solvers;  // per thread
+  std::vector<double> rest;                           // patch parameters at rest
+  std::vector<Eigen::Matrix3d> frames;                // R_0 per patch
+  Eigen::MatrixXd raw_features, features;             // per patch: raw, normalised
+};
+
+OneFitTrainer::OneFitTrainer(const SkinnedBody& body, std::vector<OneFitTrainingGarment> garments,
+                             std::vector<OneFitTrainingClip> clips, const OneFitTrainerOptions& options)
+    : body_(body), clips_(std::move(clips)), options_(options) {
+  if (const std::string problem = options.Validate(); !problem.empty()) {
+    throw std::invalid_argument("OneFitTrainerOptions: " + problem);
+  }
+  if (garments.empty() || clips_.empty()) throw std::invalid_argument("OneFitTrainer: no garment or no clip");
+  for (const OneFitTrainingClip& clip : clips_) {
+    if (clip.poses.empty()) throw std::invalid_argument("OneFitTrainer: clip '" + clip.name + "' has no frame");
+  }
+  DrapeSolverOptions drape = options.drape;
+  drape.num_threads = 1;  // samples run side by side instead
+  Eigen::MatrixXd all_patch_features;
+  for (const OneFitTrainingGarment& g : garments) {
+    auto data = std::make_unique<GarmentData>();
+    data->name = g.name;
+    try {
+      for (int t = 0; t < options.num_threads; ++t) {
+        data->solvers.push_back(std::make_unique<DrapeSolver>(body_, g.mesh, g.weights, drape));
+      }
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument("OneFitTrainer: garment '" + g.name + "': " + e.what());
+    }
+    const DrapeSolver& solver = *data->solvers.front();
+    data->rest = solver.RestPatchParameters();
+    for (const JetPatch& patch : solver.model().patches) data->frames.push_back(patch.frame.rotation);
+    data->raw_features = PatchFeatures(solver.model(), data->rest, g.weights, body_.skeleton);
+    Eigen::MatrixXd joined(data->raw_features.rows(), all_patch_features.cols() + data->raw_features.cols());
+    if (all_patch_features.size() > 0) joined.leftCols(all_patch_features.cols()) = all_patch_features;
+    joined.rightCols(data->raw_features.cols()) = data->raw_features;
+    all_patch_features = std::move(joined);
+    garments_.push_back(std::move(data));
+  }
+  patch_normalizer_ = FeatureNormalizer::Fit(all_patch_features);
+  for (auto& g : garments_) g->features = patch_normalizer_.Apply(g->raw_features);
+  // Body features of every training frame.
+  int frames = 0;
+  for (const OneFitTrainingClip& clip : clips_) frames += static_cast<int>(clip.poses.size());
+  Eigen::MatrixXd body_samples(BodyFeatureSize(body_.skeleton.num_joints()), frames);
+  int column = 0;
+  for (const OneFitTrainingClip& clip : clips_) {
+    for (int t = 0; t < static_cast<int>(clip.poses.size()); ++t) {
+      const auto pose = [&](int f) -> const JointTransforms& { return clip.poses[std::max(f, 0)]; };
+      body_samples.col(column++) =
+          BodyFeatures(body_.skeleton, pose(t - 2), pose(t - 1), pose(t), clip.fps, clip.shape);
+    }
+  }
+  body_normalizer_ = FeatureNormalizer::Fit(body_samples);
+  const int num_coefficients = garments_.front()->solvers.front()->num_patch_parameters() - 4;
+  network_ = OneFitNetwork(static_cast<int>(all_patch_features.rows()), static_cast<int>(body_samples.rows()),
+                           num_coefficients, options.network);
+}
+
+OneFitTrainer::~OneFitTrainer() = default;
+
+std::vector<double> OneFitTrainer::InitialWeights() const {
+  std::vector<double> weights(network_.num_parameters());
+  network_.Initialize(options_.seed, options_.network.initial_output_scale, weights.data());
+  return weights;
+}
+
+Eigen::VectorXd OneFitTrainer::NormalizedBodyFeatures(int clip, int frame) const {
+  const OneFitTrainingClip& c = clips_[clip];
+  const auto pose = [&](int f) -> const JointTransforms& { return c.poses[std::clamp(f, 0, int(c.poses.size()) - 1)]; };
+  return body_normalizer_.Apply(
+      BodyFeatures(body_.skeleton, pose(frame - 2), pose(frame - 1), pose(frame), c.fps, c.shape));
+}
+
+std::vector<double> OneFitTrainer::Predict(const double* weights, int garment, int clip, int frame) {
+  const GarmentData& g = *garments_.at(garment);
+  Eigen::MatrixXd outputs;
+  network_.Forward(weights, g.features, NormalizedBodyFeatures(clip, frame), &outputs);
+  return PatchParametersFromOutputs(g.rest, g.frames, outputs);
+}
+
+double OneFitTrainer::SampleLoss(const double* weights, const OneFitSample& sample, int thread, double* gradient) {
+  GarmentData& g = *garments_[sample.garment];
+  DrapeSolver& solver = *g.solvers[thread];
+  const OneFitTrainingClip& clip = clips_[sample.clip];
+  const int last = static_cast<int>(clip.poses.size()) - 1;
+  const auto pose = [&](int f) -> const JointTransforms& { return clip.poses[std::clamp(f, 0, last)]; };
+  // The network's own positions at t - 1 and t - 2: inertia's data.
+  Eigen::Matrix3Xd history[2];
+  for (int back = 1; back <= 2; ++back) {
+    const int f = std::max(sample.frame - back, 0);
+    history[back - 1] = solver.PositionsAt(Predict(weights, sample.garment, sample.clip, f), pose(f));
+  }
+  solver.SetHistory(history[0], history[1]);
+  solver.Pose(pose(sample.frame));
+  Eigen::MatrixXd outputs;
+  OneFitNetwork::Cache cache;
+  network_.Forward(weights, g.features, NormalizedBodyFeatures(sample.clip, sample.frame), &outputs,
+                   gradient != nullptr ? &cache : nullptr);
+  const std::vector<double> params = PatchParametersFromOutputs(g.rest, g.frames, outputs);
+  std::vector<double> d_params;
+  const double energy = solver.Evaluate(params, gradient != nullptr ? &d_params : nullptr);
+  if (gradient != nullptr) {
+    network_.Backward(weights, cache, ChainPatchParameterGradient(g.rest, g.frames, outputs, d_params), gradient);
+  }
+  return energy;
+}
+
+double OneFitTrainer::Loss(const double* weights, const std::vector<OneFitSample>& samples, double* gradient) {
+  const int threads = std::max(1, std::min<int>(options_.num_threads, static_cast<int>(samples.size())));
+  const int n = num_parameters();
+  std::vector<std::vector<double>> gradients(threads);
+  std::vector<double> energies(samples.size(), 0.0);
+  if (gradient != nullptr) {
+    for (auto& g : gradients) g.assign(n, 0.0);
+  }
+  ParallelFor(static_cast<int>(samples.size()), threads, [&](int thread, int i) {
+    energies[i] = SampleLoss(weights, samples[i], thread, gradient != nullptr ? gradients[thread].data() : nullptr);
+  });
+  const double scale = 1.0 / static_cast<double>(samples.size());
+  double loss = 0.0;
+  for (double e : energies) loss += scale * e;
+  if (gradient != nullptr) {
+    std::fill(gradient, gradient + n, 0.0);
+    for (const auto& g : gradients) {
+      for (int i = 0; i < n; ++i) gradient[i] += scale * g[i];
+    }
+  }
+  return loss;
+}
+
+OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights) {
+  const auto start = Clock::now();
+  if (static_cast<int>(weights->size()) != num_parameters()) {
+    throw std::invalid_argument("OneFitTrainer::Train: " + std::to_string(weights->size()) +
+                                " weights, the network has " + std::to_string(num_parameters()));
+  }
+  OneFitTrainingSummary summary;
+  std::mt19937_64 rng(options_.seed);
+  std::vector<OneFitSample> batch(options_.batch_size);
+  std::vector<double> best = *weights;
+  for (int b = 0; b < options_.num_batches; ++b) {
+    for (OneFitSample& s : batch) {
+      s.garment = std::uniform_int_distribution<int>(0, static_cast<int>(garments_.size()) - 1)(rng);
+      s.clip = std::uniform_int_distribution<int>(0, static_cast<int>(clips_.size()) - 1)(rng);
+      s.frame = std::uniform_int_distribution<int>(0, static_cast<int>(clips_[s.clip].poses.size()) - 1)(rng);
+    }
+    ceres::GradientProblemSolver::Options solver;
+    solver.line_search_direction_type = ceres::LBFGS;
+    solver.max_lbfgs_rank = options_.lbfgs_rank;
+    solver.max_num_iterations = options_.iterations_per_batch;
+    solver.logging_type = ceres::SILENT;
+    ceres::GradientProblem problem(new BatchLoss(this, &batch));
+    ceres::GradientProblemSolver::Summary result;
+    ceres::Solve(solver, problem, weights->data(), &result);
+    OneFitBatchSummary record;
+    record.batch = b;
+    record.initial_loss = result.initial_cost;
+    record.final_loss = result.final_cost;
+    record.iterations = static_cast<int>(result.iterations.size()) - 1;
+    record.time_s = Seconds(start);
+    summary.batches.push_back(record);
+    const bool finite = std::all_of(weights->begin(), weights->end(), [](double w) { return std::isfinite(w); });
+    if (!finite || !std::isfinite(result.final_cost)) {
+      *weights = best;
+      summary.termination_type = TerminationType::kFailure;
+      summary.message = "batch " + std::to_string(b) + " left non-finite weights; the last good ones are kept";
+      break;
+    }
+    best = *weights;
+  }
+  if (summary.termination_type != TerminationType::kFailure) {
+    summary.termination_type = TerminationType::kNoConvergence;
+    summary.message = "the batch budget ran out (training runs a fixed number of batches)";
+  }
+  summary.total_time_s = Seconds(start);
+  return summary;
+}
+
+}  // namespace polyfit

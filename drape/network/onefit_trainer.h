@@ -1,0 +1,120 @@
+// OneFit's self-supervised training as a Ceres problem over the network's
+// weights. The loss of a sample (garment g, clip c, frame t) is the
+// reference drape's energy (DrapeSolver::Evaluate: collision, edge and
+// metric inextensibility, patch boundaries, gravity folded into inertia)
+// at the patch parameters the network predicts for frame t, with inertia
+// predicted from the network's own positions at t - 1 and t - 2 (held as
+// data: no gradient flows into earlier frames). A mini-batch's loss is the
+// mean over its samples; its gradient is the hand-written backward pass
+// (onefit_network.h) chained onto the energy's gradient. Each batch is a
+// ceres::GradientProblem solved by L-BFGS for a few iterations (L-BFGS
+// restarts with each Solve), then the next batch is drawn.
+#ifndef POLYFIT_DRAPE_NETWORK_ONEFIT_TRAINER_H_
+#define POLYFIT_DRAPE_NETWORK_ONEFIT_TRAINER_H_
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "drape/body/makehuman_body.h"
+#include "drape/garment/skin_transfer.h"
+#include "drape/network/onefit_features.h"
+#include "drape/network/onefit_network.h"
+#include "drape/simulate/drape_solver.h"
+#include "polyfit/mesh/triangle_mesh.h"
+#include "polyfit/util/status.h"
+
+namespace polyfit {
+
+struct OneFitTrainingGarment {
+  std::string name;
+  TriangleMesh mesh;  // in the body's rest pose
+  SkinWeights weights;
+};
+
+struct OneFitTrainingClip {
+  std::string name;
+  std::vector<JointTransforms> poses;  // one per frame, retargeted onto the body
+  double fps = 30.0;
+  BodyShape shape;
+};
+
+struct OneFitTrainerOptions {
+  OneFitNetworkOptions network;
+  // The loss: the reference drape's terms, weights and patches.
+  DrapeSolverOptions drape;
+  int batch_size = 8;
+  int iterations_per_batch = 5;
+  int num_batches = 20;
+  int lbfgs_rank = 20;
+  std::uint64_t seed = 1;
+  int num_threads = 2;
+
+  std::string Validate() const;
+};
+
+struct OneFitBatchSummary {
+  int batch = 0;
+  double initial_loss = 0.0;  // the batch's mean energy (J) before its solve
+  double final_loss = 0.0;    // and after
+  int iterations = 0;
+  double time_s = 0.0;  // since training started
+};
+
+struct OneFitTrainingSummary {
+  TerminationType termination_type = TerminationType::kConvergence;
+  std::string message;
+  std::vector<OneFitBatchSummary> batches;
+  double total_time_s = 0.0;
+
+  std::string BriefReport() const;
+};
+
+// One sample of the loss.
+struct OneFitSample {
+  int garment = 0;
+  int clip = 0;
+  int frame = 0;
+};
+
+class OneFitTrainer {
+ public:
+  // Throws std::invalid_argument for invalid options, no garment or clip,
+  // or a garment the drape cannot patch (naming it).
+  OneFitTrainer(const SkinnedBody& body, std::vector<OneFitTrainingGarment> garments,
+                std::vector<OneFitTrainingClip> clips, const OneFitTrainerOptions& options);
+  ~OneFitTrainer();
+
+  const OneFitNetwork& network() const { return network_; }
+  int num_parameters() const { return network_.num_parameters(); }
+  // New weights (seeded).
+  std::vector<double> InitialWeights() const;
+
+  // The mean loss over `samples` and, if gradient is not null, its gradient
+  // (num_parameters()). Thread-safe across distinct trainers only.
+  double Loss(const double* weights, const std::vector<OneFitSample>& samples, double* gradient);
+
+  // Trains `weights` in place.
+  OneFitTrainingSummary Train(std::vector<double>* weights);
+
+  // The patch parameters the network predicts for a garment at a clip's
+  // frame (the network alone, as DrapeSolver lays them out).
+  std::vector<double> Predict(const double* weights, int garment, int clip, int frame);
+
+ private:
+  struct GarmentData;
+  Eigen::VectorXd NormalizedBodyFeatures(int clip, int frame) const;
+  double SampleLoss(const double* weights, const OneFitSample& sample, int thread, double* gradient);
+
+  SkinnedBody body_;
+  std::vector<OneFitTrainingClip> clips_;
+  OneFitTrainerOptions options_;
+  std::vector<std::unique_ptr<GarmentData>> garments_;
+  FeatureNormalizer patch_normalizer_, body_normalizer_;
+  OneFitNetwork network_;
+};
+
+}  // namespace polyfit
+
+#endif  // POLYFIT_DRAPE_NETWORK_ONEFIT_TRAINER_H_
