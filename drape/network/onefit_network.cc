@@ -35,6 +35,15 @@ OneFitNetwork::OneFitNetwork(int patch_features, int body_features, int num_coef
   if (const std::string problem = options.Validate(); !problem.empty()) {
     throw std::invalid_argument("OneFitNetworkOptions: " + problem);
   }
+  Check();
+}
+
+OneFitNetwork::OneFitNetwork(Mlp patch_encoder, Mlp body_encoder, Mlp decoder, int num_coefficients)
+    : patch_encoder_(std::move(patch_encoder)),
+      body_encoder_(std::move(body_encoder)),
+      decoder_(std::move(decoder)),
+      num_coefficients_(num_coefficients) {
+  Check();
 }
 
 void OneFitNetwork::Initialize(std::uint64_t seed, double output_scale, double* weights) const {
@@ -66,6 +75,55 @@ void OneFitNetwork::Backward(const double* weights, const Cache& cache, const Ei
   const Eigen::MatrixXd d_z_b = d_joint.bottomRows(d_joint.rows() - e_t).rowwise().sum();
   patch_encoder_.Backward(weights, cache.patch, d_z_t, gradient);
   body_encoder_.Backward(weights + body_encoder_offset(), cache.body, d_z_b, gradient + body_encoder_offset());
+}
+
+Eigen::MatrixXd OneFitNetwork::GarmentHalf(const double* weights, const Eigen::MatrixXd& patch_features) const {
+  Eigen::MatrixXd z_t;
+  patch_encoder_.Forward(weights, patch_features, &z_t);
+  const double* d = weights + decoder_offset();
+  const int width = decoder_.sizes()[1], e_t = patch_encoder_.output_size();
+  const Eigen::Map<const Eigen::MatrixXd> w(d + decoder_.weight_offset(0), width, decoder_.input_size());
+  const Eigen::Map<const Eigen::VectorXd> b(d + decoder_.bias_offset(0), width);
+  Eigen::MatrixXd half = w.leftCols(e_t) * z_t;
+  half.colwise() += b;
+  return half;
+}
+
+void OneFitNetwork::ForwardWithGarmentHalf(const double* weights, const Eigen::MatrixXd& garment_half,
+                                           const Eigen::VectorXd& body_features, Eigen::MatrixXd* outputs) const {
+  Eigen::MatrixXd z_b;
+  body_encoder_.Forward(weights + body_encoder_offset(), body_features, &z_b);
+  const double* d = weights + decoder_offset();
+  const int width = decoder_.sizes()[1], e_t = patch_encoder_.output_size();
+  const Eigen::Map<const Eigen::MatrixXd> w(d + decoder_.weight_offset(0), width, decoder_.input_size());
+  Eigen::MatrixXd a = garment_half;
+  a.colwise() += w.rightCols(z_b.rows()) * z_b.col(0);
+  if (decoder_.num_layers() == 1) {
+    *outputs = std::move(a);
+    return;
+  }
+  // The rest of the decoder: its layers 1.. as an MLP of their own.
+  const Eigen::MatrixXd h = (a.array() > 0.0).select(a, decoder_.leaky_slope() * a);
+  static_cast<void>(e_t);
+  decoder_tail_.Forward(d + decoder_.weight_offset(1), h, outputs);
+}
+
+void OneFitNetwork::Check() {
+  if (decoder_.input_size() != patch_encoder_.output_size() + body_encoder_.output_size() ||
+      decoder_.output_size() != num_coefficients_ + 4) {
+    throw std::invalid_argument("OneFitNetwork: the encoders' embeddings and the decoder's sizes do not chain");
+  }
+  // The garment half is precomputed without the decoder's input, which a
+  // skip at its first layer would need.
+  if (decoder_.SkipsAt(0)) {
+    throw std::invalid_argument(
+        "OneFitNetwork: the decoder's first hidden layer must differ in width from the embeddings together");
+  }
+  // Layers 1.. of the decoder, as an MLP of their own (same weights layout).
+  if (decoder_.num_layers() > 1) {
+    decoder_tail_ = Mlp(std::vector<int>(decoder_.sizes().begin() + 1, decoder_.sizes().end()), decoder_.residual(),
+                        decoder_.leaky_slope());
+  }
 }
 
 std::vector<double> PatchParametersFromOutputs(const std::vector<double>& rest,

@@ -34,7 +34,7 @@ struct OneFitNetworkOptions {
   std::vector<int> decoder_hidden = {128, 128, 128};
   // The last layers start scaled by this: a new network predicts about
   // the rest patches, posed by skinning alone.
-  double initial_output_scale = 0.01;
+  double initial_output_scale = 1e-3;
   std::uint64_t seed = 1;
 
   std::string Validate() const;
@@ -45,6 +45,9 @@ class OneFitNetwork {
   OneFitNetwork() = default;
   // num_coefficients: the jets' (NumJetCoefficients(order)).
   OneFitNetwork(int patch_features, int body_features, int num_coefficients, const OneFitNetworkOptions& options);
+  // From its three MLPs (a saved model); throws std::invalid_argument when
+  // their sizes do not chain.
+  OneFitNetwork(Mlp patch_encoder, Mlp body_encoder, Mlp decoder, int num_coefficients);
 
   int num_parameters() const {
     return patch_encoder_.num_parameters() + body_encoder_.num_parameters() + decoder_.num_parameters();
@@ -68,11 +71,21 @@ class OneFitNetwork {
   // outputs: num_outputs() by #patches.
   void Forward(const double* weights, const Eigen::MatrixXd& patch_features, const Eigen::VectorXd& body_features,
                Eigen::MatrixXd* outputs, Cache* cache = nullptr) const;
+  // Inference with the garment's half precomputed (once per garment): the
+  // decoder's first layer splits as W [z_T; z_B] + b = (W_T z_T + b) + W_B z_B,
+  // so per frame only W_B z_B is new. GarmentHalf: first-layer width by
+  // #patches; ForwardWithGarmentHalf gives Forward's outputs.
+  Eigen::MatrixXd GarmentHalf(const double* weights, const Eigen::MatrixXd& patch_features) const;
+  void ForwardWithGarmentHalf(const double* weights, const Eigen::MatrixXd& garment_half,
+                              const Eigen::VectorXd& body_features, Eigen::MatrixXd* outputs) const;
   // Adds dL/dweights to gradient given dL/doutputs.
   void Backward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_outputs, double* gradient) const;
 
  private:
+  void Check();
+
   Mlp patch_encoder_, body_encoder_, decoder_;
+  Mlp decoder_tail_;  // the decoder's layers after the first
   int num_coefficients_ = 0;
 };
 

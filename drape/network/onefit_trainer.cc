@@ -135,6 +135,17 @@ Eigen::VectorXd OneFitTrainer::NormalizedBodyFeatures(int clip, int frame) const
       BodyFeatures(body_.skeleton, pose(frame - 2), pose(frame - 1), pose(frame), c.fps, c.shape));
 }
 
+OneFitModel OneFitTrainer::MakeModel(const std::vector<double>& weights) const {
+  OneFitModel model;
+  model.jet_order = options_.drape.patching.jet_order;
+  model.num_joints = body_.skeleton.num_joints();
+  model.network = network_;
+  model.patch_normalizer = patch_normalizer_;
+  model.body_normalizer = body_normalizer_;
+  model.weights = weights;
+  return model;
+}
+
 std::vector<double> OneFitTrainer::Predict(const double* weights, int garment, int clip, int frame) {
   const GarmentData& g = *garments_.at(garment);
   Eigen::MatrixXd outputs;

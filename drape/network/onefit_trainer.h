@@ -20,6 +20,7 @@
 #include "drape/body/makehuman_body.h"
 #include "drape/garment/skin_transfer.h"
 #include "drape/network/onefit_features.h"
+#include "drape/network/onefit_model.h"
 #include "drape/network/onefit_network.h"
 #include "drape/simulate/drape_solver.h"
 #include "polyfit/mesh/triangle_mesh.h"
@@ -94,6 +95,9 @@ class OneFitTrainer {
   // The mean loss over `samples` and, if gradient is not null, its gradient
   // (num_parameters()). Thread-safe across distinct trainers only.
   double Loss(const double* weights, const std::vector<OneFitSample>& samples, double* gradient);
+
+  // The trained network as a model file holds it.
+  OneFitModel MakeModel(const std::vector<double>& weights) const;
 
   // Trains `weights` in place.
   OneFitTrainingSummary Train(std::vector<double>* weights);

@@ -1,11 +1,14 @@
 #include "drape/network/onefit_trainer.h"
 
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <random>
 
 #include <gtest/gtest.h>
 
 #include "drape/body/procedural_body.h"
+#include "drape/network/onefit_draper.h"
 #include "polyfit/mesh/primitives.h"
 
 namespace polyfit {
@@ -47,7 +50,7 @@ class OneFitTrainerTest : public ::testing::Test {
     options_.network.patch_embedding = 8;
     options_.network.body_hidden = {16};
     options_.network.body_embedding = 8;
-    options_.network.decoder_hidden = {16, 16};
+    options_.network.decoder_hidden = {24, 24};
     options_.batch_size = 4;
     options_.iterations_per_batch = 5;
     options_.num_batches = 6;
@@ -65,11 +68,13 @@ TEST_F(OneFitTrainerTest, ANewNetworkPredictsAboutTheRestPatches) {
   const std::vector<double> predicted = trainer_->Predict(weights.data(), 0, 0, 3);
   std::fill(weights.begin(), weights.end(), 0.0);  // zero output: exactly the rest patches
   const std::vector<double> rest = trainer_->Predict(weights.data(), 0, 0, 3);
-  ASSERT_EQ(predicted.size(), rest.size());
-  double largest = 0.0;
-  for (size_t i = 0; i < rest.size(); ++i) largest = std::max(largest, std::abs(predicted[i] - rest[i]));
-  EXPECT_LT(largest, 0.05);
-  EXPECT_GT(largest, 0.0);
+  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
+  DrapeSolver solver(body_, shirt.mesh, RigidWeights(shirt.mesh.num_vertices(), 1), options_.drape);
+  EXPECT_EQ(rest, solver.RestPatchParameters());
+  // Within a few millimetres of the rest garment, but not on it.
+  const double moved = (solver.PositionsOf(predicted) - solver.PositionsOf(rest)).colwise().norm().maxCoeff();
+  EXPECT_LT(moved, 0.005);
+  EXPECT_GT(moved, 0.0);
 }
 
 TEST_F(OneFitTrainerTest, TheLossGradientMatchesCentralDifferences) {
@@ -110,6 +115,56 @@ TEST_F(OneFitTrainerTest, TrainingLowersTheLossDeterministically) {
   std::vector<double> again = trainer_->InitialWeights();
   trainer_->Train(&again);
   EXPECT_EQ(again, weights);
+}
+
+TEST_F(OneFitTrainerTest, AModelFileRoundTripsAndTheDraperPredictsAsTraining) {
+  std::vector<double> weights = trainer_->InitialWeights();
+  std::mt19937_64 rng(2);
+  std::normal_distribution<double> normal(0.0, 0.05);
+  for (double& w : weights) w += normal(rng);
+  const OneFitModel model = trainer_->MakeModel(weights);
+  ASSERT_EQ(model.Validate(), "");
+  const std::string path = ::testing::TempDir() + "/onefit_test.pfonefit";
+  SaveOneFitModel(path, model);
+  const OneFitModel loaded = LoadOneFitModel(path);
+  EXPECT_EQ(loaded.weights, model.weights);
+  EXPECT_EQ(loaded.network.decoder().sizes(), model.network.decoder().sizes());
+  EXPECT_EQ(loaded.body_normalizer.inv_std, model.body_normalizer.inv_std);
+
+  // The draper (garment half precomputed) predicts what training sees.
+  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
+  shirt.weights = RigidWeights(shirt.mesh.num_vertices(), 1);
+  DrapeSolver solver(body_, shirt.mesh, shirt.weights, options_.drape);
+  const OneFitDraper draper(loaded, solver, shirt.weights, body_.skeleton);
+  const OneFitTrainingClip clip = Bob(body_, 8);
+  const std::vector<double> a = draper.Predict(clip.poses[1], clip.poses[2], clip.poses[3], clip.fps, clip.shape);
+  const std::vector<double> b = trainer_->Predict(weights.data(), 0, 0, 3);
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) EXPECT_NEAR(a[i], b[i], 1e-12) << i;
+
+  // Damaged files are named, never half-read.
+  std::ifstream in(path, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), {});
+  const auto expect_error = [&](const std::string& content, const std::string& needle) {
+    std::ofstream(path, std::ios::binary) << content;
+    try {
+      LoadOneFitModel(path);
+      ADD_FAILURE() << "expected an error mentioning " << needle;
+    } catch (const OneFitModelError& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+      EXPECT_EQ(e.kind(), ErrorKind::kInput);
+    }
+  };
+  expect_error(bytes.substr(0, bytes.size() / 2), "truncated");
+  expect_error("not a model at all", "bad magic");
+  std::string wrong_version = bytes;
+  wrong_version[8] = 9;
+  expect_error(wrong_version, "version 9");
+  std::string huge = bytes;
+  huge[20] = '\xff';  // the patch encoder's layer count
+  huge[21] = '\xff';
+  expect_error(huge, "layer sizes");
+  EXPECT_THROW(LoadOneFitModel(path + ".absent"), OneFitModelError);
 }
 
 TEST(OneFitNetworkTest, OutputsMapToPatchParametersAndBack) {

@@ -641,6 +641,17 @@ Eigen::Matrix3Xd DrapeSolver::PositionsOf(const std::vector<double>& patch_param
   return x;
 }
 
+void DrapeSolver::Adopt(const std::vector<double>& patch_parameters) {
+  Impl& m = *impl_;
+  m.SetPatchParameters(patch_parameters);
+  std::fill(m.slides.begin(), m.slides.end(), 0.0);
+  m.previous_params = m.params;
+  m.previous_slides = m.slides;
+  m.Positions(model_, &positions_);
+  m.history2 = m.history1;
+  m.history1 = positions_;
+}
+
 Eigen::Matrix3Xd DrapeSolver::PositionsAt(const std::vector<double>& patch_parameters,
                                           const std::vector<Eigen::Isometry3d>& rest_to_posed) {
   Impl& m = *impl_;

@@ -179,6 +179,10 @@ class DrapeSolver {
   // current pose (the body is not posed: cheap, for a history of frames).
   Eigen::Matrix3Xd PositionsAt(const std::vector<double>& patch_parameters,
                                const std::vector<Eigen::Isometry3d>& rest_to_posed);
+  // Takes given patch parameters (every slide zero) as the current state,
+  // posed as last posed (Pose or Step): positions() and the history follow,
+  // so that a Step refines from there (a network's prediction).
+  void Adopt(const std::vector<double>& patch_parameters);
   // The positions inertia predicts from: at t - 1 and t - 2 (3 by #V each).
   void SetHistory(const Eigen::Matrix3Xd& previous, const Eigen::Matrix3Xd& before_previous);
 

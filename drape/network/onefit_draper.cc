@@ -1,0 +1,33 @@
+#include "drape/network/onefit_draper.h"
+
+#include <string>
+
+namespace polyfit {
+
+OneFitDraper::OneFitDraper(const OneFitModel& model, const DrapeSolver& solver, const SkinWeights& weights,
+                           const Skeleton& skeleton)
+    : model_(model), skeleton_(skeleton), rest_(solver.RestPatchParameters()) {
+  if (skeleton.num_joints() != model.num_joints) {
+    throw OneFitModelError("the model was trained for a rig of " + std::to_string(model.num_joints) +
+                               " joints, the body has " + std::to_string(skeleton.num_joints()),
+                           ErrorKind::kInvalidArgument);
+  }
+  if (solver.num_patch_parameters() != model.network.num_outputs()) {
+    throw OneFitModelError("the model predicts jets of another order than the drape's", ErrorKind::kInvalidArgument);
+  }
+  for (const JetPatch& patch : solver.model().patches) frames_.push_back(patch.frame.rotation);
+  const Eigen::MatrixXd features =
+      model.patch_normalizer.Apply(PatchFeatures(solver.model(), rest_, weights, skeleton));
+  garment_half_ = model.network.GarmentHalf(model.weights.data(), features);
+}
+
+std::vector<double> OneFitDraper::Predict(const JointTransforms& before_previous, const JointTransforms& previous,
+                                          const JointTransforms& now, double fps, const BodyShape& shape) const {
+  const Eigen::VectorXd body =
+      model_.body_normalizer.Apply(BodyFeatures(skeleton_, before_previous, previous, now, fps, shape));
+  Eigen::MatrixXd outputs;
+  model_.network.ForwardWithGarmentHalf(model_.weights.data(), garment_half_, body, &outputs);
+  return PatchParametersFromOutputs(rest_, frames_, outputs);
+}
+
+}  // namespace polyfit

@@ -1,0 +1,40 @@
+// A garment draped by a trained OneFit model: its patches (the reference
+// drape's patching, so that the patches are the ones the loss saw) and
+// their features are prepared once; per frame, the body's features, the
+// network with the garment's half of the decoder's first layer
+// precomputed, and the patch parameters out.
+#ifndef POLYFIT_DRAPE_NETWORK_ONEFIT_DRAPER_H_
+#define POLYFIT_DRAPE_NETWORK_ONEFIT_DRAPER_H_
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "drape/network/onefit_model.h"
+#include "drape/simulate/drape_solver.h"
+
+namespace polyfit {
+
+class OneFitDraper {
+ public:
+  // solver: the garment's drape (its patches); throws OneFitModelError
+  // (kInvalidArgument) when the model does not fit the rig or the jets.
+  OneFitDraper(const OneFitModel& model, const DrapeSolver& solver, const SkinWeights& weights,
+               const Skeleton& skeleton);
+
+  // The patch parameters (DrapeSolver's layout) for frame `now`, its two
+  // predecessors giving the motion.
+  std::vector<double> Predict(const JointTransforms& before_previous, const JointTransforms& previous,
+                              const JointTransforms& now, double fps, const BodyShape& shape) const;
+
+ private:
+  const OneFitModel& model_;
+  const Skeleton& skeleton_;
+  std::vector<double> rest_;
+  std::vector<Eigen::Matrix3d> frames_;
+  Eigen::MatrixXd garment_half_;
+};
+
+}  // namespace polyfit
+
+#endif  // POLYFIT_DRAPE_NETWORK_ONEFIT_DRAPER_H_

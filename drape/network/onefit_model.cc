@@ -1,0 +1,201 @@
+#include "drape/network/onefit_model.h"
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+
+#include "polyfit/jet/jet_basis.h"
+#include "polyfit/util/atomic_file.h"
+
+namespace polyfit {
+namespace {
+
+constexpr char kMagic[8] = {'P', 'F', 'O', 'N', 'E', 'F', 'I', 'T'};
+constexpr char kEndMagic[8] = {'O', 'N', 'E', 'F', 'I', 'T', 'E', 'N'};
+// Bounds that no real model reaches: a header past them is corrupt.
+constexpr std::uint32_t kMaxLayers = 64;
+constexpr std::uint32_t kMaxWidth = 1 << 16;
+
+class Writer {
+ public:
+  template <typename T>
+  void Put(T value) {
+    PutBytes(&value, sizeof(T));
+  }
+  void PutBytes(const void* data, size_t size) {
+    const char* p = static_cast<const char*>(data);
+    buffer_.insert(buffer_.end(), p, p + size);
+  }
+  void PutDoubles(const double* data, size_t count) { PutBytes(data, count * sizeof(double)); }
+  const std::vector<char>& buffer() const { return buffer_; }
+
+ private:
+  std::vector<char> buffer_;
+};
+
+class Reader {
+ public:
+  Reader(std::vector<char> data, std::string path) : data_(std::move(data)), path_(std::move(path)) {}
+  template <typename T>
+  T Get(const char* what) {
+    T value;
+    GetBytes(&value, sizeof(T), what);
+    return value;
+  }
+  void GetBytes(void* out, size_t size, const char* what) {
+    if (size > data_.size() - position_) Fail(std::string("truncated in ") + what);
+    std::memcpy(out, data_.data() + position_, size);
+    position_ += size;
+  }
+  std::vector<double> GetDoubles(size_t count, const char* what) {
+    if (count > (data_.size() - position_) / sizeof(double)) Fail(std::string("truncated in ") + what);
+    std::vector<double> values(count);
+    GetBytes(values.data(), count * sizeof(double), what);
+    return values;
+  }
+  [[noreturn]] void Fail(const std::string& why) const { throw OneFitModelError(path_ + ": " + why); }
+  size_t remaining() const { return data_.size() - position_; }
+
+ private:
+  std::vector<char> data_;
+  std::string path_;
+  size_t position_ = 0;
+};
+
+void PutMlp(const Mlp& mlp, Writer* w) {
+  w->Put<std::uint32_t>(static_cast<std::uint32_t>(mlp.sizes().size()));
+  for (int n : mlp.sizes()) w->Put<std::uint32_t>(static_cast<std::uint32_t>(n));
+  w->Put<std::uint8_t>(mlp.residual() ? 1 : 0);
+  w->Put<double>(mlp.leaky_slope());
+}
+
+Mlp GetMlp(Reader* r, const char* what) {
+  const auto count = r->Get<std::uint32_t>(what);
+  if (count < 2 || count > kMaxLayers) r->Fail(std::string(what) + ": " + std::to_string(count) + " layer sizes");
+  std::vector<int> sizes(count);
+  for (auto& n : sizes) {
+    const auto value = r->Get<std::uint32_t>(what);
+    if (value < 1 || value > kMaxWidth) r->Fail(std::string(what) + ": a layer of " + std::to_string(value) + " units");
+    n = static_cast<int>(value);
+  }
+  const bool residual = r->Get<std::uint8_t>(what) != 0;
+  const double slope = r->Get<double>(what);
+  if (!(slope >= 0.0 && slope < 1.0)) r->Fail(std::string(what) + ": bad LeakyReLU slope");
+  return Mlp(sizes, residual, slope);
+}
+
+void PutNormalizer(const FeatureNormalizer& n, Writer* w) {
+  w->Put<std::uint32_t>(static_cast<std::uint32_t>(n.mean.size()));
+  w->PutDoubles(n.mean.data(), n.mean.size());
+  w->PutDoubles(n.inv_std.data(), n.inv_std.size());
+}
+
+FeatureNormalizer GetNormalizer(Reader* r, int expected, const char* what) {
+  const auto size = r->Get<std::uint32_t>(what);
+  if (static_cast<int>(size) != expected) {
+    r->Fail(std::string(what) + ": " + std::to_string(size) + " features, the network reads " +
+            std::to_string(expected));
+  }
+  FeatureNormalizer n;
+  const std::vector<double> mean = r->GetDoubles(size, what), inv_std = r->GetDoubles(size, what);
+  n.mean = Eigen::Map<const Eigen::VectorXd>(mean.data(), size);
+  n.inv_std = Eigen::Map<const Eigen::VectorXd>(inv_std.data(), size);
+  return n;
+}
+
+}  // namespace
+
+std::string OneFitModel::Validate() const {
+  if (jet_order < 1 || jet_order > kMaxJetOrder) return "jet order out of range";
+  if (num_joints < 1) return "no joint";
+  if (network.num_coefficients() != NumJetCoefficients(jet_order)) return "the decoder does not fit the jet order";
+  if (network.patch_encoder().input_size() != PatchFeatureSize(jet_order, num_joints)) {
+    return "the patch encoder does not read this rig's patch features";
+  }
+  if (network.body_encoder().input_size() != BodyFeatureSize(num_joints)) {
+    return "the body encoder does not read this rig's body features";
+  }
+  if (patch_normalizer.mean.size() != network.patch_encoder().input_size() ||
+      body_normalizer.mean.size() != network.body_encoder().input_size()) {
+    return "the normalisers do not fit the network";
+  }
+  if (static_cast<int>(weights.size()) != network.num_parameters()) return "the weights do not fit the network";
+  for (double w : weights) {
+    if (!std::isfinite(w)) return "non-finite weights";
+  }
+  if (!patch_normalizer.mean.allFinite() || !patch_normalizer.inv_std.allFinite() ||
+      !body_normalizer.mean.allFinite() || !body_normalizer.inv_std.allFinite()) {
+    return "non-finite normalisers";
+  }
+  return {};
+}
+
+void SaveOneFitModel(const std::string& path, const OneFitModel& model) {
+  if (const std::string problem = model.Validate(); !problem.empty()) {
+    throw OneFitModelError(path + ": refusing to save an invalid model: " + problem, ErrorKind::kInvalidArgument);
+  }
+  Writer w;
+  w.PutBytes(kMagic, sizeof(kMagic));
+  w.Put<std::uint32_t>(kOneFitModelVersion);
+  w.Put<std::uint32_t>(static_cast<std::uint32_t>(model.jet_order));
+  w.Put<std::uint32_t>(static_cast<std::uint32_t>(model.num_joints));
+  PutMlp(model.network.patch_encoder(), &w);
+  PutMlp(model.network.body_encoder(), &w);
+  PutMlp(model.network.decoder(), &w);
+  PutNormalizer(model.patch_normalizer, &w);
+  PutNormalizer(model.body_normalizer, &w);
+  w.Put<std::uint64_t>(model.weights.size());
+  w.PutDoubles(model.weights.data(), model.weights.size());
+  w.PutBytes(kEndMagic, sizeof(kEndMagic));
+  try {
+    WriteFileAtomically(path, [&](std::ostream& out) {
+      out.write(w.buffer().data(), static_cast<std::streamsize>(w.buffer().size()));
+    });
+  } catch (const Error& e) {
+    throw OneFitModelError(e.what(), ErrorKind::kOutput);
+  }
+}
+
+OneFitModel LoadOneFitModel(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw OneFitModelError(path + ": cannot be opened (missing?)");
+  Reader r(std::vector<char>(std::istreambuf_iterator<char>(in), {}), path);
+  char magic[8];
+  r.GetBytes(magic, sizeof(magic), "the header");
+  if (std::memcmp(magic, kMagic, sizeof(magic)) != 0) r.Fail("not a OneFit model (bad magic)");
+  const auto version = r.Get<std::uint32_t>("the header");
+  if (version != kOneFitModelVersion) {
+    r.Fail("version " + std::to_string(version) + ", this build reads " + std::to_string(kOneFitModelVersion));
+  }
+  OneFitModel model;
+  model.jet_order = static_cast<int>(r.Get<std::uint32_t>("the header"));
+  model.num_joints = static_cast<int>(r.Get<std::uint32_t>("the header"));
+  if (model.jet_order < 1 || model.jet_order > kMaxJetOrder) r.Fail("jet order out of range");
+  if (model.num_joints < 1 || model.num_joints > static_cast<int>(kMaxWidth)) r.Fail("joint count out of range");
+  Mlp patch = GetMlp(&r, "the patch encoder");
+  Mlp body = GetMlp(&r, "the body encoder");
+  Mlp decoder = GetMlp(&r, "the decoder");
+  try {
+    model.network =
+        OneFitNetwork(std::move(patch), std::move(body), std::move(decoder), NumJetCoefficients(model.jet_order));
+  } catch (const std::invalid_argument& e) {
+    r.Fail(e.what());
+  }
+  model.patch_normalizer = GetNormalizer(&r, model.network.patch_encoder().input_size(), "the patch normaliser");
+  model.body_normalizer = GetNormalizer(&r, model.network.body_encoder().input_size(), "the body normaliser");
+  const auto count = r.Get<std::uint64_t>("the weights");
+  if (count != static_cast<std::uint64_t>(model.network.num_parameters())) {
+    r.Fail(std::to_string(count) + " weights, the network has " + std::to_string(model.network.num_parameters()));
+  }
+  model.weights = r.GetDoubles(count, "the weights");
+  r.GetBytes(magic, sizeof(magic), "the end marker");
+  if (std::memcmp(magic, kEndMagic, sizeof(magic)) != 0) r.Fail("bad end marker (corrupt)");
+  if (r.remaining() != 0) r.Fail("trailing bytes after the end marker");
+  if (const std::string problem = model.Validate(); !problem.empty()) r.Fail(problem);
+  return model;
+}
+
+}  // namespace polyfit

@@ -1,0 +1,43 @@
+// A trained OneFit network as a file (docs/onefit-model-format.md): the
+// three MLPs' layouts, the feature normalisers and the weights, with the
+// jet order and the rig's joint count it was trained for. Garment-agnostic:
+// a garment's patch features are computed when it is draped.
+#ifndef POLYFIT_DRAPE_NETWORK_ONEFIT_MODEL_H_
+#define POLYFIT_DRAPE_NETWORK_ONEFIT_MODEL_H_
+
+#include <string>
+#include <vector>
+
+#include "drape/network/onefit_features.h"
+#include "drape/network/onefit_network.h"
+#include "polyfit/util/status.h"
+
+namespace polyfit {
+
+inline constexpr int kOneFitModelVersion = 1;
+
+class OneFitModelError : public Error {
+ public:
+  explicit OneFitModelError(const std::string& message, ErrorKind kind = ErrorKind::kInput) : Error(kind, message) {}
+};
+
+struct OneFitModel {
+  int jet_order = 4;
+  int num_joints = 0;
+  OneFitNetwork network;
+  FeatureNormalizer patch_normalizer, body_normalizer;
+  std::vector<double> weights;
+
+  // Empty when consistent (sizes agree, numbers finite), else the problem.
+  std::string Validate() const;
+};
+
+// Atomic; throws OneFitModelError (kOutput) naming the file.
+void SaveOneFitModel(const std::string& path, const OneFitModel& model);
+// Throws OneFitModelError naming the file for a missing, foreign,
+// truncated or inconsistent file, before allocating what it declares.
+OneFitModel LoadOneFitModel(const std::string& path);
+
+}  // namespace polyfit
+
+#endif  // POLYFIT_DRAPE_NETWORK_ONEFIT_MODEL_H_
