@@ -19,12 +19,19 @@ using Clock = std::chrono::steady_clock;
 
 double Seconds(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
-// A mini-batch's loss as Ceres' first-order function of the weights.
+// A mini-batch's loss as Ceres' first-order function of the scaled
+// weights x = w / c. L-BFGS restarts with every Solve, and its first step
+// moves the largest weight by about 1: in units of c it is a modest step.
 class BatchLoss : public ceres::FirstOrderFunction {
  public:
-  BatchLoss(OneFitTrainer* trainer, const std::vector<OneFitSample>* samples) : trainer_(trainer), samples_(samples) {}
-  bool Evaluate(const double* weights, double* cost, double* gradient) const override {
-    *cost = trainer_->Loss(weights, *samples_, gradient);
+  BatchLoss(OneFitTrainer* trainer, const std::vector<OneFitSample>* samples, double scale)
+      : trainer_(trainer), samples_(samples), scale_(scale), weights_(trainer->num_parameters()) {}
+  bool Evaluate(const double* x, double* cost, double* gradient) const override {
+    for (size_t i = 0; i < weights_.size(); ++i) weights_[i] = scale_ * x[i];
+    *cost = trainer_->Loss(weights_.data(), *samples_, gradient);
+    if (gradient != nullptr) {
+      for (size_t i = 0; i < weights_.size(); ++i) gradient[i] *= scale_;
+    }
     return std::isfinite(*cost);
   }
   int NumParameters() const override { return trainer_->num_parameters(); }
@@ -32,6 +39,8 @@ class BatchLoss : public ceres::FirstOrderFunction {
  private:
   OneFitTrainer* trainer_;
   const std::vector<OneFitSample>* samples_;
+  double scale_;
+  mutable std::vector<double> weights_;
 };
 
 }  // namespace
@@ -43,6 +52,7 @@ std::string OneFitTrainerOptions::Validate() const {
     return "batch_size, iterations_per_batch and num_batches must be >= 1";
   }
   if (lbfgs_rank < 1) return "lbfgs_rank must be >= 1";
+  if (!(weight_step > 0.0)) return "weight_step must be > 0";
   if (num_threads < 1) return "num_threads must be >= 1";
   return {};
 }
@@ -188,9 +198,12 @@ double OneFitTrainer::Loss(const double* weights, const std::vector<OneFitSample
   if (gradient != nullptr) {
     for (auto& g : gradients) g.assign(n, 0.0);
   }
-  ParallelFor(static_cast<int>(samples.size()), threads, [&](int thread, int i) {
-    energies[i] = SampleLoss(weights, samples[i], thread, gradient != nullptr ? gradients[thread].data() : nullptr);
-  });
+  ParallelFor(
+      static_cast<int>(samples.size()), threads,
+      [&](int thread, int i) {
+        energies[i] = SampleLoss(weights, samples[i], thread, gradient != nullptr ? gradients[thread].data() : nullptr);
+      },
+      1);
   const double scale = 1.0 / static_cast<double>(samples.size());
   double loss = 0.0;
   for (double e : energies) loss += scale * e;
@@ -203,7 +216,8 @@ double OneFitTrainer::Loss(const double* weights, const std::vector<OneFitSample
   return loss;
 }
 
-OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights) {
+OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights, int first_batch,
+                                           const BatchCallback& on_batch) {
   const auto start = Clock::now();
   if (static_cast<int>(weights->size()) != num_parameters()) {
     throw std::invalid_argument("OneFitTrainer::Train: " + std::to_string(weights->size()) +
@@ -219,14 +233,18 @@ OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights) {
       s.clip = std::uniform_int_distribution<int>(0, static_cast<int>(clips_.size()) - 1)(rng);
       s.frame = std::uniform_int_distribution<int>(0, static_cast<int>(clips_[s.clip].poses.size()) - 1)(rng);
     }
+    if (b < first_batch) continue;
     ceres::GradientProblemSolver::Options solver;
     solver.line_search_direction_type = ceres::LBFGS;
     solver.max_lbfgs_rank = options_.lbfgs_rank;
     solver.max_num_iterations = options_.iterations_per_batch;
     solver.logging_type = ceres::SILENT;
-    ceres::GradientProblem problem(new BatchLoss(this, &batch));
+    ceres::GradientProblem problem(new BatchLoss(this, &batch, options_.weight_step));
     ceres::GradientProblemSolver::Summary result;
-    ceres::Solve(solver, problem, weights->data(), &result);
+    std::vector<double> x(weights->size());
+    for (size_t i = 0; i < x.size(); ++i) x[i] = (*weights)[i] / options_.weight_step;
+    ceres::Solve(solver, problem, x.data(), &result);
+    for (size_t i = 0; i < x.size(); ++i) (*weights)[i] = options_.weight_step * x[i];
     OneFitBatchSummary record;
     record.batch = b;
     record.initial_loss = result.initial_cost;
@@ -242,6 +260,7 @@ OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights) {
       break;
     }
     best = *weights;
+    if (on_batch) on_batch(record, *weights);
   }
   if (summary.termination_type != TerminationType::kFailure) {
     summary.termination_type = TerminationType::kNoConvergence;

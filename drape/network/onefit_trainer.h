@@ -13,6 +13,7 @@
 #define POLYFIT_DRAPE_NETWORK_ONEFIT_TRAINER_H_
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -49,6 +50,9 @@ struct OneFitTrainerOptions {
   int iterations_per_batch = 5;
   int num_batches = 20;
   int lbfgs_rank = 20;
+  // The weights' unit for L-BFGS: its first step in a batch changes the
+  // largest weight by about this much.
+  double weight_step = 1e-2;
   std::uint64_t seed = 1;
   int num_threads = 2;
 
@@ -99,8 +103,13 @@ class OneFitTrainer {
   // The trained network as a model file holds it.
   OneFitModel MakeModel(const std::vector<double>& weights) const;
 
-  // Trains `weights` in place.
-  OneFitTrainingSummary Train(std::vector<double>* weights);
+  // Trains `weights` in place, batches first_batch .. num_batches - 1 (the
+  // earlier ones are drawn and skipped, so that a resumed run sees the same
+  // data order); after each batch, on_batch (when given) sees its summary
+  // and the weights (to checkpoint them).
+  using BatchCallback = std::function<void(const OneFitBatchSummary&, const std::vector<double>&)>;
+  OneFitTrainingSummary Train(std::vector<double>* weights, int first_batch = 0,
+                              const BatchCallback& on_batch = nullptr);
 
   // The patch parameters the network predicts for a garment at a clip's
   // frame (the network alone, as DrapeSolver lays them out).

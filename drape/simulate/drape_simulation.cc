@@ -11,9 +11,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "drape/body/procedural_body.h"
-#include "drape/garment/mhclo_garment.h"
-#include "drape/motion/retarget.h"
+#include "drape/network/onefit_draper.h"
+#include "drape/simulate/drape_inputs.h"
 #include "drape/render/mesh_render.h"
 #include "polyfit/mesh/mesh_io.h"
 #include "polyfit/util/atomic_file.h"
@@ -45,32 +44,12 @@ struct DrapeInputs {
   int last_frame = 0;  // one past the last frame to simulate
 };
 
-SkinnedBody LoadBody(const DrapeSimulationOptions& options) {
-  if (options.body_dir.empty()) return MakeProceduralBody();
-  SkinnedBody body = LoadMakeHumanBody(options.body_dir);
-  ApplyBodyShape(options.body_dir, options.shape, &body);
-  return body;
-}
-
-TriangleMesh LoadGarmentMesh(const DrapeSimulationOptions& options, const SkinnedBody& body) {
-  const std::string& path = options.garment_path;
-  if (!fs::exists(path)) throw DrapeInputError(path + ": no such garment file");
-  if (fs::path(path).extension() != ".mhclo") return ReadTriangleMesh(path);
-  if (options.body_dir.empty()) throw DrapeInputError(path + ": a .mhclo garment needs the MakeHuman body");
-  return LoadGarment(path, body.base_vertices, 0.1);
-}
-
 DrapeInputs LoadInputs(const DrapeSimulationOptions& options) {
   DrapeInputs in;
-  in.body = LoadBody(options);
-  in.garment = LoadGarmentMesh(options, in.body);
-  const MotionClip clip =
-      ReadBvh(options.motion_path, options.bvh_units_to_metres).Resampled(options.solver.physics.fps);
-  try {
-    in.retargeter = std::make_unique<MotionRetargeter>(clip, in.body.skeleton);
-  } catch (const BvhError& e) {
-    throw DrapeInputError(options.motion_path + ": " + e.what());
-  }
+  in.body = LoadDrapeBody(options.body_dir, options.shape);
+  in.garment = LoadDrapeGarment(options.garment_path, in.body, !options.body_dir.empty());
+  in.retargeter = LoadRetargetedClip(options.motion_path, options.bvh_units_to_metres, options.solver.physics.fps,
+                                     in.body.skeleton);
   const int frames = in.retargeter->num_frames();
   if (options.first_frame >= frames) {
     throw DrapeInputError(options.motion_path + ": first frame " + std::to_string(options.first_frame) +
@@ -83,10 +62,11 @@ DrapeInputs LoadInputs(const DrapeSimulationOptions& options) {
 
 // A garment the solver cannot take (zero-area faces, NaN) is named here,
 // still before anything is written.
-std::unique_ptr<DrapeSolver> CreateSolver(const DrapeSimulationOptions& options, const DrapeInputs& in) {
+std::unique_ptr<DrapeSolver> CreateSolver(const DrapeSimulationOptions& options, const DrapeInputs& in,
+                                          SkinWeights* weights) {
   try {
-    const SkinWeights weights = TransferSkinWeights(in.body, in.garment, options.skin);
-    return std::make_unique<DrapeSolver>(in.body, in.garment, weights, options.solver);
+    *weights = TransferSkinWeights(in.body, in.garment, options.skin);
+    return std::make_unique<DrapeSolver>(in.body, in.garment, *weights, options.solver);
   } catch (const std::invalid_argument& e) {
     throw DrapeInputError(options.garment_path + ": " + e.what());
   }
@@ -181,6 +161,34 @@ void RunFrames(const DrapeSimulationOptions& options, const DrapeInputs& in, Dra
   }
 }
 
+// The network's drape: per frame, its prediction from the pose and the two
+// before it, posed by the garment's skinning. The time is the inference
+// (body features, network, garment skinning and vertices); posing the body
+// for the metrics is not counted.
+void RunNetworkFrames(const DrapeSimulationOptions& options, const DrapeInputs& in, const OneFitDraper& draper,
+                      DrapeSolver* solver, DrapeSimulationSummary* summary) {
+  const ClothRest rest = PrepareClothRest(solver->rest_garment());
+  TriangleMesh posed = in.garment;
+  const double fps = options.solver.physics.fps;
+  for (int f = options.first_frame; f < in.last_frame; ++f) {
+    const auto pose = [&](int g) { return in.retargeter->Pose(std::max(g, options.first_frame)); };
+    const JointTransforms before_previous = pose(f - 2), previous = pose(f - 1), now = pose(f);
+    const auto start = Clock::now();
+    const std::vector<double> params = draper.Predict(before_previous, previous, now, fps, options.shape);
+    const Eigen::Matrix3Xd positions = solver->PositionsAt(params, now);
+    DrapeStepSummary step;
+    step.time_s = step.solve_time_s = Seconds(start);
+    solver->Pose(now);
+    solver->Adopt(params);
+    if (!positions.allFinite()) {
+      step.termination_type = TerminationType::kFailure;
+      step.message = "the network predicted non-finite positions";
+    }
+    summary->records.push_back(MeasureFrame(options, *solver, rest, step, f, &posed));
+    WriteFrame(options, *solver, in.body, f, posed);
+  }
+}
+
 void Summarize(DrapeSimulationSummary* summary) {
   summary->frames = static_cast<int>(summary->records.size());
   const double n = static_cast<double>(summary->frames);
@@ -248,6 +256,8 @@ void WriteOutputs(const DrapeSimulationOptions& options, const DrapeSimulationSu
   j["body"] = options.body_dir.empty() ? "procedural" : options.body_dir;
   j["shape"] = options.shape.ToString();
   j["garment"] = options.garment_path;
+  j["drape"] = options.model_path.empty() ? "reference" : "network";
+  if (!options.model_path.empty()) j["model"] = options.model_path;
   j["motion"] = options.motion_path;
   j["fps"] = physics.fps;
   j["first_frame"] = options.first_frame;
@@ -322,11 +332,22 @@ DrapeSimulationSummary RunDrapeSimulation(const DrapeSimulationOptions& options)
     throw DrapeInputError("onefit simulate: " + problem, ErrorKind::kInvalidArgument);
   }
   const DrapeInputs inputs = LoadInputs(options);
-  const std::unique_ptr<DrapeSolver> solver = CreateSolver(options, inputs);
+  SkinWeights weights;
+  const std::unique_ptr<DrapeSolver> solver = CreateSolver(options, inputs, &weights);
+  OneFitModel model;
+  std::unique_ptr<OneFitDraper> draper;
+  if (!options.model_path.empty()) {
+    model = LoadOneFitModel(options.model_path);
+    draper = std::make_unique<OneFitDraper>(model, *solver, weights, inputs.body.skeleton);
+  }
   DrapeSimulationSummary summary;
   DescribeGarment(inputs, *solver, &summary);
   CreateOutputFolders(options);
-  RunFrames(options, inputs, solver.get(), &summary);
+  if (draper) {
+    RunNetworkFrames(options, inputs, *draper, solver.get(), &summary);
+  } else {
+    RunFrames(options, inputs, solver.get(), &summary);
+  }
   Summarize(&summary);
   summary.total_time_s = Seconds(start);
   WriteOutputs(options, summary);

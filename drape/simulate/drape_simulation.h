@@ -43,6 +43,10 @@ struct DrapeSimulationOptions {
   std::string motion_path;
   double bvh_units_to_metres = 0.056444;
   std::string out_dir;
+  // A trained OneFit model (`onefit train`): the network drapes every frame
+  // instead of the reference drape's solve; the outputs are the same. Its
+  // time per frame is the network's inference with the garment's skinning.
+  std::string model_path;
 
   int first_frame = 0;
   int num_frames = -1;  // -1: to the clip's end

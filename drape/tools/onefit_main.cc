@@ -1,8 +1,14 @@
-// onefit: the reference drape (OneFit's losses minimised per frame).
+// onefit: garment draping on patch-wise jets.
 //
 //   onefit simulate --body DIR --garment G --motion CLIP.bvh --out DIR
 //                   [--shape gender=0.2,weight=0.8] [--frames N] [--first-frame F]
 //                   [--lead-in N] [--render-every K] [--threads T] ...
+//       the reference drape (OneFit's losses minimised per frame)
+//   onefit train --body DIR --garments G... --motions CLIP.bvh... --out MODEL
+//                [--batches N] [--batch-size B] [--threads T] [--resume] ...
+//       trains OneFit's network on the same losses (self-supervised)
+//   onefit drape --model MODEL --body DIR --garment G --motion CLIP.bvh --out DIR
+//       the network's drape, with simulate's outputs
 //
 // Without --body, the procedural capsule body is used (then --garment must
 // be a mesh file in its rest pose). Defaults live in DrapeSimulationOptions;
@@ -13,6 +19,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "drape/network/onefit_training_run.h"
 #include "drape/simulate/drape_simulation.h"
 
 namespace {
@@ -26,12 +33,13 @@ struct SimulateFlags {
   bool cholesky = false;
 };
 
-CLI::App* AddSimulateCommand(CLI::App* app, SimulateFlags* f) {
+CLI::App* AddSimulateCommand(CLI::App* app, SimulateFlags* f, const char* name = "simulate",
+                             const char* description = "drape a garment through a motion clip, frame by frame") {
   polyfit::DrapeSimulationOptions& options = f->options;
   std::string& shape = f->shape;
   bool& no_slide = f->no_slide;
   bool& cholesky = f->cholesky;
-  CLI::App* simulate = app->add_subcommand("simulate", "drape a garment through a motion clip, frame by frame");
+  CLI::App* simulate = app->add_subcommand(name, description);
   simulate->add_option("--body", options.body_dir,
                        "MakeHuman body folder (../shared/data/drape/body); none: procedural body");
   simulate->add_option("--garment", options.garment_path, ".mhclo garment, or a mesh in the body's rest pose (m)")
@@ -122,17 +130,67 @@ int RunSimulate(SimulateFlags& f) {
                                                                         : polyfit::kExitSuccess;
 }
 
+struct TrainFlags {
+  polyfit::OneFitTrainingRunOptions options;
+  std::string shape;
+};
+
+CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
+  polyfit::OneFitTrainingRunOptions& o = f->options;
+  polyfit::OneFitTrainerOptions& t = o.trainer;
+  CLI::App* train = app->add_subcommand("train", "train OneFit's network, self-supervised, on the drape's losses");
+  train->add_option("--body", o.body_dir, "MakeHuman body folder; none: procedural body");
+  train->add_option("--garments", o.garment_paths, ".mhclo garments or meshes in the body's rest pose")->required();
+  train->add_option("--motions", o.motion_paths, "BVH clips")->required();
+  train->add_option("--out", o.model_path, "the model file to write (and MODEL.csv, the progress)")->required();
+  train->add_option("--shape", f->shape, "macro shape of the body, e.g. gender=0.2,weight=0.8");
+  train->add_option("--bvh-scale", o.bvh_units_to_metres, "metres per BVH unit")->capture_default_str();
+  train->add_option("--frames-per-clip", o.max_frames_per_clip, "frames used per clip (0: all)")->capture_default_str();
+  train->add_option("--batches", t.num_batches, "mini-batches")->capture_default_str();
+  train->add_option("--batch-size", t.batch_size, "samples (garment, frame) per batch")->capture_default_str();
+  train->add_option("--iterations-per-batch", t.iterations_per_batch, "L-BFGS iterations per batch")
+      ->capture_default_str();
+  train->add_option("--seed", t.seed, "seed of the weights and the data order")->capture_default_str();
+  train->add_option("--threads", t.num_threads, "threads")->capture_default_str();
+  train->add_option("--vertices-per-patch", t.drape.patching.vertices_per_patch, "garment vertices per patch")
+      ->capture_default_str();
+  train->add_flag("--resume", o.resume, "continue from the model file and its progress, if they exist");
+  return train;
+}
+
+int RunTrain(TrainFlags& f) {
+  if (!f.shape.empty()) f.options.shape = polyfit::BodyShape::Parse(f.shape);
+  const polyfit::OneFitTrainingSummary summary =
+      polyfit::RunOneFitTraining(f.options, [](const polyfit::OneFitBatchSummary& b) {
+        std::printf("batch %4d  loss %.5g -> %.5g J  %2d it  %7.1f s\n", b.batch, b.initial_loss, b.final_loss,
+                    b.iterations, b.time_s);
+        std::fflush(stdout);
+      });
+  std::printf("%s\nwrote %s (and %s.csv)\n", summary.BriefReport().c_str(), f.options.model_path.c_str(),
+              f.options.model_path.c_str());
+  return summary.termination_type == polyfit::TerminationType::kFailure ? polyfit::kExitSolverFailure
+                                                                        : polyfit::kExitSuccess;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"onefit: garment draping on patch-wise jets"};
   app.require_subcommand(1);
-  SimulateFlags simulate;
+  SimulateFlags simulate, drape;
   AddSimulateCommand(&app, &simulate);
+  CLI::App* drape_command = AddSimulateCommand(&app, &drape, "drape", "drape a garment with a trained network");
+  drape_command->add_option("--model", drape.options.model_path, "a model from onefit train")->required();
+  TrainFlags train;
+  CLI::App* train_command = AddTrainCommand(&app, &train);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? polyfit::kExitSuccess : polyfit::kExitUsage;
   }
-  return polyfit::RunReportingErrors("onefit", [&]() -> int { return RunSimulate(simulate); });
+  return polyfit::RunReportingErrors("onefit", [&]() -> int {
+    if (train_command->parsed()) return RunTrain(train);
+    if (drape_command->parsed()) return RunSimulate(drape);
+    return RunSimulate(simulate);
+  });
 }

@@ -1,0 +1,106 @@
+#include "drape/network/onefit_training_run.h"
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "drape/simulate/drape_inputs.h"
+#include "polyfit/util/atomic_file.h"
+
+namespace polyfit {
+namespace {
+
+std::vector<OneFitTrainingGarment> LoadGarments(const OneFitTrainingRunOptions& options, const SkinnedBody& body) {
+  std::vector<OneFitTrainingGarment> garments;
+  for (const std::string& path : options.garment_paths) {
+    OneFitTrainingGarment g;
+    g.name = std::filesystem::path(path).stem().string();
+    g.mesh = LoadDrapeGarment(path, body, !options.body_dir.empty());
+    try {
+      g.weights = TransferSkinWeights(body, g.mesh, options.skin);
+    } catch (const std::invalid_argument& e) {
+      throw Error(ErrorKind::kInput, path + ": " + e.what());
+    }
+    garments.push_back(std::move(g));
+  }
+  return garments;
+}
+
+std::vector<OneFitTrainingClip> LoadClips(const OneFitTrainingRunOptions& options, const SkinnedBody& body) {
+  std::vector<OneFitTrainingClip> clips;
+  const double fps = options.trainer.drape.physics.fps;
+  for (const std::string& path : options.motion_paths) {
+    const auto retargeter = LoadRetargetedClip(path, options.bvh_units_to_metres, fps, body.skeleton);
+    OneFitTrainingClip clip;
+    clip.name = std::filesystem::path(path).stem().string();
+    clip.fps = fps;
+    clip.shape = options.shape;
+    const int frames = options.max_frames_per_clip > 0
+                           ? std::min(options.max_frames_per_clip, retargeter->num_frames())
+                           : retargeter->num_frames();
+    for (int f = 0; f < frames; ++f) clip.poses.push_back(retargeter->Pose(f));
+    clips.push_back(std::move(clip));
+  }
+  return clips;
+}
+
+// Batches already done (the progress file's rows), for a resumed run.
+int BatchesDone(const std::string& csv_path) {
+  std::ifstream in(csv_path);
+  int rows = -1;  // the header
+  for (std::string line; std::getline(in, line);) rows += line.empty() ? 0 : 1;
+  return std::max(rows, 0);
+}
+
+}  // namespace
+
+std::string OneFitTrainingRunOptions::Validate() const {
+  if (garment_paths.empty()) return "at least one garment is needed";
+  if (motion_paths.empty()) return "at least one motion clip is needed";
+  if (model_path.empty()) return "an output model path is needed";
+  if (!(bvh_units_to_metres > 0.0)) return "bvh_units_to_metres must be positive";
+  if (max_frames_per_clip < 0) return "max_frames_per_clip must be >= 0";
+  if (std::string p = shape.Validate(); !p.empty()) return "shape: " + p;
+  if (std::string p = trainer.Validate(); !p.empty()) return "trainer: " + p;
+  return {};
+}
+
+OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options, const OneFitProgress& progress) {
+  if (const std::string problem = options.Validate(); !problem.empty()) {
+    throw Error(ErrorKind::kInvalidArgument, "onefit train: " + problem);
+  }
+  const SkinnedBody body = LoadDrapeBody(options.body_dir, options.shape);
+  OneFitTrainer trainer(body, LoadGarments(options, body), LoadClips(options, body), options.trainer);
+  std::vector<double> weights = trainer.InitialWeights();
+  const std::string csv_path = options.model_path + ".csv";
+  int first_batch = 0;
+  std::string csv;
+  if (options.resume && std::filesystem::exists(options.model_path)) {
+    const OneFitModel saved = LoadOneFitModel(options.model_path);
+    if (saved.weights.size() != weights.size()) {
+      throw Error(ErrorKind::kInput, options.model_path + ": a model of another layout; cannot resume from it");
+    }
+    weights = saved.weights;
+    first_batch = BatchesDone(csv_path);
+    std::ifstream in(csv_path);
+    std::stringstream text;
+    text << in.rdbuf();
+    csv = text.str();
+  }
+  if (csv.empty()) csv = "batch,initial_loss_J,final_loss_J,iterations,time_s\n";
+  const auto checkpoint = [&](const OneFitBatchSummary& batch, const std::vector<double>& w) {
+    SaveOneFitModel(options.model_path, trainer.MakeModel(w));
+    std::ostringstream row;
+    row.precision(8);
+    row << batch.batch << ',' << batch.initial_loss << ',' << batch.final_loss << ',' << batch.iterations << ','
+        << batch.time_s << '\n';
+    csv += row.str();
+    WriteFileAtomically(csv_path, [&](std::ostream& out) { out << csv; });
+    if (progress) progress(batch);
+  };
+  OneFitTrainingSummary summary = trainer.Train(&weights, first_batch, checkpoint);
+  if (first_batch > 0) summary.message += "; resumed at batch " + std::to_string(first_batch);
+  return summary;
+}
+
+}  // namespace polyfit

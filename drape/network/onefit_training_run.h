@@ -1,0 +1,46 @@
+// `onefit train`: loads a body, garments and motion clips, trains OneFit's
+// network (onefit_trainer.h) and writes the model, checkpointed after every
+// batch so that a killed run resumes (`resume`) where it stopped:
+//   MODEL        the model file (docs/onefit-model-format.md), atomically
+//   MODEL.csv    batch, initial_loss_J, final_loss_J, iterations, time_s
+// Every input is checked before anything is written.
+#ifndef POLYFIT_DRAPE_NETWORK_ONEFIT_TRAINING_RUN_H_
+#define POLYFIT_DRAPE_NETWORK_ONEFIT_TRAINING_RUN_H_
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "drape/body/body_shape.h"
+#include "drape/garment/skin_transfer.h"
+#include "drape/network/onefit_trainer.h"
+
+namespace polyfit {
+
+struct OneFitTrainingRunOptions {
+  std::string body_dir;  // empty: the procedural body
+  BodyShape shape;
+  std::vector<std::string> garment_paths;
+  std::vector<std::string> motion_paths;
+  double bvh_units_to_metres = 0.056444;
+  // Frames per clip, from its start (0: all).
+  int max_frames_per_clip = 0;
+  std::string model_path;
+  bool resume = false;
+  SkinTransferOptions skin;
+  OneFitTrainerOptions trainer;
+
+  std::string Validate() const;
+};
+
+// Called after every batch with its summary.
+using OneFitProgress = std::function<void(const OneFitBatchSummary&)>;
+
+// Throws an Error naming the file or option (kInput, kInvalidArgument)
+// before anything is written; kOutput when the model cannot be written.
+OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
+                                        const OneFitProgress& progress = nullptr);
+
+}  // namespace polyfit
+
+#endif  // POLYFIT_DRAPE_NETWORK_ONEFIT_TRAINING_RUN_H_
