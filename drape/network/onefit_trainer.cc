@@ -198,10 +198,14 @@ double OneFitTrainer::Loss(const double* weights, const std::vector<OneFitSample
   if (gradient != nullptr) {
     for (auto& g : gradients) g.assign(n, 0.0);
   }
+  // Samples dealt to threads in a fixed pattern (thread t takes t, t + T,
+  // ...), so that the sums, and training, do not depend on timing.
   ParallelFor(
-      static_cast<int>(samples.size()), threads,
-      [&](int thread, int i) {
-        energies[i] = SampleLoss(weights, samples[i], thread, gradient != nullptr ? gradients[thread].data() : nullptr);
+      threads, threads,
+      [&](int, int t) {
+        for (size_t i = t; i < samples.size(); i += threads) {
+          energies[i] = SampleLoss(weights, samples[i], t, gradient != nullptr ? gradients[t].data() : nullptr);
+        }
       },
       1);
   const double scale = 1.0 / static_cast<double>(samples.size());

@@ -117,6 +117,19 @@ TEST_F(OneFitTrainerTest, TrainingLowersTheLossDeterministically) {
   EXPECT_EQ(again, weights);
 }
 
+TEST_F(OneFitTrainerTest, AResumedRunEndsWhereAStraightRunEnds) {
+  std::vector<double> straight = trainer_->InitialWeights(), checkpoint;
+  trainer_->Train(&straight, 0, [&](const OneFitBatchSummary& b, const std::vector<double>& w) {
+    if (b.batch == 2) checkpoint = w;  // killed after batch 2
+  });
+  ASSERT_FALSE(checkpoint.empty());
+  std::vector<double> resumed = checkpoint;
+  const OneFitTrainingSummary summary = trainer_->Train(&resumed, 3);
+  ASSERT_EQ(summary.batches.size(), static_cast<size_t>(options_.num_batches - 3));
+  EXPECT_EQ(summary.batches.front().batch, 3);
+  EXPECT_EQ(resumed, straight);
+}
+
 TEST_F(OneFitTrainerTest, AModelFileRoundTripsAndTheDraperPredictsAsTraining) {
   std::vector<double> weights = trainer_->InitialWeights();
   std::mt19937_64 rng(2);
