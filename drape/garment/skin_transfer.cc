@@ -110,4 +110,14 @@ Eigen::Matrix3Xd SkinPoints(const SkinWeights& weights, const Eigen::Matrix3Xd& 
   return posed;
 }
 
+SkinWeights SingleJointWeights(int num_vertices, int joint) {
+  SkinWeights weights;
+  for (int v = 0; v < num_vertices; ++v) {
+    weights.joint.push_back(joint);
+    weights.value.push_back(1.0);
+    weights.offsets.push_back(v + 1);
+  }
+  return weights;
+}
+
 }  // namespace polyfit

@@ -31,6 +31,9 @@ struct SkinWeights {
              Eigen::Vector3d* translation) const;
 };
 
+// Every vertex bound to one joint with weight 1 (a rigid garment, tests).
+SkinWeights SingleJointWeights(int num_vertices, int joint);
+
 struct SkinTransferOptions {
   // Jacobi smoothing steps over the garment's edges (each vertex moves
   // half-way to its neighbours' mean), 0 for none.

@@ -61,25 +61,15 @@ void Mlp::Backward(const double* params, const MlpCache& cache, const Eigen::Mat
   if (static_cast<int>(cache.inputs.size()) != num_layers() || dy.rows() != output_size()) {
     throw std::invalid_argument("Mlp::Backward: the cache or dL/dy does not fit the network");
   }
-  // g: dL/da_l, then dL/dh_l.
+  // g: dL/dh_(l+1) on entry (dL/dy for the last layer), dL/da_l after the
+  // activation's derivative, dL/dh_l on exit.
   Eigen::MatrixXd g = dy;
   for (int l = num_layers() - 1; l >= 0; --l) {
+    Eigen::MatrixXd skip;
     if (l + 1 < num_layers()) {
-      // g holds dL/dh_(l+1): through f (and the skip, which passes it on).
       const Eigen::MatrixXd& a = cache.activations[l];
-      const Eigen::MatrixXd through = (a.array() > 0.0).select(g, leaky_slope_ * g);
-      const Eigen::MatrixXd skip = SkipsAt(l) ? g : Eigen::MatrixXd();
-      g = through;
-      Eigen::Map<Eigen::MatrixXd> dw(gradient + weight_offset(l), sizes_[l + 1], sizes_[l]);
-      Eigen::Map<Eigen::VectorXd> db(gradient + bias_offset(l), sizes_[l + 1]);
-      dw.noalias() += g * cache.inputs[l].transpose();
-      db += g.rowwise().sum();
-      if (l == 0 && dx == nullptr) return;
-      const Eigen::Map<const Eigen::MatrixXd> w(params + weight_offset(l), sizes_[l + 1], sizes_[l]);
-      Eigen::MatrixXd dh = w.transpose() * g;
-      if (SkipsAt(l)) dh += skip;
-      g = std::move(dh);
-      continue;
+      if (SkipsAt(l)) skip = g;  // the skip passes dL/dh_(l+1) on unchanged
+      g = (a.array() > 0.0).select(g, leaky_slope_ * g);
     }
     Eigen::Map<Eigen::MatrixXd> dw(gradient + weight_offset(l), sizes_[l + 1], sizes_[l]);
     Eigen::Map<Eigen::VectorXd> db(gradient + bias_offset(l), sizes_[l + 1]);
@@ -87,7 +77,9 @@ void Mlp::Backward(const double* params, const MlpCache& cache, const Eigen::Mat
     db += g.rowwise().sum();
     if (l == 0 && dx == nullptr) return;
     const Eigen::Map<const Eigen::MatrixXd> w(params + weight_offset(l), sizes_[l + 1], sizes_[l]);
-    g = w.transpose() * g;
+    Eigen::MatrixXd dh = w.transpose() * g;
+    if (skip.size() > 0) dh += skip;
+    g = std::move(dh);
   }
   if (dx != nullptr) *dx = std::move(g);
 }

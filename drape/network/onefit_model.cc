@@ -9,6 +9,7 @@
 
 #include "polyfit/jet/jet_basis.h"
 #include "polyfit/util/atomic_file.h"
+#include "polyfit/util/binary_io.h"
 
 namespace polyfit {
 namespace {
@@ -19,51 +20,8 @@ constexpr char kEndMagic[8] = {'O', 'N', 'E', 'F', 'I', 'T', 'E', 'N'};
 constexpr std::uint32_t kMaxLayers = 64;
 constexpr std::uint32_t kMaxWidth = 1 << 16;
 
-class Writer {
- public:
-  template <typename T>
-  void Put(T value) {
-    PutBytes(&value, sizeof(T));
-  }
-  void PutBytes(const void* data, size_t size) {
-    const char* p = static_cast<const char*>(data);
-    buffer_.insert(buffer_.end(), p, p + size);
-  }
-  void PutDoubles(const double* data, size_t count) { PutBytes(data, count * sizeof(double)); }
-  const std::vector<char>& buffer() const { return buffer_; }
-
- private:
-  std::vector<char> buffer_;
-};
-
-class Reader {
- public:
-  Reader(std::vector<char> data, std::string path) : data_(std::move(data)), path_(std::move(path)) {}
-  template <typename T>
-  T Get(const char* what) {
-    T value;
-    GetBytes(&value, sizeof(T), what);
-    return value;
-  }
-  void GetBytes(void* out, size_t size, const char* what) {
-    if (size > data_.size() - position_) Fail(std::string("truncated in ") + what);
-    std::memcpy(out, data_.data() + position_, size);
-    position_ += size;
-  }
-  std::vector<double> GetDoubles(size_t count, const char* what) {
-    if (count > (data_.size() - position_) / sizeof(double)) Fail(std::string("truncated in ") + what);
-    std::vector<double> values(count);
-    GetBytes(values.data(), count * sizeof(double), what);
-    return values;
-  }
-  [[noreturn]] void Fail(const std::string& why) const { throw OneFitModelError(path_ + ": " + why); }
-  size_t remaining() const { return data_.size() - position_; }
-
- private:
-  std::vector<char> data_;
-  std::string path_;
-  size_t position_ = 0;
-};
+using Writer = BinaryWriter;
+using Reader = BinaryReader<OneFitModelError>;
 
 void PutMlp(const Mlp& mlp, Writer* w) {
   w->Put<std::uint32_t>(static_cast<std::uint32_t>(mlp.sizes().size()));

@@ -14,16 +14,6 @@
 namespace polyfit {
 namespace {
 
-SkinWeights RigidWeights(int n, int joint) {
-  SkinWeights weights;
-  for (int v = 0; v < n; ++v) {
-    weights.joint.push_back(joint);
-    weights.value.push_back(1.0);
-    weights.offsets.push_back(v + 1);
-  }
-  return weights;
-}
-
 // The procedural body bobbing up and down and turning a little: every
 // joint moved alike.
 OneFitTrainingClip Bob(const SkinnedBody& body, int frames) {
@@ -44,7 +34,7 @@ class OneFitTrainerTest : public ::testing::Test {
     body_ = MakeProceduralBody();
     // A shirt just around the torso (radius 0.14 m): collisions matter.
     OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
-    shirt.weights = RigidWeights(shirt.mesh.num_vertices(), 1);
+    shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
     options_.drape.patching.vertices_per_patch = 30;
     options_.network.patch_hidden = {16};
     options_.network.patch_embedding = 8;
@@ -69,7 +59,7 @@ TEST_F(OneFitTrainerTest, ANewNetworkPredictsAboutTheRestPatches) {
   std::fill(weights.begin(), weights.end(), 0.0);  // zero output: exactly the rest patches
   const std::vector<double> rest = trainer_->Predict(weights.data(), 0, 0, 3);
   OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
-  DrapeSolver solver(body_, shirt.mesh, RigidWeights(shirt.mesh.num_vertices(), 1), options_.drape);
+  DrapeSolver solver(body_, shirt.mesh, SingleJointWeights(shirt.mesh.num_vertices(), 1), options_.drape);
   EXPECT_EQ(rest, solver.RestPatchParameters());
   // Within a few millimetres of the rest garment, but not on it.
   const double moved = (solver.PositionsOf(predicted) - solver.PositionsOf(rest)).colwise().norm().maxCoeff();
@@ -146,7 +136,7 @@ TEST_F(OneFitTrainerTest, AModelFileRoundTripsAndTheDraperPredictsAsTraining) {
 
   // The draper (garment half precomputed) predicts what training sees.
   OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
-  shirt.weights = RigidWeights(shirt.mesh.num_vertices(), 1);
+  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
   DrapeSolver solver(body_, shirt.mesh, shirt.weights, options_.drape);
   const OneFitDraper draper(loaded, solver, shirt.weights, body_.skeleton);
   const OneFitTrainingClip clip = Bob(body_, 8);

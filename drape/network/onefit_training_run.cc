@@ -35,9 +35,8 @@ std::vector<OneFitTrainingClip> LoadClips(const OneFitTrainingRunOptions& option
     clip.name = std::filesystem::path(path).stem().string();
     clip.fps = fps;
     clip.shape = options.shape;
-    const int frames = options.max_frames_per_clip > 0
-                           ? std::min(options.max_frames_per_clip, retargeter->num_frames())
-                           : retargeter->num_frames();
+    const int frames = options.max_frames_per_clip > 0 ? std::min(options.max_frames_per_clip, retargeter->num_frames())
+                                                       : retargeter->num_frames();
     for (int f = 0; f < frames; ++f) clip.poses.push_back(retargeter->Pose(f));
     clips.push_back(std::move(clip));
   }

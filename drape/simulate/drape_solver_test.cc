@@ -11,22 +11,12 @@
 namespace polyfit {
 namespace {
 
-SkinWeights RigidWeights(int n, int joint) {
-  SkinWeights weights;
-  for (int v = 0; v < n; ++v) {
-    weights.joint.push_back(joint);
-    weights.value.push_back(1.0);
-    weights.offsets.push_back(v + 1);
-  }
-  return weights;
-}
-
 TEST(DrapeSolverTest, PatchesReproduceTheRestGarment) {
   const SkinnedBody body = MakeProceduralBody();
   TriangleMesh garment = MakeGrid(16, 16, 0.4);
   garment.vertices.row(1).array() += 1.9;  // above the head
   DrapeSolverOptions options;
-  DrapeSolver solver(body, garment, RigidWeights(garment.num_vertices(), 0), options);
+  DrapeSolver solver(body, garment, SingleJointWeights(garment.num_vertices(), 0), options);
   EXPECT_LT((solver.positions() - garment.vertices).cwiseAbs().maxCoeff(), 1e-6);
 }
 
@@ -42,7 +32,7 @@ TEST(DrapeSolverTest, AFreeSheetFallsWithTheWeightsAccelerationAndKeepsItsShape)
     options.solve.parameter_prior = 0.0;
     options.solve.max_iterations = 20;
     options.solve.conjugate_gradients_min_vertices = cg ? 0 : garment.num_vertices() + 1;
-    DrapeSolver solver(body, garment, RigidWeights(garment.num_vertices(), 0), options);
+    DrapeSolver solver(body, garment, SingleJointWeights(garment.num_vertices(), 0), options);
     const std::vector<Eigen::Isometry3d> rest(body.skeleton.num_joints(), Eigen::Isometry3d::Identity());
     const ClothRest cloth = PrepareClothRest(solver.rest_garment());
     const double y0 = solver.positions().row(1).mean();
@@ -103,7 +93,7 @@ TEST(DrapeSolverTest, PushesAShirtStartingInsideTheBodyOut) {
   DrapeSolverOptions options;
   options.patching.vertices_per_patch = 40;
   options.solve.max_passes = 4;
-  DrapeSolver solver(body, shirt, RigidWeights(shirt.num_vertices(), 1), options);
+  DrapeSolver solver(body, shirt, SingleJointWeights(shirt.num_vertices(), 1), options);
   EXPECT_EQ((solver.SignedDistances().array() < 0.0).count(), shirt.num_vertices());
   const std::vector<Eigen::Isometry3d> rest(body.skeleton.num_joints(), Eigen::Isometry3d::Identity());
   for (int step = 0; step < 5; ++step) ASSERT_TRUE(solver.Step(rest).IsSolutionUsable());
@@ -119,7 +109,7 @@ TEST(DrapeSolverTest, EvaluateGivesTheEnergyAndItsGradientAtGivenPatchParameters
   const TriangleMesh shirt = MakeTube(0.138, 0.1, 0.4, 24, 8);
   DrapeSolverOptions options;
   options.patching.vertices_per_patch = 40;
-  DrapeSolver solver(body, shirt, RigidWeights(shirt.num_vertices(), 1), options);
+  DrapeSolver solver(body, shirt, SingleJointWeights(shirt.num_vertices(), 1), options);
   std::vector<Eigen::Isometry3d> pose(body.skeleton.num_joints(), Eigen::Isometry3d::Identity());
   for (auto& t : pose) t.translation() = Eigen::Vector3d(0.0, -0.01, 0.005);  // a small drop
   solver.Pose(pose);
@@ -164,7 +154,7 @@ TEST(DrapeSolverTest, StiffWeightRatiosStayFinite) {
     options.physics.weights.inextensibility = stiff;  // against k_g = 1: ratio >= 1e6
     options.physics.weights.boundary = stiff;
     options.physics.collision_stiffness = 1e9;
-    DrapeSolver solver(body, shirt, RigidWeights(shirt.num_vertices(), 1), options);
+    DrapeSolver solver(body, shirt, SingleJointWeights(shirt.num_vertices(), 1), options);
     // A quick turn of the torso's bone.
     std::vector<Eigen::Isometry3d> pose(body.skeleton.num_joints(), Eigen::Isometry3d::Identity());
     for (int step = 1; step <= 5; ++step) {
@@ -185,11 +175,11 @@ TEST(DrapeSolverTest, RejectsBadOptionsAndGarments) {
   const TriangleMesh shirt = MakeTube(0.15, 0.1, 0.4, 16, 4);
   DrapeSolverOptions options;
   options.physics.weights.collision = std::nan("");
-  EXPECT_THROW(DrapeSolver(body, shirt, RigidWeights(shirt.num_vertices(), 1), options), std::invalid_argument);
-  EXPECT_THROW(DrapeSolver(body, shirt, RigidWeights(3, 1), DrapeSolverOptions{}), std::invalid_argument);
+  EXPECT_THROW(DrapeSolver(body, shirt, SingleJointWeights(shirt.num_vertices(), 1), options), std::invalid_argument);
+  EXPECT_THROW(DrapeSolver(body, shirt, SingleJointWeights(3, 1), DrapeSolverOptions{}), std::invalid_argument);
   TriangleMesh broken = shirt;
   broken.vertices(0, 0) = std::nan("");
-  EXPECT_THROW(DrapeSolver(body, broken, RigidWeights(shirt.num_vertices(), 1), DrapeSolverOptions{}),
+  EXPECT_THROW(DrapeSolver(body, broken, SingleJointWeights(shirt.num_vertices(), 1), DrapeSolverOptions{}),
                std::invalid_argument);
 }
 

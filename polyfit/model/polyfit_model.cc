@@ -7,6 +7,7 @@
 #include <iterator>
 
 #include "polyfit/util/atomic_file.h"
+#include "polyfit/util/binary_io.h"
 
 namespace polyfit {
 namespace {
@@ -14,47 +15,8 @@ namespace {
 constexpr char kMagic[8] = {'P', 'O', 'L', 'Y', 'F', 'I', 'T', '\0'};
 constexpr char kEndMagic[4] = {'E', 'N', 'D', '\0'};
 
-class Writer {
- public:
-  template <typename T>
-  void Put(const T& value) {
-    const char* bytes = reinterpret_cast<const char*>(&value);
-    buffer_.insert(buffer_.end(), bytes, bytes + sizeof(T));
-  }
-  void PutBytes(const void* data, size_t size) {
-    const char* bytes = static_cast<const char*>(data);
-    buffer_.insert(buffer_.end(), bytes, bytes + size);
-  }
-  const std::vector<char>& buffer() const { return buffer_; }
-
- private:
-  std::vector<char> buffer_;
-};
-
-class Reader {
- public:
-  Reader(std::vector<char> data, std::string path) : data_(std::move(data)), path_(std::move(path)) {}
-  template <typename T>
-  T Get(const char* section) {
-    T value;
-    GetBytes(&value, sizeof(T), section);
-    return value;
-  }
-  void GetBytes(void* out, size_t size, const char* section) {
-    if (position_ + size > data_.size()) {
-      throw ModelIoError(path_ + ": truncated in section '" + section + "'");
-    }
-    std::memcpy(out, data_.data() + position_, size);
-    position_ += size;
-  }
-  size_t remaining() const { return data_.size() - position_; }
-  [[noreturn]] void Fail(const std::string& reason) const { throw ModelIoError(path_ + ": " + reason); }
-
- private:
-  std::vector<char> data_;
-  std::string path_;
-  size_t position_ = 0;
-};
+using Writer = BinaryWriter;
+using Reader = BinaryReader<ModelIoError>;
 
 }  // namespace
 
