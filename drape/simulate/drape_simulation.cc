@@ -96,6 +96,12 @@ void CreateOutputFolders(const DrapeSimulationOptions& options) {
   if (error) throw Error(ErrorKind::kOutput, options.out_dir + ": cannot create the folder: " + error.message());
 }
 
+// The garment at rest as its patches rebuild it: what strain is measured
+// against, so that anyone can check the metrics.
+void WriteRestGarment(const DrapeSimulationOptions& options, const DrapeSolver& solver) {
+  if (options.write_meshes) WritePly((fs::path(options.out_dir) / "rest_garment.ply").string(), solver.rest_garment());
+}
+
 // The garment's metrics at a frame: the solver's state, or its projection
 // out of the body (options.project_offset) into `posed`.
 DrapeFrameSummary MeasureFrame(const DrapeSimulationOptions& options, const DrapeSolver& solver, const ClothRest& rest,
@@ -131,10 +137,13 @@ DrapeFrameSummary MeasureFrame(const DrapeSimulationOptions& options, const Drap
 void WriteFrame(const DrapeSimulationOptions& options, const DrapeSolver& solver, const SkinnedBody& body, int frame,
                 const TriangleMesh& posed) {
   const fs::path out(options.out_dir);
-  if (options.write_meshes) WritePly((out / "meshes" / FrameName("frame", frame, "ply")).string(), posed);
+  TriangleMesh posed_body = body.mesh;
+  posed_body.vertices = solver.body_vertices();
+  if (options.write_meshes) {
+    WritePly((out / "meshes" / FrameName("frame", frame, "ply")).string(), posed);
+    WritePly((out / "meshes" / FrameName("body", frame, "ply")).string(), posed_body);
+  }
   if (options.render_every > 0 && (frame - options.first_frame) % options.render_every == 0) {
-    TriangleMesh posed_body = body.mesh;
-    posed_body.vertices = solver.body_vertices();
     RenderOptions render;
     render.view_height = options.render_height;
     WriteImage((out / "renders" / FrameName("frame", frame, "png")).string(),
@@ -343,6 +352,7 @@ DrapeSimulationSummary RunDrapeSimulation(const DrapeSimulationOptions& options)
   DrapeSimulationSummary summary;
   DescribeGarment(inputs, *solver, &summary);
   CreateOutputFolders(options);
+  WriteRestGarment(options, *solver);
   if (draper) {
     RunNetworkFrames(options, inputs, *draper, solver.get(), &summary);
   } else {

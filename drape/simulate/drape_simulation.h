@@ -2,6 +2,9 @@
 // reference drape (drape_solver.h). Loads and checks every input before
 // writing anything, then writes into out_dir:
 //   meshes/frame_NNNN.ply   the garment per clip frame (atomically)
+//   meshes/body_NNNN.ply    the posed body per clip frame
+//   rest_garment.ply        the garment at rest as its patches rebuild it
+//                           (what epsilon_e and epsilon_a compare against)
 //   renders/frame_NNNN.png  body and garment, front and side, every k frames
 //   frames.csv              per-frame metrics and times
 //   metrics.json            options, sizes, termination, per-frame metrics,

@@ -75,7 +75,15 @@ TEST_F(DrapeSimulationTest, WritesMeshesRendersAndMetrics) {
     std::snprintf(name, sizeof(name), "frame_%04d.ply", f);
     const TriangleMesh mesh = ReadTriangleMesh((out / "meshes" / name).string());
     EXPECT_EQ(mesh.num_vertices(), summary.garment_vertices);
+    std::snprintf(name, sizeof(name), "body_%04d.ply", f);
+    EXPECT_GT(ReadTriangleMesh((out / "meshes" / name).string()).num_vertices(), 100);
   }
+  // The rest garment: epsilon_e of the last frame, measured independently.
+  const TriangleMesh rest = ReadTriangleMesh((out / "rest_garment.ply").string());
+  const TriangleMesh last = ReadTriangleMesh((out / "meshes" / "frame_0004.ply").string());
+  ASSERT_EQ(rest.num_vertices(), last.num_vertices());
+  EXPECT_NEAR(MeasureCloth(PrepareClothRest(rest), last.vertices).edge_strain_percent,
+              summary.records.back().edge_strain_percent, 1e-3);
   EXPECT_TRUE(fs::exists(out / "renders" / "frame_0000.png"));
   EXPECT_TRUE(fs::exists(out / "renders" / "frame_0002.png"));
   EXPECT_FALSE(fs::exists(out / "renders" / "frame_0001.png"));
