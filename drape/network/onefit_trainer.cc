@@ -53,6 +53,7 @@ std::string OneFitTrainerOptions::Validate() const {
   }
   if (lbfgs_rank < 1) return "lbfgs_rank must be >= 1";
   if (!(weight_step > 0.0)) return "weight_step must be > 0";
+  if (!(learning_rate > 0.0)) return "learning_rate must be > 0";
   if (num_threads < 1) return "num_threads must be >= 1";
   return {};
 }
@@ -220,6 +221,56 @@ double OneFitTrainer::Loss(const double* weights, const std::vector<OneFitSample
   return loss;
 }
 
+OneFitBatchSummary OneFitTrainer::LbfgsBatch(const std::vector<OneFitSample>& batch, int index,
+                                             std::vector<double>* weights) {
+  ceres::GradientProblemSolver::Options solver;
+  solver.line_search_direction_type = ceres::LBFGS;
+  solver.max_lbfgs_rank = options_.lbfgs_rank;
+  solver.max_num_iterations = options_.iterations_per_batch;
+  solver.logging_type = ceres::SILENT;
+  ceres::GradientProblem problem(new BatchLoss(this, &batch, options_.weight_step));
+  ceres::GradientProblemSolver::Summary result;
+  std::vector<double> x(weights->size());
+  for (size_t i = 0; i < x.size(); ++i) x[i] = (*weights)[i] / options_.weight_step;
+  ceres::Solve(solver, problem, x.data(), &result);
+  for (size_t i = 0; i < x.size(); ++i) (*weights)[i] = options_.weight_step * x[i];
+  OneFitBatchSummary record;
+  record.batch = index;
+  record.initial_loss = result.initial_cost;
+  record.final_loss = result.final_cost;
+  record.iterations = static_cast<int>(result.iterations.size()) - 1;
+  return record;
+}
+
+// Adam (Kingma and Ba): m = b1 m + (1 - b1) g, v = b2 v + (1 - b2) g^2,
+// w -= rate m_hat / (sqrt(v_hat) + eps), its moments kept across batches.
+OneFitBatchSummary OneFitTrainer::AdamBatch(const std::vector<OneFitSample>& batch, int index, AdamState* state,
+                                            std::vector<double>* weights) {
+  constexpr double kBeta1 = 0.9, kBeta2 = 0.999, kEpsilon = 1e-8;
+  const size_t n = weights->size();
+  if (state->m.size() != n) {
+    state->m.assign(n, 0.0);
+    state->v.assign(n, 0.0);
+  }
+  std::vector<double> gradient(n);
+  OneFitBatchSummary record;
+  record.batch = index;
+  for (int k = 0; k < options_.iterations_per_batch; ++k) {
+    const double loss = Loss(weights->data(), batch, gradient.data());
+    if (k == 0) record.initial_loss = loss;
+    ++state->steps;
+    const double c1 = 1.0 - std::pow(kBeta1, state->steps), c2 = 1.0 - std::pow(kBeta2, state->steps);
+    for (size_t i = 0; i < n; ++i) {
+      state->m[i] = kBeta1 * state->m[i] + (1.0 - kBeta1) * gradient[i];
+      state->v[i] = kBeta2 * state->v[i] + (1.0 - kBeta2) * gradient[i] * gradient[i];
+      (*weights)[i] -= options_.learning_rate * (state->m[i] / c1) / (std::sqrt(state->v[i] / c2) + kEpsilon);
+    }
+    ++record.iterations;
+  }
+  record.final_loss = Loss(weights->data(), batch, nullptr);
+  return record;
+}
+
 OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights, int first_batch,
                                            const BatchCallback& on_batch) {
   const auto start = Clock::now();
@@ -231,6 +282,7 @@ OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights, int fir
   std::mt19937_64 rng(options_.seed);
   std::vector<OneFitSample> batch(options_.batch_size);
   std::vector<double> best = *weights;
+  AdamState adam;
   for (int b = 0; b < options_.num_batches; ++b) {
     for (OneFitSample& s : batch) {
       s.garment = std::uniform_int_distribution<int>(0, static_cast<int>(garments_.size()) - 1)(rng);
@@ -238,33 +290,19 @@ OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights, int fir
       s.frame = std::uniform_int_distribution<int>(0, static_cast<int>(clips_[s.clip].poses.size()) - 1)(rng);
     }
     if (b < first_batch) continue;
-    ceres::GradientProblemSolver::Options solver;
-    solver.line_search_direction_type = ceres::LBFGS;
-    solver.max_lbfgs_rank = options_.lbfgs_rank;
-    solver.max_num_iterations = options_.iterations_per_batch;
-    solver.logging_type = ceres::SILENT;
-    ceres::GradientProblem problem(new BatchLoss(this, &batch, options_.weight_step));
-    ceres::GradientProblemSolver::Summary result;
-    std::vector<double> x(weights->size());
-    for (size_t i = 0; i < x.size(); ++i) x[i] = (*weights)[i] / options_.weight_step;
-    ceres::Solve(solver, problem, x.data(), &result);
-    for (size_t i = 0; i < x.size(); ++i) (*weights)[i] = options_.weight_step * x[i];
-    OneFitBatchSummary record;
-    record.batch = b;
-    record.initial_loss = result.initial_cost;
-    record.final_loss = result.final_cost;
-    record.iterations = static_cast<int>(result.iterations.size()) - 1;
-    record.time_s = Seconds(start);
+    const OneFitBatchSummary record = options_.optimizer == OneFitOptimizer::kAdam ? AdamBatch(batch, b, &adam, weights)
+                                                                                   : LbfgsBatch(batch, b, weights);
     summary.batches.push_back(record);
+    summary.batches.back().time_s = Seconds(start);
     const bool finite = std::all_of(weights->begin(), weights->end(), [](double w) { return std::isfinite(w); });
-    if (!finite || !std::isfinite(result.final_cost)) {
+    if (!finite || !std::isfinite(record.final_loss)) {
       *weights = best;
       summary.termination_type = TerminationType::kFailure;
       summary.message = "batch " + std::to_string(b) + " left non-finite weights; the last good ones are kept";
       break;
     }
     best = *weights;
-    if (on_batch) on_batch(record, *weights);
+    if (on_batch) on_batch(summary.batches.back(), *weights);
   }
   if (summary.termination_type != TerminationType::kFailure) {
     summary.termination_type = TerminationType::kNoConvergence;

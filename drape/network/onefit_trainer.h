@@ -42,6 +42,11 @@ struct OneFitTrainingClip {
   BodyShape shape;
 };
 
+enum class OneFitOptimizer {
+  kLbfgs,  // each batch a ceres::GradientProblem, L-BFGS (restarting per batch)
+  kAdam    // the control: Adam steps, moments kept across batches
+};
+
 struct OneFitTrainerOptions {
   OneFitNetworkOptions network;
   // The loss: the reference drape's terms, weights and patches.
@@ -53,6 +58,9 @@ struct OneFitTrainerOptions {
   // The weights' unit for L-BFGS: its first step in a batch changes the
   // largest weight by about this much.
   double weight_step = 1e-2;
+  OneFitOptimizer optimizer = OneFitOptimizer::kLbfgs;
+  // Adam's step size (weights' units).
+  double learning_rate = 1e-4;
   std::uint64_t seed = 1;
   int num_threads = 2;
 
@@ -117,6 +125,13 @@ class OneFitTrainer {
 
  private:
   struct GarmentData;
+  struct AdamState {
+    std::vector<double> m, v;
+    long long steps = 0;
+  };
+  OneFitBatchSummary LbfgsBatch(const std::vector<OneFitSample>& batch, int index, std::vector<double>* weights);
+  OneFitBatchSummary AdamBatch(const std::vector<OneFitSample>& batch, int index, AdamState* state,
+                               std::vector<double>* weights);
   Eigen::VectorXd NormalizedBodyFeatures(int clip, int frame) const;
   double SampleLoss(const double* weights, const OneFitSample& sample, int thread, double* gradient);
 

@@ -107,6 +107,22 @@ TEST_F(OneFitTrainerTest, TrainingLowersTheLossDeterministically) {
   EXPECT_EQ(again, weights);
 }
 
+TEST_F(OneFitTrainerTest, AdamLowersTheLossToo) {
+  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
+  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
+  OneFitTrainerOptions options = options_;
+  options.optimizer = OneFitOptimizer::kAdam;
+  options.learning_rate = 1e-4;
+  OneFitTrainer adam(body_, {shirt}, {Bob(body_, 8)}, options);
+  std::vector<double> weights = adam.InitialWeights();
+  const std::vector<OneFitSample> all = {{0, 0, 0}, {0, 0, 1}, {0, 0, 2}, {0, 0, 3},
+                                         {0, 0, 4}, {0, 0, 5}, {0, 0, 6}, {0, 0, 7}};
+  const double before = adam.Loss(weights.data(), all, nullptr);
+  const OneFitTrainingSummary summary = adam.Train(&weights);
+  ASSERT_NE(summary.termination_type, TerminationType::kFailure) << summary.BriefReport();
+  EXPECT_LT(adam.Loss(weights.data(), all, nullptr), 0.9 * before) << summary.BriefReport();
+}
+
 TEST_F(OneFitTrainerTest, AResumedRunEndsWhereAStraightRunEnds) {
   std::vector<double> straight = trainer_->InitialWeights(), checkpoint;
   trainer_->Train(&straight, 0, [&](const OneFitBatchSummary& b, const std::vector<double>& w) {

@@ -133,6 +133,7 @@ int RunSimulate(SimulateFlags& f) {
 struct TrainFlags {
   polyfit::OneFitTrainingRunOptions options;
   std::string shape;
+  std::string optimizer = "lbfgs";
 };
 
 CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
@@ -155,11 +156,18 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
   train->add_option("--vertices-per-patch", t.drape.patching.vertices_per_patch, "garment vertices per patch")
       ->capture_default_str();
   train->add_flag("--resume", o.resume, "continue from the model file and its progress, if they exist");
+  train->add_option("--optimizer", f->optimizer, "lbfgs (Ceres) or adam")->capture_default_str();
+  train->add_option("--learning-rate", t.learning_rate, "Adam's step size")->capture_default_str();
   return train;
 }
 
 int RunTrain(TrainFlags& f) {
   if (!f.shape.empty()) f.options.shape = polyfit::BodyShape::Parse(f.shape);
+  if (f.optimizer != "lbfgs" && f.optimizer != "adam") {
+    throw std::invalid_argument("--optimizer: lbfgs or adam, not '" + f.optimizer + "'");
+  }
+  f.options.trainer.optimizer =
+      f.optimizer == "adam" ? polyfit::OneFitOptimizer::kAdam : polyfit::OneFitOptimizer::kLbfgs;
   const polyfit::OneFitTrainingSummary summary =
       polyfit::RunOneFitTraining(f.options, [](const polyfit::OneFitBatchSummary& b) {
         std::printf("batch %4d  loss %.5g -> %.5g J  %2d it  %7.1f s\n", b.batch, b.initial_loss, b.final_loss,
