@@ -126,6 +126,17 @@ void OneFitNetwork::Check() {
   }
 }
 
+namespace {
+
+// b(y) = c tanh(y / c) and b'(y).
+double Bound(double y, double c) { return c * std::tanh(y / c); }
+double BoundSlope(double y, double c) {
+  const double t = std::tanh(y / c);
+  return 1.0 - t * t;
+}
+
+}  // namespace
+
 std::vector<double> PatchParametersFromOutputs(const std::vector<double>& rest,
                                                const std::vector<Eigen::Matrix3d>& frames,
                                                const Eigen::MatrixXd& outputs) {
@@ -139,10 +150,11 @@ std::vector<double> PatchParametersFromOutputs(const std::vector<double>& rest,
   for (int p = 0; p < num_patches; ++p) {
     const double* r = rest.data() + p * stride;
     double* out = params.data() + p * stride;
-    for (int c = 0; c < k; ++c) out[c] = r[c] + outputs(c, p);
-    out[k] = r[k] * std::exp(outputs(k, p));
-    const Eigen::Vector3d t =
-        Eigen::Map<const Eigen::Vector3d>(r + k + 1) + r[k] * frames[p] * outputs.col(p).tail<3>();
+    for (int c = 0; c < k; ++c) out[c] = r[c] + Bound(outputs(c, p), kOutputBoundAlpha);
+    out[k] = r[k] * std::exp(Bound(outputs(k, p), kOutputBoundLogScale));
+    Eigen::Vector3d d;
+    for (int c = 0; c < 3; ++c) d[c] = Bound(outputs(k + 1 + c, p), kOutputBoundTranslation);
+    const Eigen::Vector3d t = Eigen::Map<const Eigen::Vector3d>(r + k + 1) + r[k] * frames[p] * d;
     Eigen::Map<Eigen::Vector3d>(out + k + 1) = t;
   }
   return params;
@@ -160,9 +172,11 @@ Eigen::MatrixXd ChainPatchParameterGradient(const std::vector<double>& rest, con
   for (int p = 0; p < num_patches; ++p) {
     const double* g = gradient.data() + p * stride;
     const double s0 = rest[p * stride + k];
-    for (int c = 0; c < k; ++c) d(c, p) = g[c];
-    d(k, p) = g[k] * s0 * std::exp(outputs(k, p));
-    d.col(p).tail<3>() = s0 * frames[p].transpose() * Eigen::Map<const Eigen::Vector3d>(g + k + 1);
+    for (int c = 0; c < k; ++c) d(c, p) = g[c] * BoundSlope(outputs(c, p), kOutputBoundAlpha);
+    d(k, p) = g[k] * s0 * std::exp(Bound(outputs(k, p), kOutputBoundLogScale)) *
+              BoundSlope(outputs(k, p), kOutputBoundLogScale);
+    const Eigen::Vector3d dt = s0 * frames[p].transpose() * Eigen::Map<const Eigen::Vector3d>(g + k + 1);
+    for (int c = 0; c < 3; ++c) d(k + 1 + c, p) = dt[c] * BoundSlope(outputs(k + 1 + c, p), kOutputBoundTranslation);
   }
   return d;
 }

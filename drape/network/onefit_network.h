@@ -8,7 +8,11 @@
 // one flat vector [E_T | E_B | D]. The output of patch k turns its rest
 // parameters (alpha_0, s_0, T_0, frame R_0) into the drape's:
 //
-//   alpha = alpha_0 + d alpha,   s = s_0 exp(d s),   T = T_0 + s_0 R_0 d T
+//   alpha = alpha_0 + b_a(d alpha),   s = s_0 exp(b_s(d s)),   T = T_0 + s_0 R_0 b_T(d T)
+//
+// with b_c(y) = c tanh(y / c) (about y near zero): the bounds (jet
+// coefficients by 1, scale by e^(+-0.25), centre by half the patch's size)
+// keep a pose far from training (a cartwheel) from throwing patches away.
 //
 // in the body's rest pose, which the garment's skinning then poses, as in
 // the reference drape (drape/simulate/drape_solver.h). Inputs are
@@ -88,6 +92,12 @@ class OneFitNetwork {
   Mlp decoder_tail_;  // the decoder's layers after the first
   int num_coefficients_ = 0;
 };
+
+// The output bounds b_c above (part of the model's meaning: changing them
+// needs a new model version).
+inline constexpr double kOutputBoundAlpha = 1.0;
+inline constexpr double kOutputBoundLogScale = 0.25;
+inline constexpr double kOutputBoundTranslation = 0.5;
 
 // alpha, s, T per patch (packed as DrapeSolver's patch parameters) from the
 // rest ones, the patches' frames R_0 (column-major 3 by 3 each) and the

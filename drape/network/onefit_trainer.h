@@ -58,7 +58,8 @@ struct OneFitTrainerOptions {
   // The weights' unit for L-BFGS: its first step in a batch changes the
   // largest weight by about this much.
   double weight_step = 1e-2;
-  OneFitOptimizer optimizer = OneFitOptimizer::kLbfgs;
+  // Adam measured better here (docs/benchmarks.md, "OneFit network").
+  OneFitOptimizer optimizer = OneFitOptimizer::kAdam;
   // Adam's step size (weights' units).
   double learning_rate = 1e-4;
   std::uint64_t seed = 1;

@@ -41,6 +41,7 @@ class OneFitTrainerTest : public ::testing::Test {
     options_.network.body_hidden = {16};
     options_.network.body_embedding = 8;
     options_.network.decoder_hidden = {24, 24};
+    options_.optimizer = OneFitOptimizer::kLbfgs;  // the Ceres path; Adam has its own test
     options_.batch_size = 4;
     options_.iterations_per_batch = 5;
     options_.num_batches = 6;

@@ -133,7 +133,7 @@ int RunSimulate(SimulateFlags& f) {
 struct TrainFlags {
   polyfit::OneFitTrainingRunOptions options;
   std::string shape;
-  std::string optimizer = "lbfgs";
+  std::string optimizer = "adam";
 };
 
 CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
@@ -156,7 +156,7 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
   train->add_option("--vertices-per-patch", t.drape.patching.vertices_per_patch, "garment vertices per patch")
       ->capture_default_str();
   train->add_flag("--resume", o.resume, "continue from the model file and its progress, if they exist");
-  train->add_option("--optimizer", f->optimizer, "lbfgs (Ceres) or adam")->capture_default_str();
+  train->add_option("--optimizer", f->optimizer, "adam, or lbfgs (a ceres::GradientProblem per batch)")->capture_default_str();
   train->add_option("--learning-rate", t.learning_rate, "Adam's step size")->capture_default_str();
   return train;
 }
