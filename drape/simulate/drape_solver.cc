@@ -658,15 +658,10 @@ Eigen::Matrix3Xd DrapeSolver::PositionsAt(const std::vector<double>& patch_param
   if (static_cast<int>(rest_to_posed.size()) != m.body.skeleton.num_joints()) {
     throw std::invalid_argument("DrapeSolver::PositionsAt: one transform per joint is needed");
   }
-  const std::vector<Eigen::Matrix3d> saved_linear = m.skin_linear;
-  const std::vector<Eigen::Vector3d> saved_translation = m.skin_translation;
   for (int v = 0; v < static_cast<int>(m.skin_linear.size()); ++v) {
     m.weights.Blend(v, rest_to_posed, &m.skin_linear[v], &m.skin_translation[v]);
   }
-  Eigen::Matrix3Xd x = PositionsOf(patch_parameters);
-  m.skin_linear = saved_linear;
-  m.skin_translation = saved_translation;
-  return x;
+  return PositionsOf(patch_parameters);
 }
 
 double DrapeSolver::Evaluate(const std::vector<double>& patch_parameters, std::vector<double>* gradient) {

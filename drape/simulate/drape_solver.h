@@ -175,8 +175,9 @@ class DrapeSolver {
   std::vector<double> RestPatchParameters() const;
   std::vector<double> PatchParameters() const;
   Eigen::Matrix3Xd PositionsOf(const std::vector<double>& patch_parameters);
-  // The same with the garment posed by `rest_to_posed` instead of the
-  // current pose (the body is not posed: cheap, for a history of frames).
+  // The same with the garment's skinning posed by `rest_to_posed` (and left
+  // there; the body is not posed: cheap, for a history of frames or the
+  // network's inference). Pose() or Step() poses both again.
   Eigen::Matrix3Xd PositionsAt(const std::vector<double>& patch_parameters,
                                const std::vector<Eigen::Isometry3d>& rest_to_posed);
   // Takes given patch parameters (every slide zero) as the current state,
