@@ -54,6 +54,7 @@ std::string OneFitTrainerOptions::Validate() const {
   if (lbfgs_rank < 1) return "lbfgs_rank must be >= 1";
   if (!(weight_step > 0.0)) return "weight_step must be > 0";
   if (!(learning_rate > 0.0)) return "learning_rate must be > 0";
+  if (validation_every < 0 || validation_frames < 1) return "validation_every >= 0 and validation_frames >= 1";
   if (num_threads < 1) return "num_threads must be >= 1";
   return {};
 }
@@ -271,6 +272,24 @@ OneFitBatchSummary OneFitTrainer::AdamBatch(const std::vector<OneFitSample>& bat
   return record;
 }
 
+void OneFitTrainer::ValidationDrape(const double* weights, int garment, int clip, int frames, double* inside_percent,
+                                    double* edge_strain_percent) {
+  DrapeSolver& solver = *garments_.at(garment)->solvers.front();
+  const OneFitTrainingClip& c = clips_.at(clip);
+  const ClothRest rest = PrepareClothRest(solver.rest_garment());
+  const int count = std::min(frames, static_cast<int>(c.poses.size()));
+  double inside = 0.0, strain = 0.0;
+  for (int f = 0; f < count; ++f) {
+    solver.Pose(c.poses[f]);
+    const Eigen::Matrix3Xd x = solver.PositionsOf(Predict(weights, garment, clip, f));
+    const Eigen::VectorXd d = solver.SignedDistances(x);
+    inside += 100.0 * (d.array() < 0.0).count() / static_cast<double>(d.size()) / count;
+    strain += MeasureCloth(rest, x).edge_strain_percent / count;
+  }
+  *inside_percent = inside;
+  *edge_strain_percent = strain;
+}
+
 OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights, int first_batch,
                                            const BatchCallback& on_batch) {
   const auto start = Clock::now();
@@ -293,6 +312,11 @@ OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights, int fir
     const OneFitBatchSummary record = options_.optimizer == OneFitOptimizer::kAdam ? AdamBatch(batch, b, &adam, weights)
                                                                                    : LbfgsBatch(batch, b, weights);
     summary.batches.push_back(record);
+    if (options_.validation_every > 0 && (b + 1) % options_.validation_every == 0) {
+      ValidationDrape(weights->data(), 0, 0, options_.validation_frames,
+                      &summary.batches.back().validation_inside_percent,
+                      &summary.batches.back().validation_edge_strain_percent);
+    }
     summary.batches.back().time_s = Seconds(start);
     const bool finite = std::all_of(weights->begin(), weights->end(), [](double w) { return std::isfinite(w); });
     if (!finite || !std::isfinite(record.final_loss)) {

@@ -14,6 +14,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -63,6 +64,10 @@ struct OneFitTrainerOptions {
   // Adam's step size (weights' units).
   double learning_rate = 1e-4;
   std::uint64_t seed = 1;
+  // A validation drape every this many batches (0: none), over this many
+  // frames (see OneFitBatchSummary).
+  int validation_every = 25;
+  int validation_frames = 30;
   int num_threads = 2;
 
   std::string Validate() const;
@@ -74,6 +79,11 @@ struct OneFitBatchSummary {
   double final_loss = 0.0;    // and after
   int iterations = 0;
   double time_s = 0.0;  // since training started
+  // The validation drape (every validation_every batches, else NaN): the
+  // network alone on the first garment through the first frames of the
+  // first clip, epsilon_c and epsilon_e (%).
+  double validation_inside_percent = std::numeric_limits<double>::quiet_NaN();
+  double validation_edge_strain_percent = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct OneFitTrainingSummary {
@@ -119,6 +129,11 @@ class OneFitTrainer {
   using BatchCallback = std::function<void(const OneFitBatchSummary&, const std::vector<double>&)>;
   OneFitTrainingSummary Train(std::vector<double>* weights, int first_batch = 0,
                               const BatchCallback& on_batch = nullptr);
+
+  // epsilon_c and epsilon_e (%) of the network's drape of a garment through
+  // a clip's first `frames` frames.
+  void ValidationDrape(const double* weights, int garment, int clip, int frames, double* inside_percent,
+                       double* edge_strain_percent);
 
   // The patch parameters the network predicts for a garment at a clip's
   // frame (the network alone, as DrapeSolver lays them out).

@@ -108,6 +108,16 @@ TEST_F(OneFitTrainerTest, TrainingLowersTheLossDeterministically) {
   EXPECT_EQ(again, weights);
 }
 
+TEST_F(OneFitTrainerTest, TheValidationDrapeMeasuresTheNetworksGarment) {
+  std::vector<double> weights(trainer_->num_parameters(), 0.0);  // the rest garment, skinned
+  double inside = -1.0, strain = -1.0;
+  trainer_->ValidationDrape(weights.data(), 0, 0, 4, &inside, &strain);
+  // The shirt (radius 0.145) around the torso (0.14), moved rigidly with it.
+  EXPECT_GE(inside, 0.0);
+  EXPECT_LT(inside, 50.0);
+  EXPECT_NEAR(strain, 0.0, 1e-6);  // rigid skinning stretches nothing
+}
+
 TEST_F(OneFitTrainerTest, AdamLowersTheLossToo) {
   OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
   shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);

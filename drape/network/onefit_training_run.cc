@@ -1,5 +1,6 @@
 #include "drape/network/onefit_training_run.h"
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -86,13 +87,22 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
     text << in.rdbuf();
     csv = text.str();
   }
-  if (csv.empty()) csv = "batch,initial_loss_J,final_loss_J,iterations,time_s\n";
+  if (csv.empty())
+    csv =
+        "batch,initial_loss_J,final_loss_J,iterations,time_s,validation_inside_percent,validation_edge_strain_"
+        "percent\n";
   const auto checkpoint = [&](const OneFitBatchSummary& batch, const std::vector<double>& w) {
     SaveOneFitModel(options.model_path, trainer.MakeModel(w));
     std::ostringstream row;
     row.precision(8);
     row << batch.batch << ',' << batch.initial_loss << ',' << batch.final_loss << ',' << batch.iterations << ','
-        << batch.time_s << '\n';
+        << batch.time_s << ',';
+    if (std::isfinite(batch.validation_inside_percent)) {
+      row << batch.validation_inside_percent << ',' << batch.validation_edge_strain_percent;
+    } else {
+      row << ',';
+    }
+    row << '\n';
     csv += row.str();
     WriteFileAtomically(csv_path, [&](std::ostream& out) { out << csv; });
     if (progress) progress(batch);

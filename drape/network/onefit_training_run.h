@@ -2,7 +2,8 @@
 // network (onefit_trainer.h) and writes the model, checkpointed after every
 // batch so that a killed run resumes (`resume`) where it stopped:
 //   MODEL        the model file (docs/onefit-model-format.md), atomically
-//   MODEL.csv    batch, initial_loss_J, final_loss_J, iterations, time_s
+//   MODEL.csv    batch, initial_loss_J, final_loss_J, iterations, time_s,
+//                validation epsilon_c and epsilon_e (%, every few batches)
 // Every input is checked before anything is written.
 #ifndef POLYFIT_DRAPE_NETWORK_ONEFIT_TRAINING_RUN_H_
 #define POLYFIT_DRAPE_NETWORK_ONEFIT_TRAINING_RUN_H_

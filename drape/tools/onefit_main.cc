@@ -13,6 +13,7 @@
 // Without --body, the procedural capsule body is used (then --garment must
 // be a mesh file in its rest pose). Defaults live in DrapeSimulationOptions;
 // this file maps flags onto them and makes one library call.
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <string>
@@ -156,7 +157,10 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
   train->add_option("--vertices-per-patch", t.drape.patching.vertices_per_patch, "garment vertices per patch")
       ->capture_default_str();
   train->add_flag("--resume", o.resume, "continue from the model file and its progress, if they exist");
-  train->add_option("--optimizer", f->optimizer, "adam, or lbfgs (a ceres::GradientProblem per batch)")->capture_default_str();
+  train->add_option("--validate-every", t.validation_every, "a validation drape every N batches (0: none)")
+      ->capture_default_str();
+  train->add_option("--optimizer", f->optimizer, "adam, or lbfgs (a ceres::GradientProblem per batch)")
+      ->capture_default_str();
   train->add_option("--learning-rate", t.learning_rate, "Adam's step size")->capture_default_str();
   return train;
 }
@@ -170,8 +174,13 @@ int RunTrain(TrainFlags& f) {
       f.optimizer == "adam" ? polyfit::OneFitOptimizer::kAdam : polyfit::OneFitOptimizer::kLbfgs;
   const polyfit::OneFitTrainingSummary summary =
       polyfit::RunOneFitTraining(f.options, [](const polyfit::OneFitBatchSummary& b) {
-        std::printf("batch %4d  loss %.5g -> %.5g J  %2d it  %7.1f s\n", b.batch, b.initial_loss, b.final_loss,
+        std::printf("batch %4d  loss %.5g -> %.5g J  %2d it  %7.1f s", b.batch, b.initial_loss, b.final_loss,
                     b.iterations, b.time_s);
+        if (std::isfinite(b.validation_inside_percent)) {
+          std::printf("  validation epsilon_c %.2f%% epsilon_e %.2f%%", b.validation_inside_percent,
+                      b.validation_edge_strain_percent);
+        }
+        std::printf("\n");
         std::fflush(stdout);
       });
   std::printf("%s\nwrote %s (and %s.csv)\n", summary.BriefReport().c_str(), f.options.model_path.c_str(),
