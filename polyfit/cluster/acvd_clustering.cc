@@ -276,6 +276,21 @@ int GrowCells(const FaceGraph& g, const std::vector<int>& kept, int requested, s
   return num_cells;
 }
 
+// Every face's point in the clustering space (Feature): its centroid, then
+// normal_scale times the 6 independent entries of n n^T.
+Eigen::Matrix<double, 9, Eigen::Dynamic> ClusteringFeatures(const FaceGraph& g, double normal_scale) {
+  Eigen::Matrix<double, 9, Eigen::Dynamic> features(9, g.num_faces());
+  const Eigen::Matrix3Xd normals = PerFaceNormals(g.mesh);
+  const double r2 = std::sqrt(2.0);
+  for (int f = 0; f < g.num_faces(); ++f) {
+    const Eigen::Vector3d n = normals.col(f);
+    features.col(f) << g.centroids.col(f), normal_scale * n.x() * n.x(), normal_scale * n.y() * n.y(),
+        normal_scale * n.z() * n.z(), normal_scale * r2 * n.x() * n.y(), normal_scale * r2 * n.x() * n.z(),
+        normal_scale * r2 * n.y() * n.z();
+  }
+  return features;
+}
+
 // Greedy boundary moves lowering the energy, in the space of positions and
 // (weighted) normals: the weight is relative to the mean patch's size, so
 // that the normal term means the same at every scale. Fills the summary's
@@ -284,16 +299,8 @@ void RefineCellBoundaries(const FaceGraph& g, const ClusteringOptions& options, 
                           std::vector<int>* labels_out, ClusteringSummary* local) {
   std::vector<int>& labels = *labels_out;
   const int num_faces = g.num_faces();
-  const double normal_scale = options.normal_weight * std::sqrt(g.total_area / requested);
-  Eigen::Matrix<double, 9, Eigen::Dynamic> features(9, num_faces);
-  const Eigen::Matrix3Xd normals = PerFaceNormals(g.mesh);
-  const double r2 = std::sqrt(2.0);
-  for (int f = 0; f < num_faces; ++f) {
-    const Eigen::Vector3d n = normals.col(f);
-    features.col(f) << g.centroids.col(f), normal_scale * n.x() * n.x(), normal_scale * n.y() * n.y(),
-        normal_scale * n.z() * n.z(), normal_scale * r2 * n.x() * n.y(), normal_scale * r2 * n.x() * n.z(),
-        normal_scale * r2 * n.y() * n.z();
-  }
+  const Eigen::Matrix<double, 9, Eigen::Dynamic> features =
+      ClusteringFeatures(g, options.normal_weight * std::sqrt(g.total_area / requested));
   std::vector<Cell> cells(num_cells);
   for (int f = 0; f < num_faces; ++f) {
     if (labels[f] < 0) continue;
