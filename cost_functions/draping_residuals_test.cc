@@ -131,6 +131,60 @@ TEST(MetricInextensibilityTest, FlatPatchAndParabola) {
   EXPECT_LT(JacobianError(*quartic, {random, {0.8}}), 1e-6);
 }
 
+TEST(MetricInextensibilityTest, KextScalesTheRestMetric) {
+  // A flat patch keeps g = I; with k_ext = 1.5 the target is 1.5 I.
+  std::unique_ptr<ceres::CostFunction> cost(MetricInextensibilityResidual::Create(
+      2, 0.1, 0.2, Eigen::Vector3d(1, 0, 1), Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Identity(), 2.0, 1.5));
+  const std::vector<double> alpha(6, 0.0);
+  EXPECT_NEAR(Residual(*cost, {alpha, {1.0}}, 0), 2.0 * (1.0 - 1.5), 1e-14);
+  EXPECT_NEAR(Residual(*cost, {alpha, {1.0}}, 1), 0.0, 1e-14);
+  EXPECT_NEAR(Residual(*cost, {alpha, {1.0}}, 2), 2.0 * (1.0 - 1.5), 1e-14);
+}
+
+TEST(WarpedMetricInextensibilityTest, UnslidEqualsTheCentroidsMetric) {
+  const Eigen::Matrix3d rotation = Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, -1, 2).normalized()).toRotationMatrix();
+  const Eigen::Matrix3d skinning = Eigen::Vector3d(1.05, 0.97, 1.0).asDiagonal();
+  Eigen::Matrix<double, 2, 3> uv;
+  uv << 0.1, 0.4, 0.2, -0.2, 0.0, 0.3;
+  const Eigen::Vector3d rest(1.02, 0.03, 0.95);
+  std::unique_ptr<ceres::CostFunction> warped(
+      WarpedMetricInextensibilityResidual::Create(4, uv, rest, rotation, skinning, 0.7, 1.2));
+  const Eigen::Vector2d centroid = uv.rowwise().mean();
+  std::unique_ptr<ceres::CostFunction> plain(
+      MetricInextensibilityResidual::Create(4, centroid.x(), centroid.y(), rest, rotation, skinning, 0.7, 1.2));
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> unit(-0.3, 0.3);
+  std::vector<double> alpha(15);
+  for (double& a : alpha) a = unit(rng);
+  const std::vector<double> zero(2, 0.0);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(Residual(*warped, {alpha, {0.9}, zero, zero, zero}, i), Residual(*plain, {alpha, {0.9}}, i), 1e-13);
+  }
+  EXPECT_LT(JacobianError(*warped, {alpha, {0.9}, {0.01, -0.02}, {0.03, 0.0}, {-0.01, 0.02}}), 1e-6);
+}
+
+TEST(WarpedMetricInextensibilityTest, SlidesStretchAFlatPatchAndATranslationDoesNot) {
+  Eigen::Matrix<double, 2, 3> uv;
+  uv << 0.0, 0.2, 0.0, 0.0, 0.0, 0.2;
+  std::unique_ptr<ceres::CostFunction> cost(
+      WarpedMetricInextensibilityResidual::Create(2, uv, Eigen::Vector3d(1, 0, 1), Eigen::Matrix3d::Identity()));
+  const std::vector<double> flat(6, 0.0);
+  // The whole triangle moved along the plane: no change of metric.
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(Residual(*cost, {flat, {1.0}, {0.05, -0.02}, {0.05, -0.02}, {0.05, -0.02}}, i), 0.0, 1e-14);
+  }
+  // Stretched 10% along u: g11 = 1.21, the rest unchanged.
+  EXPECT_NEAR(Residual(*cost, {flat, {1.0}, {0.0, 0.0}, {0.02, 0.0}, {0.0, 0.0}}, 0), 0.21, 1e-12);
+  EXPECT_NEAR(Residual(*cost, {flat, {1.0}, {0.0, 0.0}, {0.02, 0.0}, {0.0, 0.0}}, 2), 0.0, 1e-12);
+  // Sheared: g12 = w01 = 0.1 (the sqrt(2) weight on the off-diagonal).
+  EXPECT_NEAR(Residual(*cost, {flat, {1.0}, {0.0, 0.0}, {0.0, 0.0}, {0.02, 0.0}}, 1), std::sqrt(2.0) * 0.1, 1e-12);
+  Eigen::Matrix<double, 2, 3> degenerate;
+  degenerate << 0.0, 0.1, 0.2, 0.0, 0.1, 0.2;
+  EXPECT_THROW(WarpedMetricInextensibilityResidual(2, degenerate, Eigen::Vector3d(1, 0, 1), Eigen::Matrix3d::Identity(),
+                                                   Eigen::Matrix3d::Identity(), 1.0),
+               std::invalid_argument);
+}
+
 TEST(PatchBoundaryTest, IdenticalPatchesAgreeAndJacobiansMatch) {
   const Eigen::Matrix3d r = Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitX()).toRotationMatrix();
   std::unique_ptr<ceres::CostFunction> cost(

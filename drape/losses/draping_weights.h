@@ -6,6 +6,8 @@
 #ifndef POLYFIT_DRAPE_LOSSES_DRAPING_WEIGHTS_H_
 #define POLYFIT_DRAPE_LOSSES_DRAPING_WEIGHTS_H_
 
+#include <algorithm>
+
 namespace polyfit {
 
 struct DrapingWeights {
@@ -17,19 +19,20 @@ struct DrapingWeights {
   double collision_margin = 4e-3;  // eps, metres
 };
 
-// k_ext: the metric-tensor term (eq. 4) is ramped in, from `start` times
-// its weight to the full weight over `ramp_steps` steps (frames of the
-// reference drape, optimiser steps of training), so that a garment first
-// settles against the body under a soft metric and is then held to its
-// rest metric.
-struct KextSchedule {
-  double start = 0.1;
-  int ramp_steps = 10;
+// k_ext (eq. 4): the rest metric a point is held to is scaled by
+//   k_ext = 1 + min(d_c, max_depth) min(epoch, max_epoch)
+// with d_c the point's penetration depth (m, 0 outside the body): as
+// training goes on, a point caught inside the body may stretch (up to
+// twice its rest metric with the paper's 0.01 m and 100 epochs) to get
+// out. Epochs are the reference drape's frames and, in training, a
+// fraction of the budget (OneFitTrainerOptions::kext_final_epoch).
+struct KextOptions {
+  double max_depth = 0.01;
+  double max_epoch = 100.0;
 
-  double operator()(int step) const {
-    if (ramp_steps <= 0 || step >= ramp_steps) return 1.0;
-    if (step <= 0) return start;
-    return start + (1.0 - start) * static_cast<double>(step) / ramp_steps;
+  double operator()(double penetration_depth, double epoch) const {
+    const double depth = penetration_depth > 0.0 ? std::min(penetration_depth, max_depth) : 0.0;
+    return 1.0 + depth * std::clamp(epoch, 0.0, max_epoch);
   }
 };
 

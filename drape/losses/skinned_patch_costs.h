@@ -37,6 +37,7 @@
 #include "cost_functions/gravity_inertia_residuals.h"
 #include "cost_functions/metric_inextensibility_residual.h"
 #include "polyfit/jet/jet_basis.h"
+#include "polyfit/jet/jet_surface.h"
 
 namespace polyfit {
 
@@ -277,37 +278,94 @@ class SkinnedAgreementCost : public ceres::CostFunction {
   double weight_;
 };
 
-// The metric-tensor term (MetricInextensibilityResidual, eq. 4) with the
-// vertex's skinning Jacobian M and the k_ext factor read at each
-// evaluation (both change per frame). Autodiff over alpha and s.
-class SkinnedMetricFunctor {
+// The metric-tensor term on a face of a patch
+// (WarpedMetricInextensibilityResidual, eq. 4, with the slides' warp), its
+// skinning Jacobian the mean of the corners' and its k_ext the mean of
+// theirs, both read at each evaluation (they change per frame and pass).
+// The metric is cost_functions' on a ceres::Jet over the slopes
+// (z_u, z_v), s and the warp W; those are chained by hand: the slopes to
+// alpha through the monomials' gradients and to the slides through the
+// centroid (the jet's Hessian), W to the slides through the edges. Blocks:
+// alpha, s, slide_a, slide_b, slide_c.
+class SkinnedFaceMetricCost : public ceres::CostFunction {
  public:
-  SkinnedMetricFunctor(int order, double u, double v, const Eigen::Vector3d& rest_metric,
-                       const Eigen::Matrix3d& rotation, const Eigen::Matrix3d* skinning, double weight,
-                       const double* factor)
+  SkinnedFaceMetricCost(int order, const Eigen::Matrix<double, 2, 3>& uv, const Eigen::Vector3d& rest_metric,
+                        const Eigen::Matrix3d& rotation, const Eigen::Matrix3d* const skinning[3],
+                        const double* const k_ext[3], double weight)
       : order_(order),
-        u_(u),
-        v_(v),
+        num_coefficients_(NumJetCoefficients(order)),
+        uv_(uv),
         rest_(rest_metric),
         rotation_(rotation),
-        skinning_(skinning),
         weight_(weight),
-        factor_(factor) {}
+        inverse_edges_(InverseTriangleEdges(uv, "SkinnedFaceMetricCost")) {
+    for (int i = 0; i < 3; ++i) {
+      skinning_[i] = skinning[i];
+      k_ext_[i] = k_ext[i];
+    }
+    set_num_residuals(3);
+    mutable_parameter_block_sizes()->assign({num_coefficients_, 1, 2, 2, 2});
+  }
 
-  template <typename T>
-  bool operator()(const T* alpha, const T* scale, T* residual) const {
-    return MetricInextensibilityResidual(order_, u_, v_, rest_, rotation_, *skinning_, weight_ * *factor_)(alpha, scale,
-                                                                                                           residual);
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    double u[3], v[3];
+    for (int i = 0; i < 3; ++i) {
+      u[i] = uv_(0, i) + parameters[2 + i][0];
+      v[i] = uv_(1, i) + parameters[2 + i][1];
+    }
+    const double cu = (u[0] + u[1] + u[2]) / 3.0, cv = (v[0] + v[1] + v[2]) / 3.0;
+    const JetHeightDerivatives<double> d = EvaluateJetDerivatives(order_, parameters[0], cu, cv);
+    double w[4];
+    TriangleWarp(u, v, inverse_edges_, w);
+    const Eigen::Matrix3d map = ((*skinning_[0] + *skinning_[1] + *skinning_[2]) / 3.0) * rotation_;
+    const double k_ext = (*k_ext_[0] + *k_ext_[1] + *k_ext_[2]) / 3.0;
+    // Inputs: z_u, z_v, s, w11, w12, w21, w22.
+    using J7 = ceres::Jet<double, 7>;
+    const J7 w7[4] = {J7(w[0], 3), J7(w[1], 4), J7(w[2], 5), J7(w[3], 6)};
+    J7 h[3], g[3], r[3];
+    MetricFromSlopes(J7(d.z_u, 0), J7(d.z_v, 1), J7(parameters[1][0], 2), map, h);
+    PullBackMetric(h, w7, g);
+    MetricResidual(g, rest_, k_ext, weight_, r);
+    for (int i = 0; i < 3; ++i) residuals[i] = r[i].a;
+    if (jacobians == nullptr) return true;
+    if (jacobians[0] != nullptr) {
+      double m[kMaxJetCoefficients], m_u[kMaxJetCoefficients], m_v[kMaxJetCoefficients];
+      JetMonomialGradients(order_, cu, cv, m, m_u, m_v);
+      for (int i = 0; i < 3; ++i) {
+        for (int k = 0; k < num_coefficients_; ++k) {
+          jacobians[0][i * num_coefficients_ + k] = r[i].v[0] * m_u[k] + r[i].v[1] * m_v[k];
+        }
+      }
+    }
+    if (jacobians[1] != nullptr) {
+      for (int i = 0; i < 3; ++i) jacobians[1][i] = r[i].v[2];
+    }
+    // d(w11, w12)/du and d(w21, w22)/dv of each corner: rows of Einv.
+    const Eigen::Vector2d corner[3] = {-(inverse_edges_.row(0) + inverse_edges_.row(1)).transpose(),
+                                       inverse_edges_.row(0).transpose(), inverse_edges_.row(1).transpose()};
+    for (int c = 0; c < 3; ++c) {
+      double* j = jacobians[2 + c];
+      if (j == nullptr) continue;
+      for (int i = 0; i < 3; ++i) {
+        const double dp = r[i].v[0], dq = r[i].v[1];
+        // Through the centroid (1/3 per corner), then through the warp.
+        j[2 * i] = (dp * d.z_uu + dq * d.z_uv) / 3.0 + r[i].v[3] * corner[c][0] + r[i].v[4] * corner[c][1];
+        j[2 * i + 1] = (dp * d.z_uv + dq * d.z_vv) / 3.0 + r[i].v[5] * corner[c][0] + r[i].v[6] * corner[c][1];
+      }
+    }
+    return true;
   }
 
  private:
   int order_;
-  double u_, v_;
+  int num_coefficients_;
+  Eigen::Matrix<double, 2, 3> uv_;
   Eigen::Vector3d rest_;
   Eigen::Matrix3d rotation_;
-  const Eigen::Matrix3d* skinning_;
   double weight_;
-  const double* factor_;
+  Eigen::Matrix2d inverse_edges_;
+  const Eigen::Matrix3d* skinning_[3];
+  const double* k_ext_[3];
 };
 
 // A prior w (x - mean) on a parameter block, the mean read through a

@@ -1,6 +1,7 @@
 #include "drape/losses/skinned_patch_costs.h"
 
 #include <cmath>
+#include <memory>
 #include <random>
 
 #include <ceres/autodiff_cost_function.h>
@@ -247,6 +248,44 @@ TEST(SkinnedPatchCostsTest, AgreementJacobiansMatchAutodiff) {
   ASSERT_TRUE(automatic.Evaluate(parameters, rb, jacobians_b));
   for (int i = 0; i < 3; ++i) EXPECT_NEAR(ra[i], rb[i], 1e-12);
   for (int b = 0; b < 8; ++b) {
+    for (int i = 0; i < 3 * sizes[b]; ++i) EXPECT_NEAR(ja[b][i], jb[b][i], 1e-10) << "block " << b << " entry " << i;
+  }
+}
+
+TEST(SkinnedPatchCostsTest, FaceMetricJacobiansMatchAutodiff) {
+  const int order = 4, K = 15;
+  Eigen::Matrix<double, 2, 3> uv;
+  uv << 0.1, 0.5, 0.2, -0.3, -0.1, 0.35;
+  const Eigen::Vector3d rest(1.05, -0.02, 0.97);
+  const Eigen::Matrix3d rotation =
+      Eigen::AngleAxisd(0.6, Eigen::Vector3d(0.3, 1.0, -0.4).normalized()).toRotationMatrix();
+  const Eigen::Matrix3d skinning[3] = {Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitX()).toRotationMatrix(),
+                                       1.02 * Eigen::AngleAxisd(0.25, Eigen::Vector3d::UnitY()).toRotationMatrix(),
+                                       Eigen::Vector3d(0.98, 1.0, 1.03).asDiagonal() * Eigen::Matrix3d::Identity()};
+  const double k_ext[3] = {1.0, 1.004, 1.01};
+  const Eigen::Matrix3d* skinning_pointers[3] = {&skinning[0], &skinning[1], &skinning[2]};
+  const double* k_pointers[3] = {&k_ext[0], &k_ext[1], &k_ext[2]};
+  const double weight = 3.0;
+  SkinnedFaceMetricCost analytic(order, uv, rest, rotation, skinning_pointers, k_pointers, weight);
+  // The formula itself (cost_functions/), with the means the cost takes.
+  const Eigen::Matrix3d mean_skinning = (skinning[0] + skinning[1] + skinning[2]) / 3.0;
+  std::unique_ptr<ceres::CostFunction> automatic(WarpedMetricInextensibilityResidual::Create(
+      order, uv, rest, rotation, mean_skinning, weight, (k_ext[0] + k_ext[1] + k_ext[2]) / 3.0));
+  double alpha[K], scale = 0.9, slide_a[2] = {0.02, -0.01}, slide_b[2] = {-0.03, 0.015}, slide_c[2] = {0.01, 0.04};
+  for (int k = 0; k < K; ++k) alpha[k] = 0.3 * std::cos(1.7 * k + 0.2);
+  const double* parameters[5] = {alpha, &scale, slide_a, slide_b, slide_c};
+  const int sizes[5] = {K, 1, 2, 2, 2};
+  double ra[3], rb[3], ja[5][3 * K], jb[5][3 * K];
+  double* jacobians_a[5];
+  double* jacobians_b[5];
+  for (int b = 0; b < 5; ++b) {
+    jacobians_a[b] = ja[b];
+    jacobians_b[b] = jb[b];
+  }
+  ASSERT_TRUE(analytic.Evaluate(parameters, ra, jacobians_a));
+  ASSERT_TRUE(automatic->Evaluate(parameters, rb, jacobians_b));
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(ra[i], rb[i], 1e-12);
+  for (int b = 0; b < 5; ++b) {
     for (int i = 0; i < 3 * sizes[b]; ++i) EXPECT_NEAR(ja[b][i], jb[b][i], 1e-10) << "block " << b << " entry " << i;
   }
 }

@@ -56,6 +56,7 @@ std::string OneFitTrainerOptions::Validate() const {
   if (!(learning_rate > 0.0)) return "learning_rate must be > 0";
   if (validation_every < 0 || validation_frames < 1) return "validation_every >= 0 and validation_frames >= 1";
   if (num_threads < 1) return "num_threads must be >= 1";
+  if (!(kext_final_epoch >= 0.0) || !std::isfinite(kext_final_epoch)) return "kext_final_epoch must be >= 0";
   return {};
 }
 
@@ -178,7 +179,7 @@ double OneFitTrainer::SampleLoss(const double* weights, const OneFitSample& samp
     history[back - 1] = solver.PositionsAt(Predict(weights, sample.garment, sample.clip, f), pose(f));
   }
   solver.SetHistory(history[0], history[1]);
-  solver.Pose(pose(sample.frame));
+  solver.Pose(pose(sample.frame), epoch_);
   Eigen::MatrixXd outputs;
   OneFitNetwork::Cache cache;
   network_.Forward(weights, g.features, NormalizedBodyFeatures(sample.clip, sample.frame), &outputs,
@@ -195,10 +196,15 @@ double OneFitTrainer::SampleLoss(const double* weights, const OneFitSample& samp
 double OneFitTrainer::Loss(const double* weights, const std::vector<OneFitSample>& samples, double* gradient) {
   const int threads = std::max(1, std::min<int>(options_.num_threads, static_cast<int>(samples.size())));
   const int n = num_parameters();
-  std::vector<std::vector<double>> gradients(threads);
+  // Eigen's vectorised kernels round differently with the alignment of
+  // the arrays they read, so the weights and the gradients are copied to
+  // Eigen's (always aligned) storage: the same weights, the same bits.
+  const Eigen::VectorXd aligned = Eigen::Map<const Eigen::VectorXd>(weights, n);
+  weights = aligned.data();
+  std::vector<Eigen::VectorXd> gradients(threads);
   std::vector<double> energies(samples.size(), 0.0);
   if (gradient != nullptr) {
-    for (auto& g : gradients) g.assign(n, 0.0);
+    for (auto& g : gradients) g = Eigen::VectorXd::Zero(n);
   }
   // Samples dealt to threads in a fixed pattern (thread t takes t, t + T,
   // ...), so that the sums, and training, do not depend on timing.
@@ -309,6 +315,7 @@ OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights, int fir
       s.frame = std::uniform_int_distribution<int>(0, static_cast<int>(clips_[s.clip].poses.size()) - 1)(rng);
     }
     if (b < first_batch) continue;
+    epoch_ = options_.kext_final_epoch * b / options_.num_batches;
     const OneFitBatchSummary record = options_.optimizer == OneFitOptimizer::kAdam ? AdamBatch(batch, b, &adam, weights)
                                                                                    : LbfgsBatch(batch, b, weights);
     summary.batches.push_back(record);

@@ -64,6 +64,10 @@ struct OneFitTrainerOptions {
   // Adam's step size (weights' units).
   double learning_rate = 1e-4;
   std::uint64_t seed = 1;
+  // k_ext's epoch (DrapePhysicsOptions::k_ext) over training: batches map
+  // linearly onto [0, kext_final_epoch], so that the paper's 100-epoch
+  // allowance is reached at the end of whatever budget is given.
+  double kext_final_epoch = 100.0;
   // A validation drape every this many batches (0: none), over this many
   // frames (see OneFitBatchSummary).
   int validation_every = 25;
@@ -157,6 +161,7 @@ class OneFitTrainer {
   std::vector<std::unique_ptr<GarmentData>> garments_;
   FeatureNormalizer patch_normalizer_, body_normalizer_;
   OneFitNetwork network_;
+  double epoch_ = 0.0;  // k_ext's, of the current batch
 };
 
 }  // namespace polyfit

@@ -35,7 +35,7 @@ class OneFitTrainerTest : public ::testing::Test {
     // A shirt just around the torso (radius 0.14 m): collisions matter.
     OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
     shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
-    options_.drape.patching.vertices_per_patch = 30;
+    options_.drape.patching.patch_area = 0.09;
     options_.network.patch_hidden = {16};
     options_.network.patch_embedding = 8;
     options_.network.body_hidden = {16};

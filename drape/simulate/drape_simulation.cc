@@ -12,8 +12,8 @@
 #include <nlohmann/json.hpp>
 
 #include "drape/network/onefit_draper.h"
-#include "drape/simulate/drape_inputs.h"
 #include "drape/render/mesh_render.h"
+#include "drape/simulate/drape_inputs.h"
 #include "polyfit/mesh/mesh_io.h"
 #include "polyfit/util/atomic_file.h"
 #include "polyfit/util/json_number.h"
@@ -152,19 +152,19 @@ void WriteFrame(const DrapeSimulationOptions& options, const DrapeSolver& solver
 }
 
 // The lead-in (the rest pose blended into the first frame's, not written),
-// then every frame: solved, measured, written.
+// then every frame: solved, measured, written. Each frame is one of k_ext's
+// epochs (lead-in included).
 void RunFrames(const DrapeSimulationOptions& options, const DrapeInputs& in, DrapeSolver* solver,
                DrapeSimulationSummary* summary) {
-  const KextSchedule& k_ext = options.solver.physics.k_ext;
   int step = 0;
   for (int k = 0; k < options.lead_in_frames; ++k, ++step) {
     const double blend = static_cast<double>(k + 1) / (options.lead_in_frames + 1);
-    solver->Step(in.retargeter->Pose(options.first_frame, blend), k_ext(step));
+    solver->Step(in.retargeter->Pose(options.first_frame, blend), step);
   }
   const ClothRest rest = PrepareClothRest(solver->rest_garment());
   TriangleMesh posed = in.garment;
   for (int f = options.first_frame; f < in.last_frame; ++f, ++step) {
-    const DrapeStepSummary report = solver->Step(in.retargeter->Pose(f), k_ext(step));
+    const DrapeStepSummary report = solver->Step(in.retargeter->Pose(f), step);
     summary->records.push_back(MeasureFrame(options, *solver, rest, report, f, &posed));
     WriteFrame(options, *solver, in.body, f, posed);
   }
@@ -289,8 +289,8 @@ void WriteOutputs(const DrapeSimulationOptions& options, const DrapeSimulationSu
                   {"kappa_N_per_m", physics.collision_stiffness},
                   {"boundary_base", physics.boundary_base},
                   {"stretch_base", physics.stretch_base},
-                  {"k_ext_start", physics.k_ext.start},
-                  {"k_ext_ramp_steps", physics.k_ext.ramp_steps}};
+                  {"k_ext_max_depth", physics.k_ext.max_depth},
+                  {"k_ext_max_epoch", physics.k_ext.max_epoch}};
   j["summary"] = {{"mean_time_per_frame_s", summary.mean_time_s},
                   {"max_time_per_frame_s", summary.max_time_s},
                   {"mean_inside_percent", summary.mean_inside_percent},

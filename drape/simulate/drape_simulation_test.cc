@@ -55,7 +55,7 @@ class DrapeSimulationTest : public ::testing::Test {
     options_.lead_in_frames = 2;
     options_.render_every = 2;
     options_.render_height = 64;
-    options_.solver.patching.vertices_per_patch = 30;
+    options_.solver.patching.patch_area = 0.065;
   }
   ScopedTempDir dir_;
   DrapeSimulationOptions options_;

@@ -36,12 +36,16 @@ TerminationType FromCeres(ceres::TerminationType type) {
   }
 }
 
-// The garment's patches: ACVD clusters sized by vertex count, split where a
-// jet cannot hold them, oriented like their faces (the boundary term
-// compares normals).
+// The garment's patches: ACVD clusters sized by area, split where a jet
+// cannot hold them, oriented like their faces (the boundary term compares
+// normals).
 PolyFitModel PatchGarment(const TriangleMesh& mesh, const GarmentPatchOptions& patching, int num_threads) {
   AdaptivePatchOptions options;
-  options.clustering.num_patches = std::max(1, mesh.num_vertices() / patching.vertices_per_patch);
+  options.clustering.num_patches = 0;  // the area rule, unclamped
+  options.clustering.auto_area_per_patch = patching.patch_area;
+  options.clustering.auto_min_patches = 1;
+  options.clustering.auto_max_patches = std::max(1, mesh.num_faces());
+  options.face_subdivisions = patching.face_subdivisions;
   options.jet.order = patching.jet_order;
   options.jet.num_threads = num_threads;
   options.max_fit_error = patching.max_fit_error;
@@ -68,7 +72,12 @@ std::string DrapeSolverOptions::Validate() const {
   if (patching.jet_order < 1 || patching.jet_order > kMaxJetOrder) {
     return "patching.jet_order must be in [1, " + std::to_string(kMaxJetOrder) + "]";
   }
-  if (patching.vertices_per_patch < 3) return "patching.vertices_per_patch must be >= 3";
+  if (!(patching.patch_area > 0.0) || !std::isfinite(patching.patch_area)) {
+    return "patching.patch_area must be positive";
+  }
+  if (patching.face_subdivisions < 0 || patching.face_subdivisions > 16) {
+    return "patching.face_subdivisions must be in [0, 16]";
+  }
   if (!(patching.max_fit_error > 0.0) || patching.max_splits < 0) {
     return "patching.max_fit_error must be > 0 and patching.max_splits >= 0";
   }
@@ -119,7 +128,15 @@ struct DrapeSolver::Impl {
   std::vector<double> slides, previous_slides;
   // Per membership.
   std::vector<int> membership_vertex;
-  std::vector<Eigen::Vector3d> rest_metric;
+  // The metric term's faces: a face of patch p with its corners'
+  // memberships on p, their rest (u, v) and g0 at the centroid.
+  struct FaceMetric {
+    int face, patch;
+    int membership[3];
+    Eigen::Matrix<double, 2, 3> uv;
+    Eigen::Vector3d rest_metric;
+  };
+  std::vector<FaceMetric> face_metrics;
   // One posed point per membership, reading skin_linear and
   // skin_translation (sized once, so the pointers stay valid).
   std::vector<SkinnedPatchPoint> points;
@@ -143,7 +160,8 @@ struct DrapeSolver::Impl {
   // The problem, built once; its costs read these, updated per frame.
   std::unique_ptr<ceres::Problem> problem;
   std::vector<VertexTermsData> vertex_data;  // per membership
-  double metric_factor = 1.0;                // sqrt(k_ext)
+  std::vector<double> k_ext;                 // per vertex, set with the collisions
+  double epoch = 0.0;                        // k_ext's epoch
   // Levenberg-Marquardt's trust region carried from solve to solve.
   double trust_region_radius = 0.0;
 
@@ -157,13 +175,14 @@ struct DrapeSolver::Impl {
 
   // Set-up phases, in order.
   void InitializeParameters(const PolyFitModel& model);
-  void ComputeRestMetrics(const PolyFitModel& model);
+  void CollectFaceMetrics(const PolyFitModel& model);
   void BuildPoints(const PolyFitModel& model);
   void CollectPatchEdges(const PolyFitModel& model);
   void CollectBoundary(const PolyFitModel& model);
   // The problem, by term.
   void BuildProblem(const PolyFitModel& model);
   void AddVertexTerms(const PolyFitModel& model);
+  void AddMetricTerms(const PolyFitModel& model);
   void AddEdgeTerms(const PolyFitModel& model);
   void AddBoundaryTerms(const PolyFitModel& model);
   void AddSlideTerms(const PolyFitModel& model);
@@ -203,15 +222,31 @@ void DrapeSolver::Impl::InitializeParameters(const PolyFitModel& model) {
   }
 }
 
-// g0 = s^2 (E, F, G) at each membership's rest (u, v).
-void DrapeSolver::Impl::ComputeRestMetrics(const PolyFitModel& model) {
-  rest_metric.resize(model.num_memberships());
-  for (int k = 0; k < model.num_memberships(); ++k) {
-    const int p = model.membership_patch[k];
-    const FundamentalForm<double> I = JetFirstFundamentalForm(EvaluateJetDerivatives(
-        options.patching.jet_order, alpha(p), model.membership_uv(0, k), model.membership_uv(1, k)));
-    const double s2 = scale(p)[0] * scale(p)[0];
-    rest_metric[k] = s2 * Eigen::Vector3d(I.e, I.f, I.g);
+// Every face whose corners' (u, v) on its patch span a triangle, with
+// g0 = s^2 (E, F, G) at its centroid.
+void DrapeSolver::Impl::CollectFaceMetrics(const PolyFitModel& model) {
+  face_metrics.clear();
+  const int order = options.patching.jet_order;
+  for (int f = 0; f < model.faces.cols(); ++f) {
+    FaceMetric m;
+    m.face = f;
+    m.patch = model.face_patch[f];
+    bool found = true;
+    for (int c = 0; c < 3; ++c) {
+      m.membership[c] = model.FindMembership(model.faces(c, f), m.patch);
+      found = found && m.membership[c] >= 0;
+      if (found) m.uv.col(c) = model.membership_uv.col(m.membership[c]);
+    }
+    if (!found) continue;
+    const Eigen::Vector2d e1 = m.uv.col(1) - m.uv.col(0), e2 = m.uv.col(2) - m.uv.col(0);
+    const double extent = std::max(e1.squaredNorm(), e2.squaredNorm());
+    // A face seen edge-on from its patch's plane holds no metric.
+    if (!(std::abs(e1.x() * e2.y() - e1.y() * e2.x()) > 1e-6 * extent)) continue;
+    const Eigen::Vector2d centroid = m.uv.rowwise().mean();
+    const FundamentalForm<double> I =
+        JetFirstFundamentalForm(EvaluateJetDerivatives(order, alpha(m.patch), centroid.x(), centroid.y()));
+    m.rest_metric = scale(m.patch)[0] * scale(m.patch)[0] * Eigen::Vector3d(I.e, I.f, I.g);
+    face_metrics.push_back(m);
   }
 }
 
@@ -283,18 +318,17 @@ void DrapeSolver::Impl::BuildProblem(const PolyFitModel& model) {
     if (!options.slide.enabled) problem->SetParameterBlockConstant(slide(k));
   }
   AddVertexTerms(model);
+  AddMetricTerms(model);
   AddEdgeTerms(model);
   AddBoundaryTerms(model);
   AddSlideTerms(model);
   AddPriors(model);
 }
 
-// At every membership: collision (off while far from the body) and the
-// metric tensor; at the owner also the motion (inertia with gravity folded
-// in, or gravity alone).
+// At every membership: collision (off while far from the body); at the
+// owner also the motion (inertia with gravity folded in, or gravity alone).
 void DrapeSolver::Impl::AddVertexTerms(const PolyFitModel& model) {
   const DrapePhysicsOptions& o = options.physics;
-  const int order = options.patching.jet_order;
   const VertexMotion motion = o.weights.inertia > 0.0 ? VertexMotion::kInertia : VertexMotion::kGravity;
   vertex_data.assign(model.num_memberships(), VertexTermsData{});
   for (int v = 0; v < model.num_vertices(); ++v) {
@@ -304,19 +338,28 @@ void DrapeSolver::Impl::AddVertexTerms(const PolyFitModel& model) {
       problem->AddResidualBlock(
           new SkinnedVertexCost(points[k], &vertex_data[k], k == range.front() ? motion : VertexMotion::kNone), nullptr,
           alpha(p), scale(p), translation(p), slide(k));
-      const double metric_area = rest.vertex_area[v] / range.size();
-      const double metric_weight = std::sqrt(stretch_weight() * o.material.mu * metric_area / 2.0);
-      if (metric_weight > 0.0) {
-        auto* functor =
-            new SkinnedMetricFunctor(order, model.membership_uv(0, k), model.membership_uv(1, k), rest_metric[k],
-                                     model.patches[p].frame.rotation, &skin_linear[v], metric_weight, &metric_factor);
-        ceres::CostFunction* cost =
-            DispatchJetCoefficients(order, "SkinnedMetricFunctor", [&](auto c) -> ceres::CostFunction* {
-              return new ceres::AutoDiffCostFunction<SkinnedMetricFunctor, 3, decltype(c)::value, 1>(functor);
-            });
-        problem->AddResidualBlock(cost, nullptr, alpha(p), scale(p));
-      }
     }
+  }
+}
+
+// The metric tensor per face, with the slides' warp.
+void DrapeSolver::Impl::AddMetricTerms(const PolyFitModel& model) {
+  const DrapePhysicsOptions& o = options.physics;
+  const int order = options.patching.jet_order;
+  for (const FaceMetric& m : face_metrics) {
+    const double weight = std::sqrt(stretch_weight() * o.material.mu * rest.face_area[m.face] / 2.0);
+    if (!(weight > 0.0)) continue;
+    const Eigen::Matrix3d* skinning[3];
+    const double* k[3];
+    for (int c = 0; c < 3; ++c) {
+      const int v = membership_vertex[m.membership[c]];
+      skinning[c] = &skin_linear[v];
+      k[c] = &k_ext[v];
+    }
+    auto* cost = new SkinnedFaceMetricCost(order, m.uv, m.rest_metric, model.patches[m.patch].frame.rotation, skinning,
+                                           k, weight);
+    problem->AddResidualBlock(cost, nullptr, alpha(m.patch), scale(m.patch), slide(m.membership[0]),
+                              slide(m.membership[1]), slide(m.membership[2]));
   }
 }
 
@@ -429,12 +472,14 @@ void DrapeSolver::Impl::SetMotionTargets(const PolyFitModel& model) {
 }
 
 // Collision terms at the vertices within the band, linearised at their
-// closest body points; returns how many membership terms are on.
+// closest body points, and each vertex's k_ext from its depth; returns how
+// many membership terms are on.
 int DrapeSolver::Impl::LinearizeCollisions(const PolyFitModel& model) {
   const DrapePhysicsOptions& o = options.physics;
   const double weight = std::sqrt(o.weights.collision * o.collision_stiffness);
   int terms = 0;
   for (int v = 0; v < model.num_vertices(); ++v) {
+    k_ext[v] = o.k_ext(-contact[v].distance, epoch);
     const bool near = o.weights.collision > 0.0 && contact[v].distance < o.collision_band;
     for (int k : model.memberships(v)) {
       VertexTermsData& data = vertex_data[k];
@@ -522,7 +567,6 @@ DrapeSolver::DrapeSolver(const SkinnedBody& body, const TriangleMesh& garment, c
   model_ = PatchGarment(garment, options.patching, options.num_threads);
   if (model_.num_vertices() != n) throw std::invalid_argument("DrapeSolver: patching changed the garment's vertices");
   m.InitializeParameters(model_);
-  m.ComputeRestMetrics(model_);
 
   // The patches' own rest shape is the garment's rest: lengths, areas and
   // boundary gaps are measured on it, so that the fit's residual is not
@@ -539,6 +583,8 @@ DrapeSolver::DrapeSolver(const SkinnedBody& body, const TriangleMesh& garment, c
   m.rest = PrepareClothRest(rest_garment_);
   m.CollectPatchEdges(model_);
   m.CollectBoundary(model_);
+  m.CollectFaceMetrics(model_);
+  m.k_ext.assign(n, 1.0);
 
   m.mass.resize(n);
   for (int v = 0; v < n; ++v) m.mass[v] = options.physics.material.area_density * m.rest.vertex_area[v];
@@ -553,7 +599,7 @@ DrapeSolver::DrapeSolver(const SkinnedBody& body, const TriangleMesh& garment, c
 
 DrapeSolver::~DrapeSolver() = default;
 
-DrapeStepSummary DrapeSolver::Step(const std::vector<Eigen::Isometry3d>& rest_to_posed, double k_ext) {
+DrapeStepSummary DrapeSolver::Step(const std::vector<Eigen::Isometry3d>& rest_to_posed, double epoch) {
   const auto start = std::chrono::steady_clock::now();
   Impl& m = *impl_;
   const DrapeSolveOptions& o = m.options.solve;
@@ -566,7 +612,7 @@ DrapeStepSummary DrapeSolver::Step(const std::vector<Eigen::Isometry3d>& rest_to
   m.previous_slides = m.slides;
   m.Positions(model_, &positions_);
   m.QueryContacts(positions_);
-  m.metric_factor = std::sqrt(k_ext);
+  m.epoch = epoch;
   m.SetMotionTargets(model_);
 
   ceres::TerminationType last = ceres::CONVERGENCE;
@@ -611,13 +657,13 @@ std::vector<double> DrapeSolver::RestPatchParameters() const {
 
 std::vector<double> DrapeSolver::PatchParameters() const { return impl_->PackedPatchParameters(impl_->params); }
 
-void DrapeSolver::Pose(const std::vector<Eigen::Isometry3d>& rest_to_posed, double k_ext) {
+void DrapeSolver::Pose(const std::vector<Eigen::Isometry3d>& rest_to_posed, double epoch) {
   Impl& m = *impl_;
   if (static_cast<int>(rest_to_posed.size()) != m.body.skeleton.num_joints()) {
     throw std::invalid_argument("DrapeSolver::Pose: one transform per joint is needed");
   }
   m.PoseBodyAndGarment(rest_to_posed, &body_vertices_);
-  m.metric_factor = std::sqrt(k_ext);
+  m.epoch = epoch;
   m.SetMotionTargets(model_);
 }
 

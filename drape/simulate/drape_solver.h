@@ -11,7 +11,9 @@
 // physical energies) is
 //   k_c    sum_v kappa / 2 max(eps - d_v, 0)^2          collision (eq. 3), d along the body's normal
 //   k_mi   sum_e sigma mu A_e ((l_e - L_e) / L_e)^2     edge inextensibility (eq. 1)
-//   k_mi k_ext sum_(v,p) sigma mu A / 4 |g - g0|_F^2    metric tensor (eq. 4, at the rest (u, v))
+//   k_mi sum_f sigma mu A_f / 4 |g - k_ext g0|_F^2     metric tensor (eq. 4) per face of a patch, at its
+//                                                        slid centroid with the slides' warp; k_ext per
+//                                                        point from its penetration and the epoch
 //   k_b    sum_boundary beta mu A (|X_a - X_b|^2 / h^2 + |n_a - n_b|^2)   patch boundary (eq. 5)
 //   k_mi   sum_(v, p != p0) sigma mu A_v |X_p - X_p0 - g|^2 / h^2   a vertex's slid points on its
 //                                                        patches kept together (g: their rest gap)
@@ -48,7 +50,7 @@ namespace polyfit {
 // What the cloth is and what acts on it.
 struct DrapePhysicsOptions {
   DrapingWeights weights;
-  KextSchedule k_ext;
+  KextOptions k_ext;
   ClothMaterial material;
   // kappa: collision stiffness per vertex, N/m.
   double collision_stiffness = 1e6;
@@ -67,8 +69,14 @@ struct DrapePhysicsOptions {
 // How the garment becomes patches (polyfit/pipeline/adaptive_patches.h).
 struct GarmentPatchOptions {
   int jet_order = 4;
-  // Initial patches: #garment vertices / vertices_per_patch (at least 1).
-  int vertices_per_patch = 60;
+  // Initial patches: the garment's area over patch_area (m^2, at least 1),
+  // so that a remeshed garment gets the same patches (the paper's rule,
+  // which uses 0.008 m^2 and clamps to [100, 400]; docs/drape.md).
+  double patch_area = 0.04;
+  // Jets fitted to a barycentric grid of this many subdivisions per face
+  // edge rather than to the vertices alone: a small patch of a coarse
+  // garment has fewer vertices than a jet has coefficients.
+  int face_subdivisions = 3;
   // Patches whose jet misses a vertex by more (m) are split, up to
   // max_splits rounds.
   double max_fit_error = 8e-3;
@@ -156,8 +164,8 @@ class DrapeSolver {
   ~DrapeSolver();
 
   // Advances one frame with the body posed by `rest_to_posed` (one
-  // transform per joint); k_ext multiplies the metric term (the schedule).
-  DrapeStepSummary Step(const std::vector<Eigen::Isometry3d>& rest_to_posed, double k_ext = 1.0);
+  // transform per joint); `epoch` is k_ext's (DrapePhysicsOptions::k_ext).
+  DrapeStepSummary Step(const std::vector<Eigen::Isometry3d>& rest_to_posed, double epoch = 0.0);
 
   // The same objective as a loss, for training a network that predicts
   // the patch parameters (drape/network): Pose() poses the body and sets
@@ -167,7 +175,7 @@ class DrapeSolver {
   // those parameters give, and its gradient. Parameters, per patch:
   // alpha (NumJetCoefficients(order)), s, T; num_patch_parameters() each.
   // Not thread-safe: use one solver per thread.
-  void Pose(const std::vector<Eigen::Isometry3d>& rest_to_posed, double k_ext = 1.0);
+  void Pose(const std::vector<Eigen::Isometry3d>& rest_to_posed, double epoch = 0.0);
   double Evaluate(const std::vector<double>& patch_parameters, std::vector<double>* gradient);
   int num_patch_parameters() const;
   // The rest patch parameters (the fit), the current ones (the last Step),

@@ -91,7 +91,7 @@ TEST(DrapeSolverTest, PushesAShirtStartingInsideTheBodyOut) {
   // Radius 0.13 m inside the torso's 0.14 m: every vertex starts inside.
   const TriangleMesh shirt = MakeTube(0.13, 0.1, 0.4, 32, 10);
   DrapeSolverOptions options;
-  options.patching.vertices_per_patch = 40;
+  options.patching.patch_area = 0.04;
   options.solve.max_passes = 4;
   DrapeSolver solver(body, shirt, SingleJointWeights(shirt.num_vertices(), 1), options);
   EXPECT_EQ((solver.SignedDistances().array() < 0.0).count(), shirt.num_vertices());
@@ -108,7 +108,7 @@ TEST(DrapeSolverTest, EvaluateGivesTheEnergyAndItsGradientAtGivenPatchParameters
   // Radius 0.138 m: 2 mm inside the torso, so collisions are on.
   const TriangleMesh shirt = MakeTube(0.138, 0.1, 0.4, 24, 8);
   DrapeSolverOptions options;
-  options.patching.vertices_per_patch = 40;
+  options.patching.patch_area = 0.04;
   DrapeSolver solver(body, shirt, SingleJointWeights(shirt.num_vertices(), 1), options);
   std::vector<Eigen::Isometry3d> pose(body.skeleton.num_joints(), Eigen::Isometry3d::Identity());
   for (auto& t : pose) t.translation() = Eigen::Vector3d(0.0, -0.01, 0.005);  // a small drop
@@ -150,7 +150,7 @@ TEST(DrapeSolverTest, StiffWeightRatiosStayFinite) {
   const TriangleMesh shirt = MakeTube(0.15, 0.1, 0.4, 32, 10);
   for (const double stiff : {1e6, 1e9}) {
     DrapeSolverOptions options;
-    options.patching.vertices_per_patch = 40;
+    options.patching.patch_area = 0.04;
     options.physics.weights.inextensibility = stiff;  // against k_g = 1: ratio >= 1e6
     options.physics.weights.boundary = stiff;
     options.physics.collision_stiffness = 1e9;

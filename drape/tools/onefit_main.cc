@@ -63,7 +63,11 @@ CLI::App* AddSimulateCommand(CLI::App* app, SimulateFlags* f, const char* name =
                    "move vertices left inside the body onto it plus this offset (m) in the outputs; < 0: off")
       ->capture_default_str();
   simulate->add_flag("!--no-meshes", options.write_meshes, "do not write a PLY per frame");
-  simulate->add_option("--vertices-per-patch", options.solver.patching.vertices_per_patch, "garment vertices per patch")
+  simulate->add_option("--patch-area", options.solver.patching.patch_area, "garment area per patch (m^2)")
+      ->capture_default_str();
+  simulate
+      ->add_option("--face-subdivisions", options.solver.patching.face_subdivisions,
+                   "jets fitted to a grid of this many subdivisions per face edge (0: to the vertices)")
       ->capture_default_str();
   simulate
       ->add_option("--max-fit-error", options.solver.patching.max_fit_error,
@@ -154,8 +158,7 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
       ->capture_default_str();
   train->add_option("--seed", t.seed, "seed of the weights and the data order")->capture_default_str();
   train->add_option("--threads", t.num_threads, "threads")->capture_default_str();
-  train->add_option("--vertices-per-patch", t.drape.patching.vertices_per_patch, "garment vertices per patch")
-      ->capture_default_str();
+  train->add_option("--patch-area", t.drape.patching.patch_area, "garment area per patch (m^2)")->capture_default_str();
   train->add_flag("--resume", o.resume, "continue from the model file and its progress, if they exist");
   train->add_option("--validate-every", t.validation_every, "a validation drape every N batches (0: none)")
       ->capture_default_str();

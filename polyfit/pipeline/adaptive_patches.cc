@@ -17,6 +17,7 @@ std::string AdaptivePatchOptions::Validate() const {
     return "jet.order must be in [1, " + std::to_string(kMaxJetOrder) + "]";
   if (!(max_fit_error > 0.0)) return "max_fit_error must be > 0";
   if (max_splits < 0) return "max_splits must be >= 0";
+  if (face_subdivisions < 0 || face_subdivisions > 16) return "face_subdivisions must be in [0, 16]";
   return {};
 }
 
@@ -42,7 +43,7 @@ PolyFitModel FitAdaptivePatches(const AdaptivePatchOptions& options, const Trian
   const Eigen::Matrix3Xd centroids = FaceCentroids(mesh);
   for (int round = 0;; ++round) {
     BuildPatchMemberships(mesh, model.face_patch, &model);
-    FitPatchJets(options.jet, mesh, &model);
+    FitPatchJets(options.jet, mesh, &model, options.face_subdivisions);
     if (round == options.max_splits) break;
     const std::vector<double> error = PatchMaxFitErrors(mesh, model);
     std::vector<std::vector<int>> faces(model.num_patches());

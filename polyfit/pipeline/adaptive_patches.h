@@ -1,5 +1,5 @@
-// Patches for a mesh fitted as it is (one point per vertex, no
-// subdivision), refined where a jet cannot hold its patch: ACVD clusters,
+// Patches for a mesh fitted as it is (its vertices, or points resampled on
+// its faces, never a subdivided mesh), refined where a jet cannot hold its patch: ACVD clusters,
 // jets fitted to them, then every patch whose jet misses one of its
 // vertices by more than max_fit_error (a fold, a cuff: no height field) is
 // split in two (split_cluster.h) and all are refitted, for up to
@@ -22,6 +22,9 @@ struct AdaptivePatchOptions {
   // area rule).
   ClusteringOptions clustering;
   JetFitOptions jet;
+  // Jets fitted to a barycentric grid of this many subdivisions per face
+  // edge (FitPatchJets); 0: to the vertices.
+  int face_subdivisions = 0;
   // Metres (the mesh's units).
   double max_fit_error = 8e-3;
   int max_splits = 4;

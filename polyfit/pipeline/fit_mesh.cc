@@ -74,25 +74,73 @@ void BuildPatchMemberships(const TriangleMesh& mesh, const std::vector<int>& fac
   model->membership_uv = Eigen::Matrix2Xd::Zero(2, model->membership_patch.size());
 }
 
-JetFitSummary FitPatchJets(const JetFitOptions& options, const TriangleMesh& mesh, PolyFitModel* model) {
-  const int num_patches =
-      model->face_patch.empty() ? 0 : *std::max_element(model->face_patch.begin(), model->face_patch.end()) + 1;
-  const int num_memberships = static_cast<int>(model->membership_patch.size());
-  std::vector<int> patch_offsets(num_patches + 1, 0);
-  for (int p : model->membership_patch) ++patch_offsets[p + 1];
-  for (int p = 0; p < num_patches; ++p) patch_offsets[p + 1] += patch_offsets[p];
-  std::vector<int> slot(patch_offsets.begin(), patch_offsets.end() - 1);
-  Eigen::Matrix3Xd points(3, num_memberships);
-  std::vector<double> weights(num_memberships);
+namespace {
+
+// The fitting points grouped by patch (points, their weights, the offsets
+// of each patch's run).
+struct PatchPointSets {
+  Eigen::Matrix3Xd points;
+  std::vector<double> weights;
+  std::vector<int> offsets;
+};
+
+PatchPointSets MemberPoints(const TriangleMesh& mesh, const PolyFitModel& model, int num_patches) {
+  PatchPointSets sets;
+  sets.offsets.assign(num_patches + 1, 0);
+  for (int p : model.membership_patch) ++sets.offsets[p + 1];
+  for (int p = 0; p < num_patches; ++p) sets.offsets[p + 1] += sets.offsets[p];
+  std::vector<int> slot(sets.offsets.begin(), sets.offsets.end() - 1);
+  sets.points.resize(3, model.membership_patch.size());
+  sets.weights.resize(model.membership_patch.size());
   const Eigen::VectorXd vertex_areas = VertexAreas(mesh);
   for (int v = 0; v < mesh.num_vertices(); ++v) {
-    for (int m : model->memberships(v)) {
-      const int s = slot[model->membership_patch[m]]++;
-      points.col(s) = mesh.vertices.col(v);
-      weights[s] = vertex_areas[v];
+    for (int m : model.memberships(v)) {
+      const int s = slot[model.membership_patch[m]]++;
+      sets.points.col(s) = mesh.vertices.col(v);
+      sets.weights[s] = vertex_areas[v];
     }
   }
-  const JetFitSummary summary = FitJetPatches(options, points, patch_offsets, &weights, &model->patches);
+  return sets;
+}
+
+// Barycentric grid points (i, j, L - i - j) / L of every face, by patch.
+PatchPointSets ResampledPoints(const TriangleMesh& mesh, const std::vector<int>& face_patch, int num_patches,
+                               int subdivisions) {
+  const int per_face = (subdivisions + 1) * (subdivisions + 2) / 2;
+  PatchPointSets sets;
+  sets.offsets.assign(num_patches + 1, 0);
+  for (int p : face_patch) sets.offsets[p + 1] += per_face;
+  for (int p = 0; p < num_patches; ++p) sets.offsets[p + 1] += sets.offsets[p];
+  std::vector<int> slot(sets.offsets.begin(), sets.offsets.end() - 1);
+  sets.points.resize(3, sets.offsets.back());
+  sets.weights.resize(sets.offsets.back());
+  const Eigen::VectorXd face_areas = FaceAreas(mesh);
+  for (int f = 0; f < mesh.num_faces(); ++f) {
+    const Eigen::Vector3d a = mesh.vertices.col(mesh.faces(0, f)), b = mesh.vertices.col(mesh.faces(1, f)),
+                          c = mesh.vertices.col(mesh.faces(2, f));
+    int& s = slot[face_patch[f]];
+    for (int i = 0; i <= subdivisions; ++i) {
+      for (int j = 0; i + j <= subdivisions; ++j, ++s) {
+        const double wa = static_cast<double>(i) / subdivisions, wb = static_cast<double>(j) / subdivisions;
+        sets.points.col(s) = wa * a + wb * b + (1.0 - wa - wb) * c;
+        sets.weights[s] = face_areas[f] / per_face;
+      }
+    }
+  }
+  return sets;
+}
+
+}  // namespace
+
+JetFitSummary FitPatchJets(const JetFitOptions& options, const TriangleMesh& mesh, PolyFitModel* model,
+                           int face_subdivisions) {
+  if (face_subdivisions < 0) throw std::invalid_argument("FitPatchJets: face_subdivisions must be >= 0");
+  const int num_patches =
+      model->face_patch.empty() ? 0 : *std::max_element(model->face_patch.begin(), model->face_patch.end()) + 1;
+  const PatchPointSets sets = face_subdivisions > 0
+                                  ? ResampledPoints(mesh, model->face_patch, num_patches, face_subdivisions)
+                                  : MemberPoints(mesh, *model, num_patches);
+  const JetFitSummary summary = FitJetPatches(options, sets.points, sets.offsets, &sets.weights, &model->patches);
   for (int v = 0; v < mesh.num_vertices(); ++v) {
     for (int m : model->memberships(v)) {
       model->membership_uv.col(m) =

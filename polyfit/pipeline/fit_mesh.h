@@ -84,10 +84,15 @@ MeshFitSummary FitMesh(const MeshFitOptions& options, const TriangleMesh& mesh, 
 // with the owner first. Exposed for tests and for OneFit's garments.
 void BuildPatchMemberships(const TriangleMesh& mesh, const std::vector<int>& face_patch, PolyFitModel* model);
 
-// Fits every patch's jet to its members (area-weighted) and sets their
-// (u, v): model->face_patch and the memberships (BuildPatchMemberships)
-// must be set. Returns the fit's summary.
-JetFitSummary FitPatchJets(const JetFitOptions& options, const TriangleMesh& mesh, PolyFitModel* model);
+// Fits every patch's jet and sets its members' (u, v): model->face_patch
+// and the memberships (BuildPatchMemberships) must be set. With
+// face_subdivisions = 0 the jet is fitted to the members (area-weighted);
+// with L > 0 to the points of a barycentric grid of L + 1 points per side
+// on each of the patch's faces (each face's area shared among its points),
+// so that a patch with fewer vertices than the jet has coefficients is
+// still determined by its surface. Returns the fit's summary.
+JetFitSummary FitPatchJets(const JetFitOptions& options, const TriangleMesh& mesh, PolyFitModel* model,
+                           int face_subdivisions = 0);
 
 }  // namespace polyfit
 
