@@ -31,15 +31,23 @@ std::vector<OneFitTrainingClip> LoadClips(const OneFitTrainingRunOptions& option
   std::vector<OneFitTrainingClip> clips;
   const double fps = options.trainer.drape.physics.fps;
   for (const std::string& path : options.motion_paths) {
-    const auto retargeter = LoadRetargetedClip(path, options.bvh_units_to_metres, fps, body.skeleton);
-    OneFitTrainingClip clip;
-    clip.name = std::filesystem::path(path).stem().string();
-    clip.fps = fps;
-    clip.shape = options.shape;
-    const int frames = options.max_frames_per_clip > 0 ? std::min(options.max_frames_per_clip, retargeter->num_frames())
-                                                       : retargeter->num_frames();
-    for (int f = 0; f < frames; ++f) clip.poses.push_back(retargeter->Pose(f));
-    clips.push_back(std::move(clip));
+    for (const double speed : options.speeds) {
+      const auto retargeter = LoadRetargetedClip(path, options.bvh_units_to_metres, fps / speed, body.skeleton);
+      OneFitTrainingClip clip;
+      clip.name = std::filesystem::path(path).stem().string();
+      if (speed != 1.0) {
+        std::ostringstream name;
+        name << clip.name << "@" << speed << "x";
+        clip.name = name.str();
+      }
+      clip.fps = fps;
+      clip.shape = options.shape;
+      const int frames = options.max_frames_per_clip > 0
+                             ? std::min(options.max_frames_per_clip, retargeter->num_frames())
+                             : retargeter->num_frames();
+      for (int f = 0; f < frames; ++f) clip.poses.push_back(retargeter->Pose(f));
+      clips.push_back(std::move(clip));
+    }
   }
   return clips;
 }
@@ -60,6 +68,10 @@ std::string OneFitTrainingRunOptions::Validate() const {
   if (model_path.empty()) return "an output model path is needed";
   if (!(bvh_units_to_metres > 0.0)) return "bvh_units_to_metres must be positive";
   if (max_frames_per_clip < 0) return "max_frames_per_clip must be >= 0";
+  if (speeds.empty()) return "speeds must not be empty";
+  for (double speed : speeds) {
+    if (!(speed >= 0.25 && speed <= 4.0)) return "speeds must be in [0.25, 4]";
+  }
   if (std::string p = shape.Validate(); !p.empty()) return "shape: " + p;
   if (std::string p = trainer.Validate(); !p.empty()) return "trainer: " + p;
   return {};

@@ -26,6 +26,10 @@ struct OneFitTrainingRunOptions {
   double bvh_units_to_metres = 0.056444;
   // Frames per clip, from its start (0: all).
   int max_frames_per_clip = 0;
+  // Augmentation: each clip is also trained played at these speeds
+  // (resampled at fps / speed, played at fps: faster motion, larger
+  // inertia). {1}: as recorded.
+  std::vector<double> speeds = {1.0};
   std::string model_path;
   bool resume = false;
   SkinTransferOptions skin;

@@ -166,6 +166,7 @@ void RunFrames(const DrapeSimulationOptions& options, const DrapeInputs& in, Dra
   for (int f = options.first_frame; f < in.last_frame; ++f, ++step) {
     const DrapeStepSummary report = solver->Step(in.retargeter->Pose(f), step);
     summary->records.push_back(MeasureFrame(options, *solver, rest, report, f, &posed));
+    if (options.keep_positions) summary->positions.push_back(posed.vertices);
     WriteFrame(options, *solver, in.body, f, posed);
   }
 }
@@ -194,6 +195,7 @@ void RunNetworkFrames(const DrapeSimulationOptions& options, const DrapeInputs& 
       step.message = "the network predicted non-finite positions";
     }
     summary->records.push_back(MeasureFrame(options, *solver, rest, step, f, &posed));
+    if (options.keep_positions) summary->positions.push_back(posed.vertices);
     WriteFrame(options, *solver, in.body, f, posed);
   }
 }

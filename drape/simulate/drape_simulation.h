@@ -62,6 +62,8 @@ struct DrapeSimulationOptions {
   // surface (plus this offset, m) in the written meshes and renders, and
   // measure those; the solver's own state is untouched. < 0: off.
   double project_offset = -1.0;
+  // Keep every frame's garment (what is written) in the summary.
+  bool keep_positions = false;
 
   DrapeSolverOptions solver;
   SkinTransferOptions skin;
@@ -104,6 +106,8 @@ struct DrapeSimulationSummary {
   double fit_error_max = 0.0;
   int frames = 0;
   std::vector<DrapeFrameSummary> records;
+  // Per record, the garment as written (3 by #V); with keep_positions.
+  std::vector<Eigen::Matrix3Xd> positions;
   double mean_time_s = 0.0;  // per clip frame
   double max_time_s = 0.0;
   double mean_inside_percent = 0.0;

@@ -9,6 +9,8 @@
 //       trains OneFit's network on the same losses (self-supervised)
 //   onefit drape --model MODEL --body DIR --garment G --motion CLIP.bvh --out DIR
 //       the network's drape, with simulate's outputs
+//   onefit eval --model MODEL --body DIR --garment G --motion CLIP.bvh --out DIR
+//       the network against the reference drape: a table and a plot
 //
 // Without --body, the procedural capsule body is used (then --garment must
 // be a mesh file in its rest pose). Defaults live in DrapeSimulationOptions;
@@ -22,6 +24,7 @@
 
 #include "drape/network/onefit_training_run.h"
 #include "drape/simulate/drape_simulation.h"
+#include "drape/simulate/onefit_evaluation.h"
 
 namespace {
 
@@ -152,6 +155,10 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
   train->add_option("--shape", f->shape, "macro shape of the body, e.g. gender=0.2,weight=0.8");
   train->add_option("--bvh-scale", o.bvh_units_to_metres, "metres per BVH unit")->capture_default_str();
   train->add_option("--frames-per-clip", o.max_frames_per_clip, "frames used per clip (0: all)")->capture_default_str();
+  train
+      ->add_option("--speeds", o.speeds,
+                   "augmentation: each clip also played at these speeds (e.g. 0.8 1 1.25); default: as recorded")
+      ->expected(1, 8);
   train->add_option("--batches", t.num_batches, "mini-batches")->capture_default_str();
   train->add_option("--batch-size", t.batch_size, "samples (garment, frame) per batch")->capture_default_str();
   train->add_option("--iterations-per-batch", t.iterations_per_batch, "L-BFGS iterations per batch")
@@ -192,6 +199,22 @@ int RunTrain(TrainFlags& f) {
                                                                         : polyfit::kExitSuccess;
 }
 
+// `onefit eval`: simulate's flags, --project the network's post-process.
+int RunEval(SimulateFlags& f) {
+  polyfit::OneFitEvaluationOptions options;
+  options.simulation = f.options;
+  if (!f.shape.empty()) options.simulation.shape = polyfit::BodyShape::Parse(f.shape);
+  options.simulation.solver.slide.enabled = !f.no_slide;
+  if (f.cholesky) options.simulation.solver.solve.linear_solver = polyfit::DrapeLinearSolver::kSparseCholesky;
+  if (f.options.project_offset >= 0.0) options.project_offset = f.options.project_offset;
+  options.simulation.project_offset = -1.0;
+  const polyfit::OneFitEvaluationSummary summary = polyfit::EvaluateOneFitModel(options);
+  std::printf("%s\n%s", summary.BriefReport().c_str(), summary.Table().c_str());
+  std::printf("wrote %s (reference/, network/, eval.csv, eval.md, eval.png)\n", options.simulation.out_dir.c_str());
+  return summary.termination_type == polyfit::TerminationType::kFailure ? polyfit::kExitSolverFailure
+                                                                        : polyfit::kExitSuccess;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -201,6 +224,11 @@ int main(int argc, char** argv) {
   AddSimulateCommand(&app, &simulate);
   CLI::App* drape_command = AddSimulateCommand(&app, &drape, "drape", "drape a garment with a trained network");
   drape_command->add_option("--model", drape.options.model_path, "a model from onefit train")->required();
+  SimulateFlags eval;
+  eval.options.render_every = 0;
+  CLI::App* eval_command =
+      AddSimulateCommand(&app, &eval, "eval", "compare a trained network with the reference drape on a clip");
+  eval_command->add_option("--model", eval.options.model_path, "a model from onefit train")->required();
   TrainFlags train;
   CLI::App* train_command = AddTrainCommand(&app, &train);
   try {
@@ -211,6 +239,7 @@ int main(int argc, char** argv) {
   return polyfit::RunReportingErrors("onefit", [&]() -> int {
     if (train_command->parsed()) return RunTrain(train);
     if (drape_command->parsed()) return RunSimulate(drape);
+    if (eval_command->parsed()) return RunEval(eval);
     return RunSimulate(simulate);
   });
 }
