@@ -185,14 +185,26 @@ void RunNetworkFrames(const DrapeSimulationOptions& options, const DrapeInputs& 
     const JointTransforms before_previous = pose(f - 2), previous = pose(f - 1), now = pose(f);
     const auto start = Clock::now();
     const std::vector<double> params = draper.Predict(before_previous, previous, now, fps, options.shape);
-    const Eigen::Matrix3Xd positions = solver->PositionsAt(params, now);
     DrapeStepSummary step;
-    step.time_s = step.solve_time_s = Seconds(start);
-    solver->Pose(now);
-    solver->Adopt(params);
-    if (!positions.allFinite()) {
-      step.termination_type = TerminationType::kFailure;
-      step.message = "the network predicted non-finite positions";
+    if (options.refine_iterations > 0) {
+      // The solver's own step from the prediction (its prior anchors to
+      // it); the clip starts at rest in the first prediction.
+      if (f == options.first_frame) {
+        const Eigen::Matrix3Xd first = solver->PositionsAt(params, now);
+        solver->SetHistory(first, first);
+      }
+      solver->WarmStart(params);
+      step = solver->Step(now);
+      step.time_s = Seconds(start);
+    } else {
+      const Eigen::Matrix3Xd positions = solver->PositionsAt(params, now);
+      step.time_s = step.solve_time_s = Seconds(start);
+      solver->Pose(now);
+      solver->Adopt(params);
+      if (!positions.allFinite()) {
+        step.termination_type = TerminationType::kFailure;
+        step.message = "the network predicted non-finite positions";
+      }
     }
     summary->records.push_back(MeasureFrame(options, *solver, rest, step, f, &posed));
     if (options.keep_positions) summary->positions.push_back(posed.vertices);
@@ -316,6 +328,7 @@ std::string DrapeSimulationOptions::Validate() const {
   if (!(bvh_units_to_metres > 0.0)) return "bvh_units_to_metres must be positive";
   if (first_frame < 0) return "first_frame must be >= 0";
   if (num_frames == 0 || num_frames < -1) return "num_frames must be positive (or -1 for all)";
+  if (refine_iterations < 0) return "refine_iterations must be >= 0";
   if (lead_in_frames < 0 || render_every < 0) return "lead_in_frames and render_every must be >= 0";
   if (render_height < 32) return "render_height must be >= 32";
   const std::string shape_problem = shape.Validate();
@@ -344,7 +357,12 @@ DrapeSimulationSummary RunDrapeSimulation(const DrapeSimulationOptions& options)
   }
   const DrapeInputs inputs = LoadInputs(options);
   SkinWeights weights;
-  const std::unique_ptr<DrapeSolver> solver = CreateSolver(options, inputs, &weights);
+  DrapeSimulationOptions solver_options = options;
+  if (!options.model_path.empty() && options.refine_iterations > 0) {
+    solver_options.solver.solve.max_iterations = options.refine_iterations;
+    solver_options.solver.solve.max_passes = 1;
+  }
+  const std::unique_ptr<DrapeSolver> solver = CreateSolver(solver_options, inputs, &weights);
   OneFitModel model;
   std::unique_ptr<OneFitDraper> draper;
   if (!options.model_path.empty()) {

@@ -50,6 +50,10 @@ struct DrapeSimulationOptions {
   // instead of the reference drape's solve; the outputs are the same. Its
   // time per frame is the network's inference with the garment's skinning.
   std::string model_path;
+  // With a model: after each prediction, this many Levenberg-Marquardt
+  // iterations of the reference drape from it (slides included, one
+  // collision pass), timed with the inference; 0: the network alone.
+  int refine_iterations = 0;
 
   int first_frame = 0;
   int num_frames = -1;  // -1: to the clip's end

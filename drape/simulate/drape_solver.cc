@@ -687,10 +687,15 @@ Eigen::Matrix3Xd DrapeSolver::PositionsOf(const std::vector<double>& patch_param
   return x;
 }
 
-void DrapeSolver::Adopt(const std::vector<double>& patch_parameters) {
+void DrapeSolver::WarmStart(const std::vector<double>& patch_parameters) {
   Impl& m = *impl_;
   m.SetPatchParameters(patch_parameters);
   std::fill(m.slides.begin(), m.slides.end(), 0.0);
+}
+
+void DrapeSolver::Adopt(const std::vector<double>& patch_parameters) {
+  Impl& m = *impl_;
+  WarmStart(patch_parameters);
   m.previous_params = m.params;
   m.previous_slides = m.slides;
   m.Positions(model_, &positions_);

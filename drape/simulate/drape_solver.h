@@ -192,6 +192,9 @@ class DrapeSolver {
   // posed as last posed (Pose or Step): positions() and the history follow,
   // so that a Step refines from there (a network's prediction).
   void Adopt(const std::vector<double>& patch_parameters);
+  // Takes given patch parameters (every slide zero) as the start of the
+  // next Step, the history untouched: a refinement of a prediction.
+  void WarmStart(const std::vector<double>& patch_parameters);
   // The positions inertia predicts from: at t - 1 and t - 2 (3 by #V each).
   void SetHistory(const Eigen::Matrix3Xd& previous, const Eigen::Matrix3Xd& before_previous);
 

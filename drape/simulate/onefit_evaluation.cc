@@ -158,7 +158,10 @@ OneFitEvaluationSummary EvaluateOneFitModel(const OneFitEvaluationOptions& optio
   }
   const std::vector<double> reference_jitter = Jitter(reference.positions), network_jitter = Jitter(network.positions);
   summary.reference = Summarize("reference drape", reference, reference_jitter);
-  summary.network = Summarize("network", network, network_jitter);
+  const int refine = options.simulation.refine_iterations;
+  summary.network =
+      Summarize(refine > 0 ? "network + " + std::to_string(refine) + " LM iterations" : std::string("network"), network,
+                network_jitter);
   summary.network.distance_to_reference_mm = FiniteMean(summary.distance_mm);
   summary.network.max_distance_to_reference_mm =
       summary.distance_mm.empty() ? 0.0 : *std::max_element(summary.distance_mm.begin(), summary.distance_mm.end());

@@ -17,6 +17,7 @@
 // this file maps flags onto them and makes one library call.
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <string>
 
@@ -215,6 +216,17 @@ int RunEval(SimulateFlags& f) {
                                                                         : polyfit::kExitSuccess;
 }
 
+// --model when not given: the shipped model, from the source tree or the
+// installation.
+std::string ShippedModel() {
+  for (const char* path : {POLYFIT_SHIPPED_ONEFIT_MODEL, POLYFIT_INSTALLED_ONEFIT_MODEL}) {
+    if (std::filesystem::exists(path)) return path;
+  }
+  throw polyfit::Error(
+      polyfit::ErrorKind::kInvalidArgument,
+      std::string("no --model given and the shipped model is missing (") + POLYFIT_SHIPPED_ONEFIT_MODEL + ")");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -223,12 +235,21 @@ int main(int argc, char** argv) {
   SimulateFlags simulate, drape;
   AddSimulateCommand(&app, &simulate);
   CLI::App* drape_command = AddSimulateCommand(&app, &drape, "drape", "drape a garment with a trained network");
-  drape_command->add_option("--model", drape.options.model_path, "a model from onefit train")->required();
+  drape_command->add_option("--model", drape.options.model_path,
+                            "a model from onefit train (default: the shipped one)");
+  drape_command
+      ->add_option("--refine", drape.options.refine_iterations,
+                   "Levenberg-Marquardt iterations of the reference drape from each prediction (0: none)")
+      ->capture_default_str();
   SimulateFlags eval;
   eval.options.render_every = 0;
   CLI::App* eval_command =
       AddSimulateCommand(&app, &eval, "eval", "compare a trained network with the reference drape on a clip");
-  eval_command->add_option("--model", eval.options.model_path, "a model from onefit train")->required();
+  eval_command->add_option("--model", eval.options.model_path, "a model from onefit train (default: the shipped one)");
+  eval_command
+      ->add_option("--refine", eval.options.refine_iterations,
+                   "Levenberg-Marquardt iterations of the reference drape from each prediction (0: none)")
+      ->capture_default_str();
   TrainFlags train;
   CLI::App* train_command = AddTrainCommand(&app, &train);
   try {
@@ -238,8 +259,14 @@ int main(int argc, char** argv) {
   }
   return polyfit::RunReportingErrors("onefit", [&]() -> int {
     if (train_command->parsed()) return RunTrain(train);
-    if (drape_command->parsed()) return RunSimulate(drape);
-    if (eval_command->parsed()) return RunEval(eval);
+    if (drape_command->parsed()) {
+      if (drape.options.model_path.empty()) drape.options.model_path = ShippedModel();
+      return RunSimulate(drape);
+    }
+    if (eval_command->parsed()) {
+      if (eval.options.model_path.empty()) eval.options.model_path = ShippedModel();
+      return RunEval(eval);
+    }
     return RunSimulate(simulate);
   });
 }
