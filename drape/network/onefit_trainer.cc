@@ -159,6 +159,20 @@ OneFitModel OneFitTrainer::MakeModel(const std::vector<double>& weights) const {
   return model;
 }
 
+void OneFitTrainer::StartFrom(const OneFitModel& model) {
+  if (model.jet_order != options_.drape.patching.jet_order || model.num_joints != body_.skeleton.num_joints()) {
+    throw std::invalid_argument("OneFitTrainer::StartFrom: the model's jet order or rig differs from the training's");
+  }
+  if (model.patch_normalizer.mean.size() != patch_normalizer_.mean.size() ||
+      model.body_normalizer.mean.size() != body_normalizer_.mean.size()) {
+    throw std::invalid_argument("OneFitTrainer::StartFrom: the model's features differ from the training's");
+  }
+  network_ = model.network;
+  patch_normalizer_ = model.patch_normalizer;
+  body_normalizer_ = model.body_normalizer;
+  for (auto& g : garments_) g->features = patch_normalizer_.Apply(g->raw_features);
+}
+
 std::vector<double> OneFitTrainer::Predict(const double* weights, int garment, int clip, int frame) {
   const GarmentData& g = *garments_.at(garment);
   Eigen::MatrixXd outputs;

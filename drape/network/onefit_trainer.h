@@ -125,6 +125,11 @@ class OneFitTrainer {
 
   // The trained network as a model file holds it.
   OneFitModel MakeModel(const std::vector<double>& weights) const;
+  // Fine-tuning: the network and feature normalisers become the model's
+  // (its weights are the caller's to start from). Throws
+  // std::invalid_argument when the model's jets, rig or feature sizes differ
+  // from this trainer's.
+  void StartFrom(const OneFitModel& model);
 
   // Trains `weights` in place, batches first_batch .. num_batches - 1 (the
   // earlier ones are drawn and skipped, so that a resumed run sees the same

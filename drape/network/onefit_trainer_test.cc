@@ -147,6 +147,40 @@ TEST_F(OneFitTrainerTest, AResumedRunEndsWhereAStraightRunEnds) {
   EXPECT_EQ(resumed, straight);
 }
 
+TEST_F(OneFitTrainerTest, AFineTuneStartsFromTheModelsNetworkAndNormalizers) {
+  std::vector<double> weights = trainer_->InitialWeights();
+  std::mt19937_64 rng(4);
+  std::normal_distribution<double> normal(0.0, 0.05);
+  for (double& w : weights) w += normal(rng);
+  const OneFitModel model = trainer_->MakeModel(weights);
+  // Another garment (its own normalisers if trained from scratch), and a
+  // network of another width: the model's replace both.
+  OneFitTrainingGarment wide{"wide", MakeTube(0.17, 0.12, 0.3, 16, 5), {}};
+  wide.weights = SingleJointWeights(wide.mesh.num_vertices(), 1);
+  OneFitTrainerOptions options = options_;
+  options.network.decoder_hidden = {12};
+  OneFitTrainer tune(body_, {wide}, {Bob(body_, 8)}, options);
+  ASSERT_NE(tune.num_parameters(), trainer_->num_parameters());
+  tune.StartFrom(model);
+  ASSERT_EQ(tune.num_parameters(), trainer_->num_parameters());
+  const OneFitModel again = tune.MakeModel(weights);
+  EXPECT_EQ(again.patch_normalizer.mean, model.patch_normalizer.mean);
+  EXPECT_EQ(again.body_normalizer.inv_std, model.body_normalizer.inv_std);
+  EXPECT_EQ(again.network.decoder().sizes(), model.network.decoder().sizes());
+  // The same body features normalise the same way: frame 3's prediction of
+  // the shared clip matches a draper of the model on that garment.
+  DrapeSolver solver(body_, wide.mesh, wide.weights, options_.drape);
+  const OneFitDraper draper(model, solver, wide.weights, body_.skeleton);
+  const OneFitTrainingClip clip = Bob(body_, 8);
+  const std::vector<double> a = draper.Predict(clip.poses[1], clip.poses[2], clip.poses[3], clip.fps, clip.shape);
+  const std::vector<double> b = tune.Predict(weights.data(), 0, 0, 3);
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) EXPECT_NEAR(a[i], b[i], 1e-12) << i;
+  OneFitModel other = model;
+  other.jet_order = 3;
+  EXPECT_THROW(tune.StartFrom(other), std::invalid_argument);
+}
+
 TEST_F(OneFitTrainerTest, AModelFileRoundTripsAndTheDraperPredictsAsTraining) {
   std::vector<double> weights = trainer_->InitialWeights();
   std::mt19937_64 rng(2);

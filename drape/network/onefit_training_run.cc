@@ -84,6 +84,15 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
   const SkinnedBody body = LoadDrapeBody(options.body_dir, options.shape);
   OneFitTrainer trainer(body, LoadGarments(options, body), LoadClips(options, body), options.trainer);
   std::vector<double> weights = trainer.InitialWeights();
+  if (!options.init_model_path.empty()) {
+    const OneFitModel init = LoadOneFitModel(options.init_model_path);
+    try {
+      trainer.StartFrom(init);
+    } catch (const std::invalid_argument& e) {
+      throw Error(ErrorKind::kInput, options.init_model_path + ": " + e.what());
+    }
+    weights = init.weights;
+  }
   const std::string csv_path = options.model_path + ".csv";
   int first_batch = 0;
   std::string csv;

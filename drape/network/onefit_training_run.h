@@ -32,6 +32,9 @@ struct OneFitTrainingRunOptions {
   std::vector<double> speeds = {1.0};
   std::string model_path;
   bool resume = false;
+  // Fine-tuning: start from this model's network, normalisers and weights
+  // (empty: a new network).
+  std::string init_model_path;
   SkinTransferOptions skin;
   OneFitTrainerOptions trainer;
 
