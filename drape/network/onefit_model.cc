@@ -117,6 +117,43 @@ void SaveOneFitModel(const std::string& path, const OneFitModel& model) {
   }
 }
 
+namespace {
+constexpr char kAdamMagic[8] = {'P', 'F', 'A', 'D', 'A', 'M', '0', '1'};
+}  // namespace
+
+void SaveOneFitAdamState(const std::string& path, const OneFitAdamState& state) {
+  if (state.m.size() != state.v.size()) {
+    throw OneFitModelError(path + ": Adam's moments differ in size", ErrorKind::kInvalidArgument);
+  }
+  Writer w;
+  w.Reserve(sizeof(kAdamMagic) + 2 * sizeof(std::int64_t) + 2 * state.m.size() * sizeof(double));
+  w.PutBytes(kAdamMagic, sizeof(kAdamMagic));
+  w.Put<std::int64_t>(static_cast<std::int64_t>(state.m.size()));
+  w.Put<std::int64_t>(state.steps);
+  w.PutDoubles(state.m.data(), state.m.size());
+  w.PutDoubles(state.v.data(), state.v.size());
+  WriteFileAtomically(path, [&](std::ostream& out) { out.write(w.buffer().data(), w.buffer().size()); });
+}
+
+OneFitAdamState LoadOneFitAdamState(const std::string& path, size_t size) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw OneFitModelError(path + ": cannot be opened (missing?)");
+  Reader r(std::vector<char>(std::istreambuf_iterator<char>(in), {}), path);
+  char magic[8];
+  r.GetBytes(magic, sizeof(magic), "the header");
+  if (std::memcmp(magic, kAdamMagic, sizeof(magic)) != 0) r.Fail("not an Adam state (bad magic)");
+  const auto count = r.Get<std::int64_t>("the header");
+  OneFitAdamState state;
+  state.steps = r.Get<std::int64_t>("the header");
+  if (count < 0 || static_cast<size_t>(count) != size || state.steps < 0) {
+    r.Fail("an Adam state for " + std::to_string(count) + " weights, the network has " + std::to_string(size));
+  }
+  state.m = r.GetDoubles(size, "the first moments");
+  state.v = r.GetDoubles(size, "the second moments");
+  if (r.remaining() != 0) r.Fail("trailing bytes");
+  return state;
+}
+
 OneFitModel LoadOneFitModel(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw OneFitModelError(path + ": cannot be opened (missing?)");

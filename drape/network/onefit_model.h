@@ -32,6 +32,19 @@ struct OneFitModel {
   std::string Validate() const;
 };
 
+// Adam's moments and step count: a training checkpoint's optimiser state,
+// kept beside the model (MODEL.adam: magic "PFADAM01", int64 size, int64
+// steps, then size doubles of m and of v).
+struct OneFitAdamState {
+  std::vector<double> m, v;
+  long long steps = 0;
+};
+// Atomic; throws OneFitModelError (kOutput) naming the file.
+void SaveOneFitAdamState(const std::string& path, const OneFitAdamState& state);
+// Throws OneFitModelError naming the file for a missing, foreign or
+// truncated file, or one of another size than `size`.
+OneFitAdamState LoadOneFitAdamState(const std::string& path, size_t size);
+
 // Atomic; throws OneFitModelError (kOutput) naming the file.
 void SaveOneFitModel(const std::string& path, const OneFitModel& model);
 // Throws OneFitModelError naming the file for a missing, foreign,

@@ -310,8 +310,8 @@ void OneFitTrainer::ValidationDrape(const double* weights, int garment, int clip
   *edge_strain_percent = strain;
 }
 
-OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights, int first_batch,
-                                           const BatchCallback& on_batch) {
+OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights, int first_batch, const BatchCallback& on_batch,
+                                           OneFitAdamState* adam_state) {
   const auto start = Clock::now();
   if (static_cast<int>(weights->size()) != num_parameters()) {
     throw std::invalid_argument("OneFitTrainer::Train: " + std::to_string(weights->size()) +
@@ -321,7 +321,8 @@ OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights, int fir
   std::mt19937_64 rng(options_.seed);
   std::vector<OneFitSample> batch(options_.batch_size);
   std::vector<double> best = *weights;
-  AdamState adam;
+  AdamState local_adam;
+  AdamState& adam = adam_state != nullptr ? *adam_state : local_adam;
   for (int b = 0; b < options_.num_batches; ++b) {
     for (OneFitSample& s : batch) {
       s.garment = std::uniform_int_distribution<int>(0, static_cast<int>(garments_.size()) - 1)(rng);

@@ -135,9 +135,12 @@ class OneFitTrainer {
   // earlier ones are drawn and skipped, so that a resumed run sees the same
   // data order); after each batch, on_batch (when given) sees its summary
   // and the weights (to checkpoint them).
+  // adam: Adam's moments, carried in and out (a resumed run passes the
+  // checkpointed ones, so that it ends where a straight run ends); null:
+  // fresh ones.
   using BatchCallback = std::function<void(const OneFitBatchSummary&, const std::vector<double>&)>;
   OneFitTrainingSummary Train(std::vector<double>* weights, int first_batch = 0,
-                              const BatchCallback& on_batch = nullptr);
+                              const BatchCallback& on_batch = nullptr, OneFitAdamState* adam = nullptr);
 
   // epsilon_c and epsilon_e (%) of the network's drape of a garment through
   // a clip's first `frames` frames.
@@ -150,10 +153,7 @@ class OneFitTrainer {
 
  private:
   struct GarmentData;
-  struct AdamState {
-    std::vector<double> m, v;
-    long long steps = 0;
-  };
+  using AdamState = OneFitAdamState;
   OneFitBatchSummary LbfgsBatch(const std::vector<OneFitSample>& batch, int index, std::vector<double>* weights);
   OneFitBatchSummary AdamBatch(const std::vector<OneFitSample>& batch, int index, AdamState* state,
                                std::vector<double>* weights);

@@ -181,6 +181,33 @@ TEST_F(OneFitTrainerTest, AFineTuneStartsFromTheModelsNetworkAndNormalizers) {
   EXPECT_THROW(tune.StartFrom(other), std::invalid_argument);
 }
 
+TEST_F(OneFitTrainerTest, AResumedAdamRunWithItsMomentsEndsWhereAStraightRunEnds) {
+  OneFitTrainerOptions options = options_;
+  options.optimizer = OneFitOptimizer::kAdam;
+  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
+  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
+  OneFitTrainer adam(body_, {shirt}, {Bob(body_, 8)}, options);
+  std::vector<double> straight = adam.InitialWeights(), checkpoint;
+  OneFitAdamState state, saved;
+  adam.Train(
+      &straight, 0,
+      [&](const OneFitBatchSummary& b, const std::vector<double>& w) {
+        if (b.batch == 2) checkpoint = w, saved = state;
+      },
+      &state);
+  ASSERT_FALSE(checkpoint.empty());
+  EXPECT_EQ(saved.steps, 3 * options.iterations_per_batch);
+  // The moments through their file, as a resumed `onefit train` reads them.
+  const std::string path = ::testing::TempDir() + "/onefit_test.adam";
+  SaveOneFitAdamState(path, saved);
+  OneFitAdamState loaded = LoadOneFitAdamState(path, checkpoint.size());
+  EXPECT_EQ(loaded.m, saved.m);
+  EXPECT_THROW(LoadOneFitAdamState(path, checkpoint.size() + 1), OneFitModelError);
+  std::vector<double> resumed = checkpoint;
+  adam.Train(&resumed, 3, nullptr, &loaded);
+  EXPECT_EQ(resumed, straight);
+}
+
 TEST_F(OneFitTrainerTest, AModelFileRoundTripsAndTheDraperPredictsAsTraining) {
   std::vector<double> weights = trainer_->InitialWeights();
   std::mt19937_64 rng(2);

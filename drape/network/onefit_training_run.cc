@@ -108,11 +108,24 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
     text << in.rdbuf();
     csv = text.str();
   }
+  // Adam's moments: from the checkpoint when resuming (a run killed before
+  // they were first written restarts them).
+  const std::string adam_path = options.model_path + ".adam";
+  OneFitAdamState adam;
+  if (first_batch > 0 && std::filesystem::exists(adam_path)) {
+    adam = LoadOneFitAdamState(adam_path, weights.size());
+    // Written before the model: a kill between the two leaves it a batch
+    // ahead, and then it is not this checkpoint's.
+    if (adam.steps != static_cast<long long>(first_batch) * options.trainer.iterations_per_batch) {
+      adam = OneFitAdamState{};
+    }
+  }
   if (csv.empty())
     csv =
         "batch,initial_loss_J,final_loss_J,iterations,time_s,validation_inside_percent,validation_edge_strain_"
         "percent\n";
   const auto checkpoint = [&](const OneFitBatchSummary& batch, const std::vector<double>& w) {
+    if (options.trainer.optimizer == OneFitOptimizer::kAdam) SaveOneFitAdamState(adam_path, adam);
     SaveOneFitModel(options.model_path, trainer.MakeModel(w));
     std::ostringstream row;
     row.precision(8);
@@ -128,7 +141,7 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
     WriteFileAtomically(csv_path, [&](std::ostream& out) { out << csv; });
     if (progress) progress(batch);
   };
-  OneFitTrainingSummary summary = trainer.Train(&weights, first_batch, checkpoint);
+  OneFitTrainingSummary summary = trainer.Train(&weights, first_batch, checkpoint, &adam);
   if (first_batch > 0) summary.message += "; resumed at batch " + std::to_string(first_batch);
   return summary;
 }

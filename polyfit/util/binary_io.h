@@ -25,6 +25,7 @@ class BinaryWriter {
     buffer_.insert(buffer_.end(), bytes, bytes + size);
   }
   void PutDoubles(const double* data, size_t count) { PutBytes(data, count * sizeof(double)); }
+  void Reserve(size_t bytes) { buffer_.reserve(bytes); }
   const std::vector<char>& buffer() const { return buffer_; }
 
  private:
