@@ -88,9 +88,18 @@ class SkinnedPatchPoint {
   Eigen::Vector3d Position(const PatchPointState& state, const double* scale, const double* translation) const {
     return *skin_linear_ * Canonical(state, scale, translation) + *skin_translation_;
   }
+  // The posed point alone (no slopes: what drawing a frame needs).
   Eigen::Vector3d Position(const double* alpha, const double* scale, const double* translation,
                            const double* slide) const {
-    return Position(State(alpha, slide), scale, translation);
+    const double u = u_ + (slide != nullptr ? slide[0] : 0.0);
+    const double v = v_ + (slide != nullptr ? slide[1] : 0.0);
+    double monomials[kMaxJetCoefficients];
+    JetMonomials(order_, u, v, monomials);
+    double z = 0.0;
+    for (int k = 0; k < num_coefficients_; ++k) z += alpha[k] * monomials[k];
+    const Eigen::Vector3d canonical =
+        scale[0] * (rotation_ * Eigen::Vector3d(u, v, z)) + Eigen::Map<const Eigen::Vector3d>(translation);
+    return *skin_linear_ * canonical + *skin_translation_;
   }
 
   // Writes sign dr_dx dx/dblock (row-major) into jacobians[0..2] (alpha, s,
