@@ -5,6 +5,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "drape/motion/mirror_pose.h"
 #include "drape/simulate/drape_inputs.h"
 #include "polyfit/util/atomic_file.h"
 
@@ -30,6 +31,14 @@ std::vector<OneFitTrainingGarment> LoadGarments(const OneFitTrainingRunOptions& 
 std::vector<OneFitTrainingClip> LoadClips(const OneFitTrainingRunOptions& options, const SkinnedBody& body) {
   std::vector<OneFitTrainingClip> clips;
   const double fps = options.trainer.drape.physics.fps;
+  std::vector<int> mirror_map;
+  if (options.mirror) {
+    try {
+      mirror_map = MirrorJointMap(body.skeleton);
+    } catch (const std::invalid_argument& e) {
+      throw Error(ErrorKind::kInput, std::string("--mirror: ") + e.what());
+    }
+  }
   for (const std::string& path : options.motion_paths) {
     for (const double speed : options.speeds) {
       const auto retargeter = LoadRetargetedClip(path, options.bvh_units_to_metres, fps / speed, body.skeleton);
@@ -46,7 +55,12 @@ std::vector<OneFitTrainingClip> LoadClips(const OneFitTrainingRunOptions& option
                              ? std::min(options.max_frames_per_clip, retargeter->num_frames())
                              : retargeter->num_frames();
       for (int f = 0; f < frames; ++f) clip.poses.push_back(retargeter->Pose(f));
-      clips.push_back(std::move(clip));
+      clips.push_back(clip);  // the validation drape reads the first clip as recorded
+      if (options.mirror) {
+        OneFitTrainingClip& mirrored = clips.emplace_back(std::move(clip));
+        mirrored.name += "~mirrored";
+        for (auto& pose : mirrored.poses) pose = MirrorPose(pose, mirror_map);
+      }
     }
   }
   return clips;

@@ -30,6 +30,9 @@ struct OneFitTrainingRunOptions {
   // (resampled at fps / speed, played at fps: faster motion, larger
   // inertia). {1}: as recorded.
   std::vector<double> speeds = {1.0};
+  // Augmentation: each clip (at each speed) also mirrored left to right
+  // (drape/motion/mirror_pose.h).
+  bool mirror = false;
   std::string model_path;
   bool resume = false;
   // Fine-tuning: start from this model's network, normalisers and weights
