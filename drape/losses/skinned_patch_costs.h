@@ -95,11 +95,10 @@ class SkinnedPatchPoint {
     const double v = v_ + (slide != nullptr ? slide[1] : 0.0);
     double monomials[kMaxJetCoefficients];
     JetMonomials(order_, u, v, monomials);
-    double z = 0.0;
-    for (int k = 0; k < num_coefficients_; ++k) z += alpha[k] * monomials[k];
-    const Eigen::Vector3d canonical =
-        scale[0] * (rotation_ * Eigen::Vector3d(u, v, z)) + Eigen::Map<const Eigen::Vector3d>(translation);
-    return *skin_linear_ * canonical + *skin_translation_;
+    PatchPointState state;  // its local point only
+    for (int k = 0; k < num_coefficients_; ++k) state.z += alpha[k] * monomials[k];
+    state.local = Eigen::Vector3d(u, v, state.z);
+    return Position(state, scale, translation);
   }
 
   // Writes sign dr_dx dx/dblock (row-major) into jacobians[0..2] (alpha, s,

@@ -118,7 +118,20 @@ void SaveOneFitModel(const std::string& path, const OneFitModel& model) {
 }
 
 namespace {
+
 constexpr char kAdamMagic[8] = {'P', 'F', 'A', 'D', 'A', 'M', '0', '1'};
+
+// The file's bytes, past its 8-byte magic (checked).
+Reader OpenWithMagic(const std::string& path, const char (&magic)[8], const char* bad_magic) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw OneFitModelError(path + ": cannot be opened (missing?)");
+  Reader r(std::vector<char>(std::istreambuf_iterator<char>(in), {}), path);
+  char found[8];
+  r.GetBytes(found, sizeof(found), "the header");
+  if (std::memcmp(found, magic, sizeof(found)) != 0) r.Fail(bad_magic);
+  return r;
+}
+
 }  // namespace
 
 void SaveOneFitAdamState(const std::string& path, const OneFitAdamState& state) {
@@ -136,12 +149,7 @@ void SaveOneFitAdamState(const std::string& path, const OneFitAdamState& state) 
 }
 
 OneFitAdamState LoadOneFitAdamState(const std::string& path, size_t size) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw OneFitModelError(path + ": cannot be opened (missing?)");
-  Reader r(std::vector<char>(std::istreambuf_iterator<char>(in), {}), path);
-  char magic[8];
-  r.GetBytes(magic, sizeof(magic), "the header");
-  if (std::memcmp(magic, kAdamMagic, sizeof(magic)) != 0) r.Fail("not an Adam state (bad magic)");
+  Reader r = OpenWithMagic(path, kAdamMagic, "not an Adam state (bad magic)");
   const auto count = r.Get<std::int64_t>("the header");
   OneFitAdamState state;
   state.steps = r.Get<std::int64_t>("the header");
@@ -155,12 +163,7 @@ OneFitAdamState LoadOneFitAdamState(const std::string& path, size_t size) {
 }
 
 OneFitModel LoadOneFitModel(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw OneFitModelError(path + ": cannot be opened (missing?)");
-  Reader r(std::vector<char>(std::istreambuf_iterator<char>(in), {}), path);
-  char magic[8];
-  r.GetBytes(magic, sizeof(magic), "the header");
-  if (std::memcmp(magic, kMagic, sizeof(magic)) != 0) r.Fail("not a OneFit model (bad magic)");
+  Reader r = OpenWithMagic(path, kMagic, "not a OneFit model (bad magic)");
   const auto version = r.Get<std::uint32_t>("the header");
   if (version != kOneFitModelVersion) {
     r.Fail("version " + std::to_string(version) + ", this build reads " + std::to_string(kOneFitModelVersion));
@@ -186,8 +189,9 @@ OneFitModel LoadOneFitModel(const std::string& path) {
     r.Fail(std::to_string(count) + " weights, the network has " + std::to_string(model.network.num_parameters()));
   }
   model.weights = r.GetDoubles(count, "the weights");
-  r.GetBytes(magic, sizeof(magic), "the end marker");
-  if (std::memcmp(magic, kEndMagic, sizeof(magic)) != 0) r.Fail("bad end marker (corrupt)");
+  char end[8];
+  r.GetBytes(end, sizeof(end), "the end marker");
+  if (std::memcmp(end, kEndMagic, sizeof(end)) != 0) r.Fail("bad end marker (corrupt)");
   if (r.remaining() != 0) r.Fail("trailing bytes after the end marker");
   if (const std::string problem = model.Validate(); !problem.empty()) r.Fail(problem);
   return model;

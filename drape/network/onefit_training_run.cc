@@ -55,11 +55,12 @@ std::vector<OneFitTrainingClip> LoadClips(const OneFitTrainingRunOptions& option
                              ? std::min(options.max_frames_per_clip, retargeter->num_frames())
                              : retargeter->num_frames();
       for (int f = 0; f < frames; ++f) clip.poses.push_back(retargeter->Pose(f));
-      clips.push_back(clip);  // the validation drape reads the first clip as recorded
+      clips.push_back(std::move(clip));  // the validation drape reads the first clip as recorded
       if (options.mirror) {
-        OneFitTrainingClip& mirrored = clips.emplace_back(std::move(clip));
+        OneFitTrainingClip mirrored = clips.back();
         mirrored.name += "~mirrored";
         for (auto& pose : mirrored.poses) pose = MirrorPose(pose, mirror_map);
+        clips.push_back(std::move(mirrored));
       }
     }
   }

@@ -150,6 +150,59 @@ JetFitSummary FitPatchJets(const JetFitOptions& options, const TriangleMesh& mes
   return summary;
 }
 
+namespace {
+
+// Subdivision levels for a coarse mesh, so that every patch has points
+// enough (min_vertices_per_patch), up to max_subdivision_levels.
+int SubdivisionLevels(const MeshFitOptions& options, const TriangleMesh& input) {
+  const int wanted_patches = std::min(options.clustering.ResolveNumPatches(SurfaceArea(input)), input.num_faces());
+  int levels = 0;
+  long long vertices = input.num_vertices(), faces = input.num_faces();
+  while (levels < options.max_subdivision_levels &&
+         vertices < static_cast<long long>(options.min_vertices_per_patch) * wanted_patches) {
+    vertices += faces * 3 / 2;  // one new vertex per edge
+    faces *= 4;
+    ++levels;
+  }
+  return levels;
+}
+
+// The fit's errors against the input (Chamfer distances, height RMSE,
+// normal error) into summary.
+void EvaluateFit(const MeshFitOptions& options, const TriangleMesh& input, const TriangleMesh& mesh,
+                 const PolyFitModel& model, const TriangleMesh& reconstruction, MeshFitSummary* summary_out) {
+  MeshFitSummary& summary = *summary_out;
+  const auto evaluate_start = std::chrono::steady_clock::now();
+  summary.chamfer =
+      MeshChamferDistance(input, reconstruction, options.evaluation_samples, options.evaluation_seed).sum();
+  summary.chamfer_floor = MeshChamferDistance(input, input, options.evaluation_samples, options.evaluation_seed).sum();
+  summary.surface_chamfer = MeshToSurfaceChamferDistance(input, reconstruction, options.evaluation_samples,
+                                                         options.evaluation_seed, options.num_threads)
+                                .sum();
+  const Normalization normalization = UnitSphereNormalization(input.vertices);
+  summary.height_rmse =
+      normalization.scale * std::sqrt((reconstruction.vertices - mesh.vertices).colwise().squaredNorm().mean());
+  // Normals compared where both are defined: at each face's centroid, the
+  // face's normal against its patch's jet normal there, area-weighted
+  // (vertex normals would blur sharp creases into false errors).
+  const Eigen::VectorXd face_areas = FaceAreas(mesh);
+  const Eigen::Matrix3Xd normals = PerFaceNormals(mesh);
+  const Eigen::Matrix3Xd centroids = FaceCentroids(mesh);
+  double sum_angle = 0.0, sum_area = 0.0;
+  for (int f = 0; f < mesh.num_faces(); ++f) {
+    if (normals.col(f).squaredNorm() == 0.0) continue;
+    const JetPatch& patch = model.patches[model.face_patch[f]];
+    const Eigen::Vector3d uv = patch.frame.PointToPatch(centroids.col(f));
+    const double cosine = std::min(1.0, std::abs(patch.NormalInWorld(uv.x(), uv.y()).dot(normals.col(f))));
+    sum_angle += face_areas[f] * std::acos(cosine) * 180.0 / M_PI;
+    sum_area += face_areas[f];
+  }
+  summary.normal_error_deg = sum_area > 0.0 ? sum_angle / sum_area : 0.0;
+  summary.evaluate_time_s = SecondsSince(evaluate_start);
+}
+
+}  // namespace
+
 MeshFitSummary FitMesh(const MeshFitOptions& options, const TriangleMesh& input, PolyFitModel* model_out,
                        TriangleMesh* reconstruction_out) {
   if (const std::string problem = options.Validate(); !problem.empty()) {
@@ -164,18 +217,7 @@ MeshFitSummary FitMesh(const MeshFitOptions& options, const TriangleMesh& input,
   summary.input_vertices = input.num_vertices();
   summary.input_faces = input.num_faces();
 
-  // Subdivide coarse meshes so that every patch has points enough.
-  const int wanted_patches = std::min(options.clustering.ResolveNumPatches(SurfaceArea(input)), input.num_faces());
-  int levels = 0;
-  {
-    long long vertices = input.num_vertices(), faces = input.num_faces();
-    while (levels < options.max_subdivision_levels &&
-           vertices < static_cast<long long>(options.min_vertices_per_patch) * wanted_patches) {
-      vertices += faces * 3 / 2;  // one new vertex per edge
-      faces *= 4;
-      ++levels;
-    }
-  }
+  const int levels = SubdivisionLevels(options, input);
   TriangleMesh subdivided;
   if (levels > 0) {
     SubdivisionOptions subdivision;
@@ -211,36 +253,7 @@ MeshFitSummary FitMesh(const MeshFitOptions& options, const TriangleMesh& input,
   summary.reconstruct_time_s = SecondsSince(reconstruct_start);
   summary.total_time_s = SecondsSince(start);
 
-  if (options.evaluate) {
-    const auto evaluate_start = std::chrono::steady_clock::now();
-    summary.chamfer =
-        MeshChamferDistance(input, reconstruction, options.evaluation_samples, options.evaluation_seed).sum();
-    summary.chamfer_floor =
-        MeshChamferDistance(input, input, options.evaluation_samples, options.evaluation_seed).sum();
-    summary.surface_chamfer = MeshToSurfaceChamferDistance(input, reconstruction, options.evaluation_samples,
-                                                           options.evaluation_seed, options.num_threads)
-                                  .sum();
-    const Normalization normalization = UnitSphereNormalization(input.vertices);
-    summary.height_rmse =
-        normalization.scale * std::sqrt((reconstruction.vertices - mesh.vertices).colwise().squaredNorm().mean());
-    // Normals compared where both are defined: at each face's centroid, the
-    // face's normal against its patch's jet normal there, area-weighted
-    // (vertex normals would blur sharp creases into false errors).
-    const Eigen::VectorXd face_areas = FaceAreas(mesh);
-    const Eigen::Matrix3Xd normals = PerFaceNormals(mesh);
-    const Eigen::Matrix3Xd centroids = FaceCentroids(mesh);
-    double sum_angle = 0.0, sum_area = 0.0;
-    for (int f = 0; f < mesh.num_faces(); ++f) {
-      if (normals.col(f).squaredNorm() == 0.0) continue;
-      const JetPatch& patch = model.patches[model.face_patch[f]];
-      const Eigen::Vector3d uv = patch.frame.PointToPatch(centroids.col(f));
-      const double cosine = std::min(1.0, std::abs(patch.NormalInWorld(uv.x(), uv.y()).dot(normals.col(f))));
-      sum_angle += face_areas[f] * std::acos(cosine) * 180.0 / M_PI;
-      sum_area += face_areas[f];
-    }
-    summary.normal_error_deg = sum_area > 0.0 ? sum_angle / sum_area : 0.0;
-    summary.evaluate_time_s = SecondsSince(evaluate_start);
-  }
+  if (options.evaluate) EvaluateFit(options, input, mesh, model, reconstruction, &summary);
   if (model_out != nullptr) *model_out = std::move(model);
   if (reconstruction_out != nullptr) *reconstruction_out = std::move(reconstruction);
   return summary;
