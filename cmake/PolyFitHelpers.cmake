@@ -6,6 +6,12 @@ function(polyfit_target_options target)
     $<$<CXX_COMPILER_ID:GNU>:-Wno-maybe-uninitialized -Wno-array-bounds -Wno-stringop-overread -Wno-uninitialized>)
   if(POLYFIT_NATIVE)
     target_compile_options(${target} PRIVATE $<$<CXX_COMPILER_ID:GNU,Clang>:-march=native>)
+    # Ceres is linked statically and built for baseline x86-64: Eigen asks
+    # that every translation unit agree on heap alignment, which AVX would
+    # raise to 32 or 64 bytes here. Eigen's blocked dense kernels are still
+    # shared (weak) symbols compiled for two instruction sets: code linked
+    # with Ceres avoids Eigen's dense decompositions (drape_solver.cc).
+    target_compile_definitions(${target} PRIVATE EIGEN_MAX_ALIGN_BYTES=16)
   endif()
 endfunction()
 

@@ -13,11 +13,12 @@ OneFitDraper::OneFitDraper(const OneFitModel& model, const DrapeSolver& solver, 
                            ErrorKind::kInvalidArgument);
   }
   if (solver.num_patch_parameters() != model.network.num_outputs()) {
-    throw OneFitModelError("the model predicts jets of another order than the drape's", ErrorKind::kInvalidArgument);
+    throw OneFitModelError("the model predicts jets or warps of another order than the drape's",
+                           ErrorKind::kInvalidArgument);
   }
   for (const JetPatch& patch : solver.model().patches) frames_.push_back(patch.frame.rotation);
   const Eigen::MatrixXd features =
-      model.patch_normalizer.Apply(PatchFeatures(solver.model(), rest_, weights, skeleton));
+      model.patch_normalizer.Apply(PatchFeatures(solver.model(), rest_, model.jet_order, weights, skeleton));
   garment_half_ = model.network.GarmentHalf(model.weights.data(), features);
 }
 
@@ -27,7 +28,7 @@ std::vector<double> OneFitDraper::Predict(const JointTransforms& before_previous
       model_.body_normalizer.Apply(BodyFeatures(skeleton_, before_previous, previous, now, fps, shape));
   Eigen::MatrixXd outputs;
   model_.network.ForwardWithGarmentHalf(model_.weights.data(), garment_half_, body, &outputs);
-  return PatchParametersFromOutputs(rest_, frames_, outputs);
+  return PatchParametersFromOutputs(rest_, frames_, outputs, model_.network.num_coefficients());
 }
 
 }  // namespace polyfit

@@ -60,13 +60,14 @@ int PatchFeatureSize(int jet_order, int num_joints) {
 
 int BodyFeatureSize(int num_joints) { return 3 * 6 * num_joints + 2 * 3 + 2 * 3 + 5; }
 
-Eigen::MatrixXd PatchFeatures(const PolyFitModel& model, const std::vector<double>& rest_parameters,
+Eigen::MatrixXd PatchFeatures(const PolyFitModel& model, const std::vector<double>& rest_parameters, int jet_order,
                               const SkinWeights& weights, const Skeleton& skeleton) {
   const int num_patches = model.num_patches();
   if (num_patches == 0) throw std::invalid_argument("PatchFeatures: the garment has no patch");
   const int stride = static_cast<int>(rest_parameters.size()) / num_patches;
-  const int num_coefficients = stride - 4;
-  if (stride * num_patches != static_cast<int>(rest_parameters.size()) || num_coefficients < 1) {
+  const int num_coefficients = NumJetCoefficients(jet_order);
+  if (stride * num_patches != static_cast<int>(rest_parameters.size()) || jet_order < 1 ||
+      stride < num_coefficients + 4) {
     throw std::invalid_argument("PatchFeatures: rest parameters do not fit the patches");
   }
   if (weights.num_vertices() != model.num_vertices()) {

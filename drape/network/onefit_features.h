@@ -39,10 +39,11 @@ inline constexpr int kPositionalFrequencies = 4;
 int PatchFeatureSize(int jet_order, int num_joints);
 int BodyFeatureSize(int num_joints);
 
-// #features by #patches. rest_parameters: per patch alpha, s, T as
+// #features by #patches. rest_parameters: per patch alpha
+// (NumJetCoefficients(jet_order)), s, T (and any warp, not read) as
 // DrapeSolver::RestPatchParameters gives them; model: the patches' frames
 // and memberships; weights: the garment's skinning weights.
-Eigen::MatrixXd PatchFeatures(const PolyFitModel& model, const std::vector<double>& rest_parameters,
+Eigen::MatrixXd PatchFeatures(const PolyFitModel& model, const std::vector<double>& rest_parameters, int jet_order,
                               const SkinWeights& weights, const Skeleton& skeleton);
 
 // A frame's pose: the rest-to-posed transform of every joint.

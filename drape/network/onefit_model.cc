@@ -100,6 +100,7 @@ void SaveOneFitModel(const std::string& path, const OneFitModel& model) {
   w.Put<std::uint32_t>(kOneFitModelVersion);
   w.Put<std::uint32_t>(static_cast<std::uint32_t>(model.jet_order));
   w.Put<std::uint32_t>(static_cast<std::uint32_t>(model.num_joints));
+  w.Put<std::int32_t>(model.network.warp_order());
   PutMlp(model.network.patch_encoder(), &w);
   PutMlp(model.network.body_encoder(), &w);
   PutMlp(model.network.decoder(), &w);
@@ -165,20 +166,22 @@ OneFitAdamState LoadOneFitAdamState(const std::string& path, size_t size) {
 OneFitModel LoadOneFitModel(const std::string& path) {
   Reader r = OpenWithMagic(path, kMagic, "not a OneFit model (bad magic)");
   const auto version = r.Get<std::uint32_t>("the header");
-  if (version != kOneFitModelVersion) {
-    r.Fail("version " + std::to_string(version) + ", this build reads " + std::to_string(kOneFitModelVersion));
+  if (version < 1 || version > kOneFitModelVersion) {
+    r.Fail("version " + std::to_string(version) + ", this build reads 1 to " + std::to_string(kOneFitModelVersion));
   }
   OneFitModel model;
   model.jet_order = static_cast<int>(r.Get<std::uint32_t>("the header"));
   model.num_joints = static_cast<int>(r.Get<std::uint32_t>("the header"));
+  const int warp_order = version >= 2 ? r.Get<std::int32_t>("the header") : -1;
   if (model.jet_order < 1 || model.jet_order > kMaxJetOrder) r.Fail("jet order out of range");
   if (model.num_joints < 1 || model.num_joints > static_cast<int>(kMaxWidth)) r.Fail("joint count out of range");
+  if (warp_order < -1 || warp_order > kMaxJetOrder) r.Fail("warp order out of range");
   Mlp patch = GetMlp(&r, "the patch encoder");
   Mlp body = GetMlp(&r, "the body encoder");
   Mlp decoder = GetMlp(&r, "the decoder");
   try {
-    model.network =
-        OneFitNetwork(std::move(patch), std::move(body), std::move(decoder), NumJetCoefficients(model.jet_order));
+    model.network = OneFitNetwork(std::move(patch), std::move(body), std::move(decoder),
+                                  NumJetCoefficients(model.jet_order), warp_order);
   } catch (const std::invalid_argument& e) {
     r.Fail(e.what());
   }

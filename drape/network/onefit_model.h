@@ -14,7 +14,8 @@
 
 namespace polyfit {
 
-inline constexpr int kOneFitModelVersion = 1;
+// Version 2 adds the warp head's order; version 1 files still load.
+inline constexpr int kOneFitModelVersion = 2;
 
 class OneFitModelError : public Error {
  public:

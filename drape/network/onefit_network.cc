@@ -3,6 +3,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "polyfit/jet/jet_basis.h"
+
 namespace polyfit {
 namespace {
 
@@ -23,6 +25,8 @@ std::string OneFitNetworkOptions::Validate() const {
     }
   }
   if (!(initial_output_scale > 0.0)) return "initial_output_scale must be > 0";
+  if (warp_order < -1 || warp_order > kMaxJetOrder)
+    return "warp_order must be in [-1, " + std::to_string(kMaxJetOrder) + "]";
   return {};
 }
 
@@ -30,19 +34,22 @@ OneFitNetwork::OneFitNetwork(int patch_features, int body_features, int num_coef
                              const OneFitNetworkOptions& options)
     : patch_encoder_(Sizes(patch_features, options.patch_hidden, options.patch_embedding)),
       body_encoder_(Sizes(body_features, options.body_hidden, options.body_embedding)),
-      decoder_(Sizes(options.patch_embedding + options.body_embedding, options.decoder_hidden, num_coefficients + 4)),
-      num_coefficients_(num_coefficients) {
+      decoder_(Sizes(options.patch_embedding + options.body_embedding, options.decoder_hidden,
+                     num_coefficients + 4 + 2 * NumJetCoefficients(options.warp_order))),
+      num_coefficients_(num_coefficients),
+      warp_order_(options.warp_order) {
   if (const std::string problem = options.Validate(); !problem.empty()) {
     throw std::invalid_argument("OneFitNetworkOptions: " + problem);
   }
   Check();
 }
 
-OneFitNetwork::OneFitNetwork(Mlp patch_encoder, Mlp body_encoder, Mlp decoder, int num_coefficients)
+OneFitNetwork::OneFitNetwork(Mlp patch_encoder, Mlp body_encoder, Mlp decoder, int num_coefficients, int warp_order)
     : patch_encoder_(std::move(patch_encoder)),
       body_encoder_(std::move(body_encoder)),
       decoder_(std::move(decoder)),
-      num_coefficients_(num_coefficients) {
+      num_coefficients_(num_coefficients),
+      warp_order_(warp_order) {
   Check();
 }
 
@@ -109,8 +116,9 @@ void OneFitNetwork::ForwardWithGarmentHalf(const double* weights, const Eigen::M
 }
 
 void OneFitNetwork::Check() {
+  if (warp_order_ < -1 || warp_order_ > kMaxJetOrder) throw std::invalid_argument("OneFitNetwork: bad warp order");
   if (decoder_.input_size() != patch_encoder_.output_size() + body_encoder_.output_size() ||
-      decoder_.output_size() != num_coefficients_ + 4) {
+      decoder_.output_size() != num_coefficients_ + 4 + 2 * NumJetCoefficients(warp_order_)) {
     throw std::invalid_argument("OneFitNetwork: the encoders' embeddings and the decoder's sizes do not chain");
   }
   // The garment half is precomputed without the decoder's input, which a
@@ -139,11 +147,12 @@ double BoundSlope(double y, double c) {
 
 std::vector<double> PatchParametersFromOutputs(const std::vector<double>& rest,
                                                const std::vector<Eigen::Matrix3d>& frames,
-                                               const Eigen::MatrixXd& outputs) {
+                                               const Eigen::MatrixXd& outputs, int num_coefficients) {
   const int num_patches = static_cast<int>(outputs.cols());
   const int stride = static_cast<int>(outputs.rows());
-  const int k = stride - 4;
-  if (static_cast<int>(rest.size()) != stride * num_patches || static_cast<int>(frames.size()) != num_patches) {
+  const int k = num_coefficients;
+  if (static_cast<int>(rest.size()) != stride * num_patches || static_cast<int>(frames.size()) != num_patches ||
+      stride < k + 4) {
     throw std::invalid_argument("PatchParametersFromOutputs: sizes disagree");
   }
   std::vector<double> params(rest.size());
@@ -156,16 +165,18 @@ std::vector<double> PatchParametersFromOutputs(const std::vector<double>& rest,
     for (int c = 0; c < 3; ++c) d[c] = Bound(outputs(k + 1 + c, p), kOutputBoundTranslation);
     const Eigen::Vector3d t = Eigen::Map<const Eigen::Vector3d>(r + k + 1) + r[k] * frames[p] * d;
     Eigen::Map<Eigen::Vector3d>(out + k + 1) = t;
+    for (int c = k + 4; c < stride; ++c) out[c] = r[c] + Bound(outputs(c, p), kOutputBoundWarp);
   }
   return params;
 }
 
 Eigen::MatrixXd ChainPatchParameterGradient(const std::vector<double>& rest, const std::vector<Eigen::Matrix3d>& frames,
-                                            const Eigen::MatrixXd& outputs, const std::vector<double>& gradient) {
+                                            const Eigen::MatrixXd& outputs, int num_coefficients,
+                                            const std::vector<double>& gradient) {
   const int num_patches = static_cast<int>(outputs.cols());
   const int stride = static_cast<int>(outputs.rows());
-  const int k = stride - 4;
-  if (static_cast<int>(gradient.size()) != stride * num_patches) {
+  const int k = num_coefficients;
+  if (static_cast<int>(gradient.size()) != stride * num_patches || stride < k + 4) {
     throw std::invalid_argument("ChainPatchParameterGradient: sizes disagree");
   }
   Eigen::MatrixXd d(stride, num_patches);
@@ -177,6 +188,7 @@ Eigen::MatrixXd ChainPatchParameterGradient(const std::vector<double>& rest, con
               BoundSlope(outputs(k, p), kOutputBoundLogScale);
     const Eigen::Vector3d dt = s0 * frames[p].transpose() * Eigen::Map<const Eigen::Vector3d>(g + k + 1);
     for (int c = 0; c < 3; ++c) d(k + 1 + c, p) = dt[c] * BoundSlope(outputs(k + 1 + c, p), kOutputBoundTranslation);
+    for (int c = k + 4; c < stride; ++c) d(c, p) = g[c] * BoundSlope(outputs(c, p), kOutputBoundWarp);
   }
   return d;
 }

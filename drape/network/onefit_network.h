@@ -10,13 +10,15 @@
 //
 //   alpha = alpha_0 + b_a(d alpha),   s = s_0 exp(b_s(d s)),   T = T_0 + s_0 R_0 b_T(d T)
 //
-// with b_c(y) = c tanh(y / c) (about y near zero): the bounds (jet
-// coefficients by 1, scale by e^(+-0.25), centre by half the patch's size)
-// keep a pose far from training (a cartwheel) from throwing patches away.
-//
 // in the body's rest pose, which the garment's skinning then poses, as in
-// the reference drape (drape/simulate/drape_solver.h). Inputs are
-// normalised features (onefit_features.h).
+// the reference drape (drape/simulate/drape_solver.h). With a warp head
+// (warp_order >= 0) each patch also gets its in-plane warp's coefficients
+// (DrapeSlideOptions::warp_order), w = b_w(d w): the slides that undo
+// skinning's in-plane distortion, which patch parameters alone cannot.
+// b_c(y) = c tanh(y / c) (about y near zero): the bounds (jet coefficients
+// by 1, scale by e^(+-0.25), centre by half the patch's size, warp by a
+// quarter of it) keep a pose far from training (a cartwheel) from throwing
+// patches away. Inputs are normalised features (onefit_features.h).
 #ifndef POLYFIT_DRAPE_NETWORK_ONEFIT_NETWORK_H_
 #define POLYFIT_DRAPE_NETWORK_ONEFIT_NETWORK_H_
 
@@ -39,6 +41,8 @@ struct OneFitNetworkOptions {
   // The last layers start scaled by this: a new network predicts about
   // the rest patches, posed by skinning alone.
   double initial_output_scale = 1e-3;
+  // The warp head's polynomial order (-1: none).
+  int warp_order = -1;
   std::uint64_t seed = 1;
 
   std::string Validate() const;
@@ -51,13 +55,15 @@ class OneFitNetwork {
   OneFitNetwork(int patch_features, int body_features, int num_coefficients, const OneFitNetworkOptions& options);
   // From its three MLPs (a saved model); throws std::invalid_argument when
   // their sizes do not chain.
-  OneFitNetwork(Mlp patch_encoder, Mlp body_encoder, Mlp decoder, int num_coefficients);
+  OneFitNetwork(Mlp patch_encoder, Mlp body_encoder, Mlp decoder, int num_coefficients, int warp_order = -1);
 
   int num_parameters() const {
     return patch_encoder_.num_parameters() + body_encoder_.num_parameters() + decoder_.num_parameters();
   }
-  int num_outputs() const { return decoder_.output_size(); }  // per patch: NumJetCoefficients + 4
+  // Per patch: NumJetCoefficients + 4 + 2 NumJetCoefficients(warp_order).
+  int num_outputs() const { return decoder_.output_size(); }
   int num_coefficients() const { return num_coefficients_; }
+  int warp_order() const { return warp_order_; }
   const Mlp& patch_encoder() const { return patch_encoder_; }
   const Mlp& body_encoder() const { return body_encoder_; }
   const Mlp& decoder() const { return decoder_; }
@@ -91,6 +97,7 @@ class OneFitNetwork {
   Mlp patch_encoder_, body_encoder_, decoder_;
   Mlp decoder_tail_;  // the decoder's layers after the first
   int num_coefficients_ = 0;
+  int warp_order_ = -1;
 };
 
 // The output bounds b_c above (part of the model's meaning: changing them
@@ -98,16 +105,19 @@ class OneFitNetwork {
 inline constexpr double kOutputBoundAlpha = 1.0;
 inline constexpr double kOutputBoundLogScale = 0.25;
 inline constexpr double kOutputBoundTranslation = 0.5;
+inline constexpr double kOutputBoundWarp = 0.25;
 
-// alpha, s, T per patch (packed as DrapeSolver's patch parameters) from the
-// rest ones, the patches' frames R_0 (column-major 3 by 3 each) and the
-// network's outputs (num_coefficients + 4 by #patches).
+// alpha, s, T (and the warp) per patch, packed as DrapeSolver's patch
+// parameters, from the rest ones (warps zero), the patches' frames R_0
+// and the network's outputs (num_outputs() by #patches, the first
+// num_coefficients of each column alpha's).
 std::vector<double> PatchParametersFromOutputs(const std::vector<double>& rest,
                                                const std::vector<Eigen::Matrix3d>& frames,
-                                               const Eigen::MatrixXd& outputs);
+                                               const Eigen::MatrixXd& outputs, int num_coefficients);
 // dL/doutputs from dL/d(patch parameters) at those outputs.
 Eigen::MatrixXd ChainPatchParameterGradient(const std::vector<double>& rest, const std::vector<Eigen::Matrix3d>& frames,
-                                            const Eigen::MatrixXd& outputs, const std::vector<double>& gradient);
+                                            const Eigen::MatrixXd& outputs, int num_coefficients,
+                                            const std::vector<double>& gradient);
 
 }  // namespace polyfit
 

@@ -91,7 +91,8 @@ OneFitTrainer::OneFitTrainer(const SkinnedBody& body, std::vector<OneFitTraining
     if (clip.poses.empty()) throw std::invalid_argument("OneFitTrainer: clip '" + clip.name + "' has no frame");
   }
   DrapeSolverOptions drape = options.drape;
-  drape.num_threads = 1;  // samples run side by side instead
+  drape.num_threads = 1;                                // samples run side by side instead
+  drape.slide.warp_order = options.network.warp_order;  // the loss reads the warp head's slides
   Eigen::MatrixXd all_patch_features;
   for (const OneFitTrainingGarment& g : garments) {
     auto data = std::make_unique<GarmentData>();
@@ -106,7 +107,8 @@ OneFitTrainer::OneFitTrainer(const SkinnedBody& body, std::vector<OneFitTraining
     const DrapeSolver& solver = *data->solvers.front();
     data->rest = solver.RestPatchParameters();
     for (const JetPatch& patch : solver.model().patches) data->frames.push_back(patch.frame.rotation);
-    data->raw_features = PatchFeatures(solver.model(), data->rest, g.weights, body_.skeleton);
+    data->raw_features =
+        PatchFeatures(solver.model(), data->rest, options_.drape.patching.jet_order, g.weights, body_.skeleton);
     Eigen::MatrixXd joined(data->raw_features.rows(), all_patch_features.cols() + data->raw_features.cols());
     if (all_patch_features.size() > 0) joined.leftCols(all_patch_features.cols()) = all_patch_features;
     joined.rightCols(data->raw_features.cols()) = data->raw_features;
@@ -128,7 +130,7 @@ OneFitTrainer::OneFitTrainer(const SkinnedBody& body, std::vector<OneFitTraining
     }
   }
   body_normalizer_ = FeatureNormalizer::Fit(body_samples);
-  const int num_coefficients = garments_.front()->solvers.front()->num_patch_parameters() - 4;
+  const int num_coefficients = NumJetCoefficients(options.drape.patching.jet_order);
   network_ = OneFitNetwork(static_cast<int>(all_patch_features.rows()), static_cast<int>(body_samples.rows()),
                            num_coefficients, options.network);
 }
@@ -160,8 +162,10 @@ OneFitModel OneFitTrainer::MakeModel(const std::vector<double>& weights) const {
 }
 
 void OneFitTrainer::StartFrom(const OneFitModel& model) {
-  if (model.jet_order != options_.drape.patching.jet_order || model.num_joints != body_.skeleton.num_joints()) {
-    throw std::invalid_argument("OneFitTrainer::StartFrom: the model's jet order or rig differs from the training's");
+  if (model.jet_order != options_.drape.patching.jet_order || model.num_joints != body_.skeleton.num_joints() ||
+      model.network.warp_order() != options_.network.warp_order) {
+    throw std::invalid_argument(
+        "OneFitTrainer::StartFrom: the model's jet order, warp order or rig differs from the training's");
   }
   if (model.patch_normalizer.mean.size() != patch_normalizer_.mean.size() ||
       model.body_normalizer.mean.size() != body_normalizer_.mean.size()) {
@@ -177,7 +181,7 @@ std::vector<double> OneFitTrainer::Predict(const double* weights, int garment, i
   const GarmentData& g = *garments_.at(garment);
   Eigen::MatrixXd outputs;
   network_.Forward(weights, g.features, NormalizedBodyFeatures(clip, frame), &outputs);
-  return PatchParametersFromOutputs(g.rest, g.frames, outputs);
+  return PatchParametersFromOutputs(g.rest, g.frames, outputs, network_.num_coefficients());
 }
 
 double OneFitTrainer::SampleLoss(const double* weights, const OneFitSample& sample, int thread, double* gradient) {
@@ -198,11 +202,13 @@ double OneFitTrainer::SampleLoss(const double* weights, const OneFitSample& samp
   OneFitNetwork::Cache cache;
   network_.Forward(weights, g.features, NormalizedBodyFeatures(sample.clip, sample.frame), &outputs,
                    gradient != nullptr ? &cache : nullptr);
-  const std::vector<double> params = PatchParametersFromOutputs(g.rest, g.frames, outputs);
+  const std::vector<double> params = PatchParametersFromOutputs(g.rest, g.frames, outputs, network_.num_coefficients());
   std::vector<double> d_params;
   const double energy = solver.Evaluate(params, gradient != nullptr ? &d_params : nullptr);
   if (gradient != nullptr) {
-    network_.Backward(weights, cache, ChainPatchParameterGradient(g.rest, g.frames, outputs, d_params), gradient);
+    network_.Backward(weights, cache,
+                      ChainPatchParameterGradient(g.rest, g.frames, outputs, network_.num_coefficients(), d_params),
+                      gradient);
   }
   return energy;
 }

@@ -41,6 +41,9 @@ class OneFitTrainerTest : public ::testing::Test {
     options_.network.body_hidden = {16};
     options_.network.body_embedding = 8;
     options_.network.decoder_hidden = {24, 24};
+    // A warp head, so that the gradient checks cover the slides too.
+    options_.network.warp_order = 1;
+    options_.drape.slide.warp_order = 1;
     options_.optimizer = OneFitOptimizer::kLbfgs;  // the Ceres path; Adam has its own test
     options_.batch_size = 4;
     options_.iterations_per_batch = 5;
@@ -252,28 +255,67 @@ TEST_F(OneFitTrainerTest, AModelFileRoundTripsAndTheDraperPredictsAsTraining) {
   wrong_version[8] = 9;
   expect_error(wrong_version, "version 9");
   std::string huge = bytes;
-  huge[20] = '\xff';  // the patch encoder's layer count
-  huge[21] = '\xff';
+  huge[24] = '\xff';  // the patch encoder's layer count
+  huge[25] = '\xff';
   expect_error(huge, "layer sizes");
   EXPECT_THROW(LoadOneFitModel(path + ".absent"), OneFitModelError);
 }
 
+// A version-1 file (before the warp head) loads as a model without one.
+TEST(OneFitModelTest, VersionOneFilesStillLoad) {
+  const int order = 2, joints = 3;
+  OneFitNetworkOptions options;
+  options.patch_hidden = {4};
+  options.body_hidden = {4};
+  options.decoder_hidden = {5};
+  options.patch_embedding = options.body_embedding = 2;
+  OneFitModel model;
+  model.jet_order = order;
+  model.num_joints = joints;
+  model.network =
+      OneFitNetwork(PatchFeatureSize(order, joints), BodyFeatureSize(joints), NumJetCoefficients(order), options);
+  for (FeatureNormalizer* n : {&model.patch_normalizer, &model.body_normalizer}) {
+    const int size = n == &model.patch_normalizer ? PatchFeatureSize(order, joints) : BodyFeatureSize(joints);
+    n->mean = Eigen::VectorXd::Zero(size);
+    n->inv_std = Eigen::VectorXd::Ones(size);
+  }
+  model.weights.resize(model.network.num_parameters());
+  model.network.Initialize(3, 1.0, model.weights.data());
+  const std::string path = ::testing::TempDir() + "/onefit_v1.pfonefit";
+  SaveOneFitModel(path, model);
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  ASSERT_EQ(bytes[8], 2);  // the version
+  bytes[8] = 1;
+  bytes.erase(20, 4);  // version 1 has no warp order
+  std::ofstream(path, std::ios::binary) << bytes;
+  const OneFitModel loaded = LoadOneFitModel(path);
+  EXPECT_EQ(loaded.network.warp_order(), -1);
+  EXPECT_EQ(loaded.weights, model.weights);
+}
+
 TEST(OneFitNetworkTest, OutputsMapToPatchParametersAndBack) {
-  const int k = 3, patches = 2;
-  const std::vector<double> rest = {0.1, 0.2, 0.3, 0.05, 1.0, 2.0, 3.0, -0.1, 0.0, 0.2, 0.08, -1.0, 0.5, 0.0};
+  // Two patches of 3 coefficients, s, T and a warp of order 1 (3 monomials
+  // per direction).
+  const int k = 3, patches = 2, warp = 6;
+  std::vector<double> rest = {0.1, 0.2, 0.3, 0.05, 1.0, 2.0, 3.0, -0.1, 0.0, 0.2, 0.08, -1.0, 0.5, 0.0};
+  for (int p = patches - 1; p >= 0; --p) rest.insert(rest.begin() + (p + 1) * (k + 4), warp, 0.0);
   const std::vector<Eigen::Matrix3d> frames = {
       Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitX()).toRotationMatrix(),
       Eigen::AngleAxisd(-0.7, Eigen::Vector3d(1, 1, 0).normalized()).toRotationMatrix()};
-  Eigen::MatrixXd outputs = Eigen::MatrixXd::Zero(k + 4, patches);
-  EXPECT_EQ(PatchParametersFromOutputs(rest, frames, outputs), rest);
+  Eigen::MatrixXd outputs = Eigen::MatrixXd::Zero(k + 4 + warp, patches);
+  EXPECT_EQ(PatchParametersFromOutputs(rest, frames, outputs, k), rest);
   outputs.setRandom();
   outputs *= 0.1;
   // L = sum_i c_i params_i: its gradient in outputs against central differences.
   std::vector<double> c(rest.size());
   for (size_t i = 0; i < c.size(); ++i) c[i] = std::cos(1.0 + i);
-  const Eigen::MatrixXd d = ChainPatchParameterGradient(rest, frames, outputs, c);
+  const Eigen::MatrixXd d = ChainPatchParameterGradient(rest, frames, outputs, k, c);
   const auto loss = [&](const Eigen::MatrixXd& y) {
-    const std::vector<double> p = PatchParametersFromOutputs(rest, frames, y);
+    const std::vector<double> p = PatchParametersFromOutputs(rest, frames, y, k);
     double l = 0.0;
     for (size_t i = 0; i < p.size(); ++i) l += c[i] * p[i];
     return l;
@@ -284,6 +326,11 @@ TEST(OneFitNetworkTest, OutputsMapToPatchParametersAndBack) {
     minus.data()[i] -= 1e-6;
     EXPECT_NEAR(d.data()[i], (loss(plus) - loss(minus)) / 2e-6, 1e-8) << i;
   }
+  // A warp output moves only its own coefficient, within its bound.
+  outputs.setZero();
+  outputs(k + 4 + 1, 1) = 100.0;
+  const std::vector<double> p = PatchParametersFromOutputs(rest, frames, outputs, k);
+  EXPECT_NEAR(p[(k + 4 + warp) + k + 4 + 1], kOutputBoundWarp, 1e-12);
 }
 
 }  // namespace

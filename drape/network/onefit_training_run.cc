@@ -97,10 +97,16 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
     throw Error(ErrorKind::kInvalidArgument, "onefit train: " + problem);
   }
   const SkinnedBody body = LoadDrapeBody(options.body_dir, options.shape);
-  OneFitTrainer trainer(body, LoadGarments(options, body), LoadClips(options, body), options.trainer);
+  // Fine-tuning keeps the model's architecture, its warp head included.
+  OneFitModel init;
+  OneFitTrainerOptions trainer_options = options.trainer;
+  if (!options.init_model_path.empty()) {
+    init = LoadOneFitModel(options.init_model_path);
+    trainer_options.network.warp_order = init.network.warp_order();
+  }
+  OneFitTrainer trainer(body, LoadGarments(options, body), LoadClips(options, body), trainer_options);
   std::vector<double> weights = trainer.InitialWeights();
   if (!options.init_model_path.empty()) {
-    const OneFitModel init = LoadOneFitModel(options.init_model_path);
     try {
       trainer.StartFrom(init);
     } catch (const std::invalid_argument& e) {

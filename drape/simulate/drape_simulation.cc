@@ -362,13 +362,20 @@ DrapeSimulationSummary RunDrapeSimulation(const DrapeSimulationOptions& options)
     solver_options.solver.solve.max_iterations = options.refine_iterations;
     solver_options.solver.solve.max_passes = 1;
   }
-  const std::unique_ptr<DrapeSolver> solver = CreateSolver(solver_options, inputs, &weights);
   OneFitModel model;
-  std::unique_ptr<OneFitDraper> draper;
   if (!options.model_path.empty()) {
     model = LoadOneFitModel(options.model_path);
-    draper = std::make_unique<OneFitDraper>(model, *solver, weights, inputs.body.skeleton);
+    // The solver lays out the patch parameters as the network predicts them.
+    solver_options.solver.slide.warp_order = model.network.warp_order();
+    if (model.network.warp_order() >= 0 && !options.solver.slide.enabled) {
+      throw DrapeInputError("onefit: " + options.model_path + " predicts slides (a warp head); slides cannot be off",
+                            ErrorKind::kInvalidArgument);
+    }
   }
+  const std::unique_ptr<DrapeSolver> solver = CreateSolver(solver_options, inputs, &weights);
+  std::unique_ptr<OneFitDraper> draper;
+  if (!options.model_path.empty())
+    draper = std::make_unique<OneFitDraper>(model, *solver, weights, inputs.body.skeleton);
   DrapeSimulationSummary summary;
   DescribeGarment(inputs, *solver, &summary);
   CreateOutputFolders(options);

@@ -55,6 +55,33 @@ PolyFitModel PatchGarment(const TriangleMesh& mesh, const GarmentPatchOptions& p
   return model;
 }
 
+// X = A^-1 B for a small symmetric positive definite A, by a plain
+// Cholesky: Eigen's dense decompositions share their blocked kernels'
+// symbols with the statically linked Ceres, built for another instruction
+// set, and instantiating them here corrupted Ceres' sparse Cholesky.
+Eigen::MatrixXd SolveSmallSpd(Eigen::MatrixXd a, Eigen::MatrixXd b) {
+  const Eigen::Index n = a.rows();
+  for (Eigen::Index j = 0; j < n; ++j) {
+    for (Eigen::Index k = 0; k < j; ++k) a(j, j) -= a(j, k) * a(j, k);
+    a(j, j) = std::sqrt(std::max(a(j, j), 1e-300));
+    for (Eigen::Index i = j + 1; i < n; ++i) {
+      for (Eigen::Index k = 0; k < j; ++k) a(i, j) -= a(i, k) * a(j, k);
+      a(i, j) /= a(j, j);
+    }
+  }
+  for (Eigen::Index c = 0; c < b.cols(); ++c) {
+    for (Eigen::Index i = 0; i < n; ++i) {  // L y = b
+      for (Eigen::Index k = 0; k < i; ++k) b(i, c) -= a(i, k) * b(k, c);
+      b(i, c) /= a(i, i);
+    }
+    for (Eigen::Index i = n - 1; i >= 0; --i) {  // L^T x = y
+      for (Eigen::Index k = i + 1; k < n; ++k) b(i, c) -= a(k, i) * b(k, c);
+      b(i, c) /= a(i, i);
+    }
+  }
+  return b;
+}
+
 }  // namespace
 
 DrapeSolveOptions::DrapeSolveOptions() {
@@ -92,6 +119,10 @@ std::string DrapeSolverOptions::Validate() const {
     return "solve.conjugate_gradients_tolerance must be in (0, 1)";
   }
   if (solve.max_conjugate_gradients_iterations < 1) return "solve.max_conjugate_gradients_iterations must be >= 1";
+  if (slide.warp_order < -1 || slide.warp_order > kMaxJetOrder) {
+    return "slide.warp_order must be in [-1, " + std::to_string(kMaxJetOrder) + "]";
+  }
+  if (slide.warp_order >= 0 && !slide.enabled) return "slide.warp_order needs slides (slide.enabled)";
   if (num_threads < 1) return "num_threads must be >= 1";
   for (const double w :
        {p.weights.boundary, p.weights.inextensibility, p.weights.gravity, p.weights.collision, p.weights.inertia,
@@ -126,6 +157,10 @@ struct DrapeSolver::Impl {
   std::vector<double> params, previous_params, rest_params;
   // Per membership: its point's slide (du, dv) along its patch.
   std::vector<double> slides, previous_slides;
+  // The warps' monomials per direction (DrapeSlideOptions::warp_order),
+  // and their values at each membership's rest (u, v) (num_warp each).
+  int num_warp = 0;
+  std::vector<double> warp_basis;
   // Per membership.
   std::vector<int> membership_vertex;
   // The metric term's faces: a face of patch p with its corners'
@@ -172,6 +207,9 @@ struct DrapeSolver::Impl {
   double* scale(int p) { return params.data() + p * kStride + kMaxJetCoefficients; }
   double* translation(int p) { return params.data() + p * kStride + kMaxJetCoefficients + 1; }
   double* slide(int k) { return slides.data() + 2 * k; }
+  const double* warp_monomials(int k) const { return warp_basis.data() + num_warp * k; }
+  // The public layout's values per patch: alpha, s, T, warp.
+  int packed_stride() const { return num_coefficients + 4 + 2 * num_warp; }
 
   // Set-up phases, in order.
   void InitializeParameters(const PolyFitModel& model);
@@ -196,9 +234,15 @@ struct DrapeSolver::Impl {
   void Positions(const PolyFitModel& model, Eigen::Matrix3Xd* out);
   // Closest body points of `positions`; returns how many are inside.
   int QueryContacts(const Eigen::Matrix3Xd& positions);
-  // The public patch-parameter layout (alpha, s, T per patch, packed).
-  void SetPatchParameters(const std::vector<double>& packed);
-  std::vector<double> PackedPatchParameters(const std::vector<double>& strided) const;
+  // The public patch-parameter layout (alpha, s, T, warp per patch,
+  // packed); setting it sets the slides (zero without warps).
+  void SetPatchParameters(const PolyFitModel& model, const std::vector<double>& packed);
+  // With slides, the warps are their least-squares fit; without, zero.
+  std::vector<double> PackedPatchParameters(const PolyFitModel& model, const std::vector<double>& strided,
+                                            const std::vector<double>* slide_values) const;
+  // dE/d(warp) of each patch, added into its packed gradient, from
+  // dE/d(slide) per membership.
+  void ChainSlideGradient(const PolyFitModel& model, const double* slide_gradient, double* packed_gradient) const;
 
   double stretch_weight() const { return options.physics.weights.inextensibility * options.physics.stretch_base; }
 };
@@ -219,6 +263,12 @@ void DrapeSolver::Impl::InitializeParameters(const PolyFitModel& model) {
   membership_vertex.resize(model.num_memberships());
   for (int v = 0; v < model.num_vertices(); ++v) {
     for (int k : model.memberships(v)) membership_vertex[k] = v;
+  }
+  num_warp = NumJetCoefficients(options.slide.warp_order);
+  warp_basis.resize(static_cast<size_t>(num_warp) * model.num_memberships());
+  for (int k = 0; k < model.num_memberships() && num_warp > 0; ++k) {
+    JetMonomials(options.slide.warp_order, model.membership_uv(0, k), model.membership_uv(1, k),
+                 warp_basis.data() + num_warp * k);
   }
 }
 
@@ -520,31 +570,78 @@ ceres::Solver::Options DrapeSolver::Impl::SolverOptions(int pass, int num_vertic
   return solver;
 }
 
-void DrapeSolver::Impl::SetPatchParameters(const std::vector<double>& packed) {
-  const int stride = num_coefficients + 4;
-  if (static_cast<int>(packed.size()) * kStride != static_cast<int>(params.size()) * stride) {
+void DrapeSolver::Impl::SetPatchParameters(const PolyFitModel& model, const std::vector<double>& packed) {
+  const int stride = packed_stride();
+  const int num_patches = static_cast<int>(params.size() / kStride);
+  if (static_cast<int>(packed.size()) != num_patches * stride) {
     throw std::invalid_argument("DrapeSolver: " + std::to_string(packed.size()) + " patch parameters, expected " +
-                                std::to_string(params.size() / kStride * stride));
+                                std::to_string(num_patches * stride));
   }
-  for (size_t p = 0; p < params.size() / kStride; ++p) {
+  for (int p = 0; p < num_patches; ++p) {
     const double* in = packed.data() + p * stride;
-    std::copy(in, in + num_coefficients, alpha(static_cast<int>(p)));
-    scale(static_cast<int>(p))[0] = in[num_coefficients];
-    std::copy(in + num_coefficients + 1, in + stride, translation(static_cast<int>(p)));
+    std::copy(in, in + num_coefficients, alpha(p));
+    scale(p)[0] = in[num_coefficients];
+    std::copy(in + num_coefficients + 1, in + num_coefficients + 4, translation(p));
+  }
+  for (int k = 0; k < model.num_memberships(); ++k) {
+    const double* warp = packed.data() + model.membership_patch[k] * stride + num_coefficients + 4;
+    const double* phi = warp_monomials(k);
+    double du = 0.0, dv = 0.0;
+    for (int i = 0; i < num_warp; ++i) {
+      du += warp[i] * phi[i];
+      dv += warp[num_warp + i] * phi[i];
+    }
+    slide(k)[0] = du;
+    slide(k)[1] = dv;
   }
 }
 
-std::vector<double> DrapeSolver::Impl::PackedPatchParameters(const std::vector<double>& strided) const {
-  const int stride = num_coefficients + 4;
-  const size_t patches = strided.size() / kStride;
-  std::vector<double> packed(patches * stride);
-  for (size_t p = 0; p < patches; ++p) {
+std::vector<double> DrapeSolver::Impl::PackedPatchParameters(const PolyFitModel& model,
+                                                             const std::vector<double>& strided,
+                                                             const std::vector<double>* slide_values) const {
+  const int stride = packed_stride();
+  const int num_patches = static_cast<int>(strided.size() / kStride);
+  std::vector<double> packed(static_cast<size_t>(num_patches) * stride, 0.0);
+  for (int p = 0; p < num_patches; ++p) {
     const double* in = strided.data() + p * kStride;
     double* out = packed.data() + p * stride;
     std::copy(in, in + num_coefficients, out);
     std::copy(in + kMaxJetCoefficients, in + kMaxJetCoefficients + 4, out + num_coefficients);
   }
+  if (slide_values == nullptr || num_warp == 0) return packed;
+  // Per patch: the warp minimising sum_k |Phi_k c - slide_k|^2 (a tiny
+  // ridge keeps a patch with fewer points than monomials solvable).
+  std::vector<Eigen::MatrixXd> normal(num_patches, Eigen::MatrixXd::Zero(num_warp, num_warp));
+  std::vector<Eigen::MatrixXd> rhs(num_patches, Eigen::MatrixXd::Zero(num_warp, 2));
+  for (int k = 0; k < model.num_memberships(); ++k) {
+    const int p = model.membership_patch[k];
+    const Eigen::Map<const Eigen::VectorXd> phi(warp_monomials(k), num_warp);
+    normal[p] += phi * phi.transpose();
+    rhs[p] += phi * Eigen::RowVector2d((*slide_values)[2 * k], (*slide_values)[2 * k + 1]);
+  }
+  for (int p = 0; p < num_patches; ++p) {
+    normal[p].diagonal().array() += 1e-9 * (1.0 + normal[p].diagonal().maxCoeff());
+    const Eigen::MatrixXd c = SolveSmallSpd(normal[p], rhs[p]);
+    double* out = packed.data() + p * stride + num_coefficients + 4;
+    for (int i = 0; i < num_warp; ++i) {
+      out[i] = c(i, 0);
+      out[num_warp + i] = c(i, 1);
+    }
+  }
   return packed;
+}
+
+void DrapeSolver::Impl::ChainSlideGradient(const PolyFitModel& model, const double* slide_gradient,
+                                           double* packed_gradient) const {
+  const int stride = packed_stride();
+  for (int k = 0; k < model.num_memberships(); ++k) {
+    double* g = packed_gradient + model.membership_patch[k] * stride + num_coefficients + 4;
+    const double* phi = warp_monomials(k);
+    for (int i = 0; i < num_warp; ++i) {
+      g[i] += slide_gradient[2 * k] * phi[i];
+      g[num_warp + i] += slide_gradient[2 * k + 1] * phi[i];
+    }
+  }
 }
 
 DrapeSolver::DrapeSolver(const SkinnedBody& body, const TriangleMesh& garment, const SkinWeights& weights,
@@ -649,13 +746,15 @@ DrapeStepSummary DrapeSolver::Step(const std::vector<Eigen::Isometry3d>& rest_to
   return summary;
 }
 
-int DrapeSolver::num_patch_parameters() const { return impl_->num_coefficients + 4; }
+int DrapeSolver::num_patch_parameters() const { return impl_->packed_stride(); }
 
 std::vector<double> DrapeSolver::RestPatchParameters() const {
-  return impl_->PackedPatchParameters(impl_->rest_params);
+  return impl_->PackedPatchParameters(model_, impl_->rest_params, nullptr);
 }
 
-std::vector<double> DrapeSolver::PatchParameters() const { return impl_->PackedPatchParameters(impl_->params); }
+std::vector<double> DrapeSolver::PatchParameters() const {
+  return impl_->PackedPatchParameters(model_, impl_->params, &impl_->slides);
+}
 
 void DrapeSolver::Pose(const std::vector<Eigen::Isometry3d>& rest_to_posed, double epoch) {
   Impl& m = *impl_;
@@ -678,8 +777,7 @@ void DrapeSolver::SetHistory(const Eigen::Matrix3Xd& previous, const Eigen::Matr
 Eigen::Matrix3Xd DrapeSolver::PositionsOf(const std::vector<double>& patch_parameters) {
   Impl& m = *impl_;
   const std::vector<double> saved_params = m.params, saved_slides = m.slides;
-  m.SetPatchParameters(patch_parameters);
-  std::fill(m.slides.begin(), m.slides.end(), 0.0);
+  m.SetPatchParameters(model_, patch_parameters);
   Eigen::Matrix3Xd x(3, positions_.cols());
   m.Positions(model_, &x);
   m.params = saved_params;
@@ -688,9 +786,7 @@ Eigen::Matrix3Xd DrapeSolver::PositionsOf(const std::vector<double>& patch_param
 }
 
 void DrapeSolver::WarmStart(const std::vector<double>& patch_parameters) {
-  Impl& m = *impl_;
-  m.SetPatchParameters(patch_parameters);
-  std::fill(m.slides.begin(), m.slides.end(), 0.0);
+  impl_->SetPatchParameters(model_, patch_parameters);
 }
 
 void DrapeSolver::Adopt(const std::vector<double>& patch_parameters) {
@@ -718,13 +814,12 @@ Eigen::Matrix3Xd DrapeSolver::PositionsAt(const std::vector<double>& patch_param
 double DrapeSolver::Evaluate(const std::vector<double>& patch_parameters, std::vector<double>* gradient) {
   Impl& m = *impl_;
   // The solver's state is kept; priors vanish (their means set to the
-  // evaluated point), slides are zero and held constant.
+  // evaluated point); slides follow the warps (zero without).
   const std::vector<double> saved_params = m.params, saved_previous = m.previous_params, saved_slides = m.slides,
                             saved_previous_slides = m.previous_slides;
-  m.SetPatchParameters(patch_parameters);
+  m.SetPatchParameters(model_, patch_parameters);
   m.previous_params = m.params;
-  std::fill(m.slides.begin(), m.slides.end(), 0.0);
-  std::fill(m.previous_slides.begin(), m.previous_slides.end(), 0.0);
+  m.previous_slides = m.slides;
   Eigen::Matrix3Xd x(3, positions_.cols());
   m.Positions(model_, &x);
   m.QueryContacts(x);
@@ -733,9 +828,23 @@ double DrapeSolver::Evaluate(const std::vector<double>& patch_parameters, std::v
   for (int p = 0; p < model_.num_patches(); ++p) {
     evaluate.parameter_blocks.insert(evaluate.parameter_blocks.end(), {m.alpha(p), m.scale(p), m.translation(p)});
   }
+  // The slides' gradient follows the patches' (chained onto the warps).
+  const bool warped = m.num_warp > 0;
+  for (int k = 0; warped && k < model_.num_memberships(); ++k) evaluate.parameter_blocks.push_back(m.slide(k));
   evaluate.num_threads = m.options.num_threads;
   double cost = 0.0;
-  const bool ok = m.problem->Evaluate(evaluate, &cost, nullptr, gradient, nullptr);
+  std::vector<double> raw;
+  const bool ok = m.problem->Evaluate(evaluate, &cost, nullptr, gradient != nullptr ? &raw : nullptr, nullptr);
+  if (ok && gradient != nullptr) {
+    // Ceres' layout is alpha, s, T per patch (then the slides): the packed
+    // layout adds each patch's warp.
+    const int stride = m.packed_stride(), block = m.num_coefficients + 4;
+    gradient->assign(static_cast<size_t>(model_.num_patches()) * stride, 0.0);
+    for (int p = 0; p < model_.num_patches(); ++p) {
+      std::copy(raw.begin() + p * block, raw.begin() + (p + 1) * block, gradient->begin() + p * stride);
+    }
+    if (warped) m.ChainSlideGradient(model_, raw.data() + model_.num_patches() * block, gradient->data());
+  }
   m.params = saved_params;
   m.previous_params = saved_previous;
   m.slides = saved_slides;

@@ -87,9 +87,17 @@ struct GarmentPatchOptions {
 // vertices keep their rest (u, v). A vertex's points on several patches are
 // held together by a term `agreement` times as stiff as stretch over the
 // mean edge length.
+//
+// warp_order >= 0: the patch parameters that Evaluate, PositionsOf,
+// WarmStart and Adopt take (a network's prediction) also carry each
+// patch's in-plane warp, a polynomial of that order in the rest (u, v),
+//   (du, dv) = (sum_ij a_ij u^i v^j, sum_ij b_ij u^i v^j),
+// which sets the slides of its points: a mesh-agnostic stand-in for the
+// per-vertex slides, which a network cannot predict. Needs `enabled`.
 struct DrapeSlideOptions {
   bool enabled = true;
   double agreement = 1.0;
+  int warp_order = -1;
 };
 
 enum class DrapeLinearSolver {
@@ -171,15 +179,19 @@ class DrapeSolver {
   // the patch parameters (drape/network): Pose() poses the body and sets
   // the motion targets from the history without solving; Evaluate()
   // gives the energy at given patch parameters, with every slide at zero
-  // (a network predicts none) and collisions linearised at the positions
-  // those parameters give, and its gradient. Parameters, per patch:
-  // alpha (NumJetCoefficients(order)), s, T; num_patch_parameters() each.
+  // (a network predicts none) or set by the patches' warps, collisions
+  // linearised at the positions those parameters give, and its gradient.
+  // Parameters, per patch: alpha (NumJetCoefficients(order)), s, T, then
+  // with slide.warp_order >= 0 the warp's a and b (NumJetCoefficients(
+  // warp_order) each); num_patch_parameters() in all.
   // Not thread-safe: use one solver per thread.
   void Pose(const std::vector<Eigen::Isometry3d>& rest_to_posed, double epoch = 0.0);
   double Evaluate(const std::vector<double>& patch_parameters, std::vector<double>* gradient);
   int num_patch_parameters() const;
-  // The rest patch parameters (the fit), the current ones (the last Step),
-  // and the positions (3 by #V) of given ones with zero slides, posed.
+  // The rest patch parameters (the fit; no warp), the current ones (the
+  // last Step; warps fitted to the slides by least squares), and the
+  // positions (3 by #V) of given ones (slides from their warps, else
+  // zero), posed.
   std::vector<double> RestPatchParameters() const;
   std::vector<double> PatchParameters() const;
   Eigen::Matrix3Xd PositionsOf(const std::vector<double>& patch_parameters);
@@ -188,11 +200,11 @@ class DrapeSolver {
   // network's inference). Pose() or Step() poses both again.
   Eigen::Matrix3Xd PositionsAt(const std::vector<double>& patch_parameters,
                                const std::vector<Eigen::Isometry3d>& rest_to_posed);
-  // Takes given patch parameters (every slide zero) as the current state,
+  // Takes given patch parameters (slides from their warps) as the current state,
   // posed as last posed (Pose or Step): positions() and the history follow,
   // so that a Step refines from there (a network's prediction).
   void Adopt(const std::vector<double>& patch_parameters);
-  // Takes given patch parameters (every slide zero) as the start of the
+  // Takes given patch parameters (slides from their warps) as the start of the
   // next Step, the history untouched: a refinement of a prediction.
   void WarmStart(const std::vector<double>& patch_parameters);
   // The positions inertia predicts from: at t - 1 and t - 2 (3 by #V each).

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "drape/body/procedural_body.h"
+#include "polyfit/jet/jet_basis.h"
 #include "polyfit/mesh/primitives.h"
 
 namespace polyfit {
@@ -103,13 +104,19 @@ TEST(DrapeSolverTest, PushesAShirtStartingInsideTheBodyOut) {
   EXPECT_GT(d.minCoeff(), -0.005);
 }
 
-TEST(DrapeSolverTest, EvaluateGivesTheEnergyAndItsGradientAtGivenPatchParameters) {
+// Without warps (slides zero) and with each patch's warp of order 0..2
+// setting the slides.
+class DrapeSolverEvaluateTest : public ::testing::TestWithParam<int> {};
+
+TEST_P(DrapeSolverEvaluateTest, GivesTheEnergyAndItsGradientAtGivenPatchParameters) {
   const SkinnedBody body = MakeProceduralBody();
   // Radius 0.138 m: 2 mm inside the torso, so collisions are on.
   const TriangleMesh shirt = MakeTube(0.138, 0.1, 0.4, 24, 8);
   DrapeSolverOptions options;
   options.patching.patch_area = 0.04;
+  options.slide.warp_order = GetParam();
   DrapeSolver solver(body, shirt, SingleJointWeights(shirt.num_vertices(), 1), options);
+  EXPECT_EQ(solver.num_patch_parameters(), 15 + 4 + 2 * NumJetCoefficients(GetParam()));
   std::vector<Eigen::Isometry3d> pose(body.skeleton.num_joints(), Eigen::Isometry3d::Identity());
   for (auto& t : pose) t.translation() = Eigen::Vector3d(0.0, -0.01, 0.005);  // a small drop
   solver.Pose(pose);
@@ -143,7 +150,15 @@ TEST(DrapeSolverTest, EvaluateGivesTheEnergyAndItsGradientAtGivenPatchParameters
   const Eigen::Matrix3Xd x = solver.PositionsOf(solver.RestPatchParameters());
   EXPECT_LT((x - (solver.rest_garment().vertices.colwise() + Eigen::Vector3d(0.0, -0.01, 0.005))).cwiseAbs().maxCoeff(),
             1e-12);
+  // Warps set the slides, and the current state's warps are fitted back
+  // from them: a polynomial slide field is recovered exactly.
+  solver.WarmStart(theta);
+  const std::vector<double> recovered = solver.PatchParameters();
+  ASSERT_EQ(recovered.size(), theta.size());
+  for (size_t i = 0; i < theta.size(); ++i) EXPECT_NEAR(recovered[i], theta[i], 1e-9) << i;
 }
+
+INSTANTIATE_TEST_SUITE_P(WarpOrders, DrapeSolverEvaluateTest, ::testing::Values(-1, 0, 1, 2));
 
 TEST(DrapeSolverTest, StiffWeightRatiosStayFinite) {
   const SkinnedBody body = MakeProceduralBody();

@@ -168,6 +168,10 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
   train->add_option("--seed", t.seed, "seed of the weights and the data order")->capture_default_str();
   train->add_option("--threads", t.num_threads, "threads")->capture_default_str();
   train->add_option("--patch-area", t.drape.patching.patch_area, "garment area per patch (m^2)")->capture_default_str();
+  train
+      ->add_option("--warp-order", t.network.warp_order,
+                   "order of each patch's predicted in-plane warp (its vertices' slides); -1: none")
+      ->capture_default_str();
   train->add_flag("--resume", o.resume, "continue from the model file and its progress, if they exist");
   train->add_option("--init", o.init_model_path, "fine-tune: start from this model (network, normalisers, weights)");
   train->add_option("--validate-every", t.validation_every, "a validation drape every N batches (0: none)")
