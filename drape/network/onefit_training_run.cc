@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "drape/motion/mirror_pose.h"
+#include "drape/motion/perturb_pose.h"
 #include "drape/simulate/drape_inputs.h"
 #include "polyfit/util/atomic_file.h"
 
@@ -64,6 +65,19 @@ std::vector<OneFitTrainingClip> LoadClips(const OneFitTrainingRunOptions& option
       }
     }
   }
+  if (options.perturb_degrees > 0.0) {
+    const size_t recorded = clips.size();
+    for (size_t c = 0; c < recorded; ++c) {
+      OneFitTrainingClip perturbed = clips[c];
+      perturbed.name += "~perturbed";
+      const PosePerturbation perturbation(body.skeleton, options.perturb_degrees * M_PI / 180.0,
+                                          options.trainer.seed * 1000 + c);
+      for (size_t f = 0; f < perturbed.poses.size(); ++f) {
+        perturbed.poses[f] = perturbation.Apply(perturbed.poses[f], static_cast<double>(f) / perturbed.fps);
+      }
+      clips.push_back(std::move(perturbed));
+    }
+  }
   return clips;
 }
 
@@ -87,6 +101,7 @@ std::string OneFitTrainingRunOptions::Validate() const {
   for (double speed : speeds) {
     if (!(speed >= 0.25 && speed <= 4.0)) return "speeds must be in [0.25, 4]";
   }
+  if (!(perturb_degrees >= 0.0 && perturb_degrees <= 45.0)) return "perturb_degrees must be in [0, 45]";
   if (std::string p = shape.Validate(); !p.empty()) return "shape: " + p;
   if (std::string p = trainer.Validate(); !p.empty()) return "trainer: " + p;
   return {};

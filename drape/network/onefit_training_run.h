@@ -33,6 +33,10 @@ struct OneFitTrainingRunOptions {
   // Augmentation: each clip (at each speed) also mirrored left to right
   // (drape/motion/mirror_pose.h).
   bool mirror = false;
+  // Augmentation: each of those clips also played with every joint's angle
+  // perturbed smoothly by up to this many degrees per axis
+  // (drape/motion/perturb_pose.h; seeded by trainer.seed); 0: none.
+  double perturb_degrees = 0.0;
   std::string model_path;
   bool resume = false;
   // Fine-tuning: start from this model's network, normalisers and weights

@@ -161,6 +161,11 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
                    "augmentation: each clip also played at these speeds (e.g. 0.8 1 1.25); default: as recorded")
       ->expected(1, 8);
   train->add_flag("--mirror", o.mirror, "augmentation: each clip also mirrored left to right");
+  train
+      ->add_option("--perturb", o.perturb_degrees,
+                   "augmentation: each clip also played with its joint angles perturbed smoothly by up to this many "
+                   "degrees (0: none)")
+      ->capture_default_str();
   train->add_option("--batches", t.num_batches, "mini-batches")->capture_default_str();
   train->add_option("--batch-size", t.batch_size, "samples (garment, frame) per batch")->capture_default_str();
   train->add_option("--iterations-per-batch", t.iterations_per_batch, "L-BFGS iterations per batch")
