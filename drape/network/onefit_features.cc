@@ -146,14 +146,16 @@ FeatureNormalizer FeatureNormalizer::Fit(const Eigen::MatrixXd& samples) {
   n.inv_std.resize(samples.rows());
   for (Eigen::Index i = 0; i < samples.rows(); ++i) {
     const double variance = samples.cols() > 1 ? (samples.row(i).array() - n.mean[i]).square().mean() : 0.0;
-    n.inv_std[i] = variance > 1e-12 ? 1.0 / std::sqrt(variance) : 1.0;
+    // A feature constant in training carries nothing the network learnt
+    // to read: it is ignored rather than fed to untrained weights.
+    n.inv_std[i] = variance > 1e-12 ? 1.0 / std::max(std::sqrt(variance), kMinFeatureSpread) : 0.0;
   }
   return n;
 }
 
 Eigen::MatrixXd FeatureNormalizer::Apply(const Eigen::MatrixXd& x) const {
   if (x.rows() != mean.size()) throw std::invalid_argument("FeatureNormalizer: the features have the wrong size");
-  return (x.colwise() - mean).array().colwise() * inv_std.array();
+  return ((x.colwise() - mean).array().colwise() * inv_std.array()).cwiseMax(-kFeatureClamp).cwiseMin(kFeatureClamp);
 }
 
 }  // namespace polyfit

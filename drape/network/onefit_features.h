@@ -56,7 +56,16 @@ Eigen::VectorXd BodyFeatures(const Skeleton& skeleton, const JointTransforms& be
                              const BodyShape& shape);
 
 // Per-feature mean and inverse spread, from training samples (columns),
-// applied as (x - mean) * inv_std. Features that never vary keep scale 1.
+// applied as clamp((x - mean) * inv_std, +-kFeatureClamp). The spread is
+// floored at kMinFeatureSpread: a feature that barely varies in training
+// (a joint the clips hardly move, a per-frame change of a slow joint) had
+// inverse spreads up to 2e4, so that an unseen motion or garment moved it
+// by hundreds of units, far outside anything the network saw (the held-out
+// dance stretched the suit by 33%). The clamp bounds what is left. A
+// feature constant in training gets inv_std 0 (ignored).
+inline constexpr double kMinFeatureSpread = 0.05;
+inline constexpr double kFeatureClamp = 6.0;
+
 struct FeatureNormalizer {
   Eigen::VectorXd mean;
   Eigen::VectorXd inv_std;

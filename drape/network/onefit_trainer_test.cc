@@ -261,6 +261,25 @@ TEST_F(OneFitTrainerTest, AModelFileRoundTripsAndTheDraperPredictsAsTraining) {
   EXPECT_THROW(LoadOneFitModel(path + ".absent"), OneFitModelError);
 }
 
+TEST(FeatureNormalizerTest, FloorsTheSpreadClampsAndIgnoresConstants) {
+  // Rows: a feature of spread 2, one of spread 1e-4, a constant one.
+  Eigen::MatrixXd samples(3, 4);
+  samples << 1.0, 5.0, 1.0, 5.0,  //
+      0.3, 0.3002, 0.3, 0.3002,   //
+      7.0, 7.0, 7.0, 7.0;
+  const FeatureNormalizer n = FeatureNormalizer::Fit(samples);
+  EXPECT_NEAR(n.inv_std[0], 0.5, 1e-12);
+  EXPECT_NEAR(n.inv_std[1], 1.0 / kMinFeatureSpread, 1e-9);
+  EXPECT_EQ(n.inv_std[2], 0.0);
+  const Eigen::Vector3d x = n.Apply(Eigen::Vector3d(4.0, 0.3101, 100.0));
+  EXPECT_NEAR(x[0], 0.5, 1e-12);
+  EXPECT_NEAR(x[1], 0.01 / kMinFeatureSpread, 1e-9);
+  EXPECT_EQ(x[2], 0.0);
+  // Far outside training: clamped.
+  EXPECT_EQ(n.Apply(Eigen::Vector3d(1e3, -2.0, 7.0))(0, 0), kFeatureClamp);
+  EXPECT_EQ(n.Apply(Eigen::Vector3d(1e3, -2.0, 7.0))(1, 0), -kFeatureClamp);
+}
+
 // A version-1 file (before the warp head) loads as a model without one.
 TEST(OneFitModelTest, VersionOneFilesStillLoad) {
   const int order = 2, joints = 3;

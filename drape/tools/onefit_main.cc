@@ -173,6 +173,12 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
   train->add_option("--seed", t.seed, "seed of the weights and the data order")->capture_default_str();
   train->add_option("--threads", t.num_threads, "threads")->capture_default_str();
   train->add_option("--patch-area", t.drape.patching.patch_area, "garment area per patch (m^2)")->capture_default_str();
+  train->add_option("--decoder-hidden", t.network.decoder_hidden, "the decoder's hidden layer widths")
+      ->capture_default_str();
+  train->add_option("--body-hidden", t.network.body_hidden, "the body encoder's hidden layer widths")
+      ->capture_default_str();
+  train->add_option("--patch-hidden", t.network.patch_hidden, "the patch encoder's hidden layer widths")
+      ->capture_default_str();
   train
       ->add_option("--warp-order", t.network.warp_order,
                    "order of each patch's predicted in-plane warp (its vertices' slides); -1: none")

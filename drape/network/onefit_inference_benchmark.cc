@@ -1,0 +1,105 @@
+// Time of OneFit's inference per frame on one core: body features, the
+// network (the garment's half of the decoder precomputed), the garment's
+// skinning and its vertices from the patches, against the garment's
+// resolution (a tube around the torso, about 500 to 8,000 vertices, patched
+// by area so that the patch count stays about the same) and the network's
+// width, with and without a warp head. Random weights: the time does not
+// depend on them. The MakeHuman body when the shared data is there (its
+// rig's features), else the procedural body.
+//
+//   onefit_inference_benchmark [BODY_DIR]
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <vector>
+
+#include "drape/network/onefit_draper.h"
+#include "drape/simulate/drape_inputs.h"
+#include "drape/simulate/drape_solver.h"
+#include "polyfit/mesh/primitives.h"
+
+namespace {
+
+using polyfit::JointTransforms;
+
+// Every joint turned a little about the vertical, differently per frame.
+std::vector<JointTransforms> Poses(int joints, int frames) {
+  std::vector<JointTransforms> poses;
+  for (int t = 0; t < frames; ++t) {
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.linear() = Eigen::AngleAxisd(0.05 * std::sin(0.3 * t), Eigen::Vector3d::UnitY()).toRotationMatrix();
+    poses.emplace_back(joints, pose);
+  }
+  return poses;
+}
+
+polyfit::OneFitModel RandomModel(const polyfit::SkinnedBody& body, int width, int warp_order) {
+  polyfit::OneFitNetworkOptions options;
+  options.decoder_hidden = {width, width, width};
+  options.body_hidden = {width, width};
+  options.warp_order = warp_order;
+  const int joints = body.skeleton.num_joints(), order = 4;
+  polyfit::OneFitModel model;
+  model.jet_order = order;
+  model.num_joints = joints;
+  model.network = polyfit::OneFitNetwork(polyfit::PatchFeatureSize(order, joints), polyfit::BodyFeatureSize(joints),
+                                         polyfit::NumJetCoefficients(order), options);
+  model.patch_normalizer.mean = Eigen::VectorXd::Zero(polyfit::PatchFeatureSize(order, joints));
+  model.patch_normalizer.inv_std = Eigen::VectorXd::Ones(polyfit::PatchFeatureSize(order, joints));
+  model.body_normalizer.mean = Eigen::VectorXd::Zero(polyfit::BodyFeatureSize(joints));
+  model.body_normalizer.inv_std = Eigen::VectorXd::Ones(polyfit::BodyFeatureSize(joints));
+  model.weights.resize(model.network.num_parameters());
+  model.network.Initialize(1, 1e-3, model.weights.data());
+  return model;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using Clock = std::chrono::steady_clock;
+  const std::string dir = argc > 1 ? argv[1] : "../shared/data/drape/body";
+  const bool makehuman = std::filesystem::exists(dir + "/makehuman/base.obj");
+  const polyfit::SkinnedBody body = polyfit::LoadDrapeBody(makehuman ? dir : "", polyfit::BodyShape{});
+  std::printf("%s body, %d joints; one thread; median of 200 frames\n", makehuman ? "MakeHuman" : "procedural",
+              body.skeleton.num_joints());
+  // The torso: around the body's vertical axis at mid height.
+  const Eigen::Vector3d lo = body.mesh.vertices.rowwise().minCoeff(), hi = body.mesh.vertices.rowwise().maxCoeff();
+  const double height = hi.y() - lo.y();
+  const Eigen::Vector3d centre = 0.5 * (lo + hi);
+  const std::vector<JointTransforms> poses = Poses(body.skeleton.num_joints(), 202);
+  std::printf(
+      "| garment vertices | patches | width | warp | parameters | ms per frame |\n|---:|---:|---:|---|---:|---:|\n");
+  for (const auto& [segments, rings] : {std::pair{40, 12}, {80, 25}, {160, 50}}) {
+    polyfit::TriangleMesh tube =
+        polyfit::MakeTube(0.2, centre.y() - 0.1 * height, centre.y() + 0.15 * height, segments, rings);
+    tube.vertices.row(0).array() += centre.x();
+    tube.vertices.row(2).array() += centre.z();
+    const polyfit::SkinWeights weights =
+        polyfit::SingleJointWeights(tube.num_vertices(), std::min(1, body.skeleton.num_joints() - 1));
+    for (const int warp_order : {-1, 2}) {
+      polyfit::DrapeSolverOptions options;
+      options.num_threads = 1;
+      options.slide.warp_order = warp_order;
+      polyfit::DrapeSolver solver(body, tube, weights, options);
+      for (const int width : {64, 128, 256}) {
+        const polyfit::OneFitModel model = RandomModel(body, width, warp_order);
+        const polyfit::OneFitDraper draper(model, solver, weights, body.skeleton);
+        std::vector<double> ms;
+        double checksum = 0.0;
+        for (int t = 2; t < static_cast<int>(poses.size()); ++t) {
+          const auto start = Clock::now();
+          const std::vector<double> params = draper.Predict(poses[t - 2], poses[t - 1], poses[t], 30.0, {});
+          const Eigen::Matrix3Xd x = solver.PositionsAt(params, poses[t]);
+          ms.push_back(1e3 * std::chrono::duration<double>(Clock::now() - start).count());
+          checksum += x(0, 0);
+        }
+        std::nth_element(ms.begin(), ms.begin() + ms.size() / 2, ms.end());
+        std::printf("| %d | %d | %d | %s | %d | %.3f |\n", tube.num_vertices(), solver.num_patches(), width,
+                    warp_order < 0 ? "none" : "order 2", model.network.num_parameters(), ms[ms.size() / 2]);
+        if (!std::isfinite(checksum)) return 1;
+      }
+    }
+  }
+  return 0;
+}
