@@ -264,11 +264,23 @@ void DrapeSolver::Impl::InitializeParameters(const PolyFitModel& model) {
   for (int v = 0; v < model.num_vertices(); ++v) {
     for (int k : model.memberships(v)) membership_vertex[k] = v;
   }
+  // The warp's monomials in (u, v) / r_p, r_p the patch's largest |(u, v)|,
+  // times r_p: each coefficient moves a patch's points by up to its value
+  // times the patch's extent, whatever the patch's size and order (raw
+  // monomials needed coefficients in the hundreds at order 4).
   num_warp = NumJetCoefficients(options.slide.warp_order);
   warp_basis.resize(static_cast<size_t>(num_warp) * model.num_memberships());
-  for (int k = 0; k < model.num_memberships() && num_warp > 0; ++k) {
-    JetMonomials(options.slide.warp_order, model.membership_uv(0, k), model.membership_uv(1, k),
-                 warp_basis.data() + num_warp * k);
+  if (num_warp == 0) return;
+  std::vector<double> radius(model.num_patches(), 0.0);
+  for (int k = 0; k < model.num_memberships(); ++k) {
+    double& r = radius[model.membership_patch[k]];
+    r = std::max(r, model.membership_uv.col(k).norm());
+  }
+  for (int k = 0; k < model.num_memberships(); ++k) {
+    const double r = std::max(radius[model.membership_patch[k]], 1e-9);
+    double* phi = warp_basis.data() + num_warp * k;
+    JetMonomials(options.slide.warp_order, model.membership_uv(0, k) / r, model.membership_uv(1, k) / r, phi);
+    for (int i = 0; i < num_warp; ++i) phi[i] *= r;
   }
 }
 

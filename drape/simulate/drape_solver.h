@@ -91,7 +91,9 @@ struct GarmentPatchOptions {
 // warp_order >= 0: the patch parameters that Evaluate, PositionsOf,
 // WarmStart and Adopt take (a network's prediction) also carry each
 // patch's in-plane warp, a polynomial of that order in the rest (u, v),
-//   (du, dv) = (sum_ij a_ij u^i v^j, sum_ij b_ij u^i v^j),
+//   (du, dv) = r (sum_ij a_ij (u/r)^i (v/r)^j, sum_ij b_ij (u/r)^i (v/r)^j)
+// with r the patch's largest rest |(u, v)| (coefficients relative to its
+// extent),
 // which sets the slides of its points: a mesh-agnostic stand-in for the
 // per-vertex slides, which a network cannot predict. Needs `enabled`.
 struct DrapeSlideOptions {
