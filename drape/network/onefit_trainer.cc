@@ -54,6 +54,7 @@ std::string OneFitTrainerOptions::Validate() const {
   if (lbfgs_rank < 1) return "lbfgs_rank must be >= 1";
   if (!(weight_step > 0.0)) return "weight_step must be > 0";
   if (!(learning_rate > 0.0)) return "learning_rate must be > 0";
+  if (warmup_batches < 0) return "warmup_batches must be >= 0";
   if (validation_every < 0 || validation_frames < 1) return "validation_every >= 0 and validation_frames >= 1";
   if (num_threads < 1) return "num_threads must be >= 1";
   if (!(kext_final_epoch >= 0.0) || !std::isfinite(kext_final_epoch)) return "kext_final_epoch must be >= 0";
@@ -287,10 +288,14 @@ OneFitBatchSummary OneFitTrainer::AdamBatch(const std::vector<OneFitSample>& bat
     if (k == 0) record.initial_loss = loss;
     ++state->steps;
     const double c1 = 1.0 - std::pow(kBeta1, state->steps), c2 = 1.0 - std::pow(kBeta2, state->steps);
+    // The warm-up counts Adam's steps, so that a resumed run continues it.
+    const double warmup = static_cast<double>(options_.warmup_batches) * options_.iterations_per_batch;
+    const double rate =
+        options_.learning_rate * (warmup > 0.0 ? std::min(1.0, static_cast<double>(state->steps) / warmup) : 1.0);
     for (size_t i = 0; i < n; ++i) {
       state->m[i] = kBeta1 * state->m[i] + (1.0 - kBeta1) * gradient[i];
       state->v[i] = kBeta2 * state->v[i] + (1.0 - kBeta2) * gradient[i] * gradient[i];
-      (*weights)[i] -= options_.learning_rate * (state->m[i] / c1) / (std::sqrt(state->v[i] / c2) + kEpsilon);
+      (*weights)[i] -= rate * (state->m[i] / c1) / (std::sqrt(state->v[i] / c2) + kEpsilon);
     }
     ++record.iterations;
   }

@@ -61,8 +61,11 @@ struct OneFitTrainerOptions {
   double weight_step = 1e-2;
   // Adam measured better here (docs/benchmarks.md, "OneFit network").
   OneFitOptimizer optimizer = OneFitOptimizer::kAdam;
-  // Adam's step size (weights' units).
+  // Adam's step size (weights' units), reached linearly over the first
+  // warmup_batches batches (Adam's first steps move every weight by the
+  // full rate: batch 0's loss rose from 42k to 100k J without a warm-up).
   double learning_rate = 1e-4;
+  int warmup_batches = 0;
   std::uint64_t seed = 1;
   // k_ext's epoch (DrapePhysicsOptions::k_ext) over training: batches map
   // linearly onto [0, kext_final_epoch], so that the paper's 100-epoch

@@ -135,6 +135,19 @@ TEST_F(OneFitTrainerTest, AdamLowersTheLossToo) {
   const OneFitTrainingSummary summary = adam.Train(&weights);
   ASSERT_NE(summary.termination_type, TerminationType::kFailure) << summary.BriefReport();
   EXPECT_LT(adam.Loss(weights.data(), all, nullptr), 0.9 * before) << summary.BriefReport();
+
+  // A warm-up over 4 batches of one step: Adam's first step (m / sqrt(v)
+  // is +-1 per weight) moves each weight by the rate over 4.
+  options.iterations_per_batch = 1;
+  options.num_batches = 1;
+  options.warmup_batches = 4;
+  OneFitTrainer warm(body_, {shirt}, {Bob(body_, 8)}, options);
+  const std::vector<double> start = warm.InitialWeights();
+  std::vector<double> stepped = start;
+  warm.Train(&stepped);
+  double largest = 0.0;
+  for (size_t i = 0; i < start.size(); ++i) largest = std::max(largest, std::abs(stepped[i] - start[i]));
+  EXPECT_NEAR(largest, options.learning_rate / 4.0, 1e-3 * options.learning_rate);
 }
 
 TEST_F(OneFitTrainerTest, AResumedRunEndsWhereAStraightRunEnds) {

@@ -190,6 +190,8 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
   train->add_option("--optimizer", f->optimizer, "adam, or lbfgs (a ceres::GradientProblem per batch)")
       ->capture_default_str();
   train->add_option("--learning-rate", t.learning_rate, "Adam's step size")->capture_default_str();
+  train->add_option("--warmup", t.warmup_batches, "Adam's step size ramps up linearly over this many batches")
+      ->capture_default_str();
   return train;
 }
 
