@@ -2,7 +2,7 @@
 // network (the garment's half of the decoder precomputed), the garment's
 // skinning and its vertices from the patches, against the garment's
 // resolution (a tube around the torso, about 500 to 8,000 vertices, patched
-// by area so that the patch count stays about the same) and the network's
+// by area into about as many patches as the 2k suit has) and the network's
 // width, with and without a warp head. Random weights: the time does not
 // depend on them. The MakeHuman body when the shared data is there (its
 // rig's features), else the procedural body.
@@ -81,8 +81,10 @@ int main(int argc, char** argv) {
       polyfit::DrapeSolverOptions options;
       options.num_threads = 1;
       options.slide.warp_order = warp_order;
+      // About the suit's patch count (95) on this smaller garment.
+      options.patching.patch_area = 0.006;
       polyfit::DrapeSolver solver(body, tube, weights, options);
-      for (const int width : {64, 128, 256}) {
+      for (const int width : {48, 128, 256}) {
         const polyfit::OneFitModel model = RandomModel(body, width, warp_order);
         const polyfit::OneFitDraper draper(model, solver, weights, body.skeleton);
         std::vector<double> ms;
