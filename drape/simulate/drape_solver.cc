@@ -157,6 +157,7 @@ struct DrapeSolver::Impl {
   std::vector<double> params, previous_params, rest_params;
   // Per membership: its point's slide (du, dv) along its patch.
   std::vector<double> slides, previous_slides;
+  std::vector<double> saved_params, saved_slides;  // PositionsOf's scratch
   // The warps' monomials per direction (DrapeSlideOptions::warp_order),
   // and their values at each membership's rest (u, v) (num_warp each).
   int num_warp = 0;
@@ -237,9 +238,10 @@ struct DrapeSolver::Impl {
   // The public patch-parameter layout (alpha, s, T, warp per patch,
   // packed); setting it sets the slides (zero without warps).
   void SetPatchParameters(const PolyFitModel& model, const std::vector<double>& packed);
-  // With slides, the warps are their least-squares fit; without, zero.
-  std::vector<double> PackedPatchParameters(const PolyFitModel& model, const std::vector<double>& strided,
-                                            const std::vector<double>* slide_values) const;
+  // Warps zero.
+  std::vector<double> PackedPatchParameters(const std::vector<double>& strided) const;
+  // Each patch's warp set to the least-squares fit of its points' slides.
+  void FitWarpsToSlides(const PolyFitModel& model, std::vector<double>* packed) const;
   // dE/d(warp) of each patch, added into its packed gradient, from
   // dE/d(slide) per membership.
   void ChainSlideGradient(const PolyFitModel& model, const double* slide_gradient, double* packed_gradient) const;
@@ -608,9 +610,7 @@ void DrapeSolver::Impl::SetPatchParameters(const PolyFitModel& model, const std:
   }
 }
 
-std::vector<double> DrapeSolver::Impl::PackedPatchParameters(const PolyFitModel& model,
-                                                             const std::vector<double>& strided,
-                                                             const std::vector<double>* slide_values) const {
+std::vector<double> DrapeSolver::Impl::PackedPatchParameters(const std::vector<double>& strided) const {
   const int stride = packed_stride();
   const int num_patches = static_cast<int>(strided.size() / kStride);
   std::vector<double> packed(static_cast<size_t>(num_patches) * stride, 0.0);
@@ -620,27 +620,31 @@ std::vector<double> DrapeSolver::Impl::PackedPatchParameters(const PolyFitModel&
     std::copy(in, in + num_coefficients, out);
     std::copy(in + kMaxJetCoefficients, in + kMaxJetCoefficients + 4, out + num_coefficients);
   }
-  if (slide_values == nullptr || num_warp == 0) return packed;
-  // Per patch: the warp minimising sum_k |Phi_k c - slide_k|^2 (a tiny
-  // ridge keeps a patch with fewer points than monomials solvable).
+  return packed;
+}
+
+// Per patch: the warp minimising sum_k |Phi_k c - slide_k|^2 (a tiny
+// ridge keeps a patch with fewer points than monomials solvable).
+void DrapeSolver::Impl::FitWarpsToSlides(const PolyFitModel& model, std::vector<double>* packed) const {
+  if (num_warp == 0) return;
+  const int stride = packed_stride(), num_patches = model.num_patches();
   std::vector<Eigen::MatrixXd> normal(num_patches, Eigen::MatrixXd::Zero(num_warp, num_warp));
   std::vector<Eigen::MatrixXd> rhs(num_patches, Eigen::MatrixXd::Zero(num_warp, 2));
   for (int k = 0; k < model.num_memberships(); ++k) {
     const int p = model.membership_patch[k];
     const Eigen::Map<const Eigen::VectorXd> phi(warp_monomials(k), num_warp);
     normal[p] += phi * phi.transpose();
-    rhs[p] += phi * Eigen::RowVector2d((*slide_values)[2 * k], (*slide_values)[2 * k + 1]);
+    rhs[p] += phi * Eigen::RowVector2d(slides[2 * k], slides[2 * k + 1]);
   }
   for (int p = 0; p < num_patches; ++p) {
     normal[p].diagonal().array() += 1e-9 * (1.0 + normal[p].diagonal().maxCoeff());
     const Eigen::MatrixXd c = SolveSmallSpd(normal[p], rhs[p]);
-    double* out = packed.data() + p * stride + num_coefficients + 4;
+    double* out = packed->data() + p * stride + num_coefficients + 4;
     for (int i = 0; i < num_warp; ++i) {
       out[i] = c(i, 0);
       out[num_warp + i] = c(i, 1);
     }
   }
-  return packed;
 }
 
 void DrapeSolver::Impl::ChainSlideGradient(const PolyFitModel& model, const double* slide_gradient,
@@ -761,11 +765,13 @@ DrapeStepSummary DrapeSolver::Step(const std::vector<Eigen::Isometry3d>& rest_to
 int DrapeSolver::num_patch_parameters() const { return impl_->packed_stride(); }
 
 std::vector<double> DrapeSolver::RestPatchParameters() const {
-  return impl_->PackedPatchParameters(model_, impl_->rest_params, nullptr);
+  return impl_->PackedPatchParameters(impl_->rest_params);
 }
 
 std::vector<double> DrapeSolver::PatchParameters() const {
-  return impl_->PackedPatchParameters(model_, impl_->params, &impl_->slides);
+  std::vector<double> packed = impl_->PackedPatchParameters(impl_->params);
+  impl_->FitWarpsToSlides(model_, &packed);
+  return packed;
 }
 
 void DrapeSolver::Pose(const std::vector<Eigen::Isometry3d>& rest_to_posed, double epoch) {
@@ -788,12 +794,14 @@ void DrapeSolver::SetHistory(const Eigen::Matrix3Xd& previous, const Eigen::Matr
 
 Eigen::Matrix3Xd DrapeSolver::PositionsOf(const std::vector<double>& patch_parameters) {
   Impl& m = *impl_;
-  const std::vector<double> saved_params = m.params, saved_slides = m.slides;
+  // The state is kept aside in buffers sized once: this is inference's path.
+  m.saved_params = m.params;
+  m.saved_slides = m.slides;
   m.SetPatchParameters(model_, patch_parameters);
   Eigen::Matrix3Xd x(3, positions_.cols());
   m.Positions(model_, &x);
-  m.params = saved_params;
-  m.slides = saved_slides;
+  m.params = m.saved_params;
+  m.slides = m.saved_slides;
   return x;
 }
 

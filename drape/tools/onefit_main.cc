@@ -38,13 +38,10 @@ struct SimulateFlags {
   bool cholesky = false;
 };
 
-CLI::App* AddSimulateCommand(CLI::App* app, SimulateFlags* f, const char* name = "simulate",
-                             const char* description = "drape a garment through a motion clip, frame by frame") {
+// The body, garment and clip, and what is written.
+void AddSimulateClipOptions(CLI::App* simulate, SimulateFlags* f) {
   polyfit::DrapeSimulationOptions& options = f->options;
   std::string& shape = f->shape;
-  bool& no_slide = f->no_slide;
-  bool& cholesky = f->cholesky;
-  CLI::App* simulate = app->add_subcommand(name, description);
   simulate->add_option("--body", options.body_dir,
                        "MakeHuman body folder (../shared/data/drape/body); none: procedural body");
   simulate->add_option("--garment", options.garment_path, ".mhclo garment, or a mesh in the body's rest pose (m)")
@@ -67,6 +64,12 @@ CLI::App* AddSimulateCommand(CLI::App* app, SimulateFlags* f, const char* name =
                    "move vertices left inside the body onto it plus this offset (m) in the outputs; < 0: off")
       ->capture_default_str();
   simulate->add_flag("!--no-meshes", options.write_meshes, "do not write a PLY per frame");
+}
+
+// How the garment becomes patches, and its slides.
+void AddSimulatePatchingOptions(CLI::App* simulate, SimulateFlags* f) {
+  polyfit::DrapeSimulationOptions& options = f->options;
+  bool& no_slide = f->no_slide;
   simulate->add_option("--patch-area", options.solver.patching.patch_area, "garment area per patch (m^2)")
       ->capture_default_str();
   simulate
@@ -83,6 +86,12 @@ CLI::App* AddSimulateCommand(CLI::App* app, SimulateFlags* f, const char* name =
                    "stiffness holding a vertex's points on its patches together")
       ->capture_default_str();
   simulate->add_option("--jet-order", options.solver.patching.jet_order, "jet order n")->capture_default_str();
+}
+
+// The per-frame minimisation.
+void AddSimulateSolveOptions(CLI::App* simulate, SimulateFlags* f) {
+  polyfit::DrapeSimulationOptions& options = f->options;
+  bool& cholesky = f->cholesky;
   simulate->add_option("--max-iterations", options.solver.solve.max_iterations, "LM iterations per pass")
       ->capture_default_str();
   simulate
@@ -99,6 +108,11 @@ CLI::App* AddSimulateCommand(CLI::App* app, SimulateFlags* f, const char* name =
       ->capture_default_str();
   simulate->add_option("--max-passes", options.solver.solve.max_passes, "collision passes per frame")
       ->capture_default_str();
+}
+
+// The losses' weights, collisions and skinning transfer.
+void AddSimulatePhysicsOptions(CLI::App* simulate, SimulateFlags* f) {
+  polyfit::DrapeSimulationOptions& options = f->options;
   simulate->add_option("--k-b", options.solver.physics.weights.boundary, "patch boundary weight")
       ->capture_default_str();
   simulate->add_option("--k-mi", options.solver.physics.weights.inextensibility, "inextensibility weight")
@@ -122,7 +136,16 @@ CLI::App* AddSimulateCommand(CLI::App* app, SimulateFlags* f, const char* name =
       ->add_option("--skin-loose", options.skin.loose_distance,
                    "smoothing steps scaled by distance to the body over this (m)")
       ->capture_default_str();
-  simulate->add_option("--threads", options.solver.num_threads, "threads")->capture_default_str();
+}
+
+CLI::App* AddSimulateCommand(CLI::App* app, SimulateFlags* f, const char* name = "simulate",
+                             const char* description = "drape a garment through a motion clip, frame by frame") {
+  CLI::App* simulate = app->add_subcommand(name, description);
+  AddSimulateClipOptions(simulate, f);
+  AddSimulatePatchingOptions(simulate, f);
+  AddSimulateSolveOptions(simulate, f);
+  AddSimulatePhysicsOptions(simulate, f);
+  simulate->add_option("--threads", f->options.solver.num_threads, "threads")->capture_default_str();
   return simulate;
 }
 
