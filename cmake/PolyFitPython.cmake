@@ -58,10 +58,15 @@ function(polyfit_python_module name source)
   install(TARGETS ${target} LIBRARY DESTINATION ${POLYFIT_PYTHON_INSTALL_DIR}/polyfit)
 endfunction()
 
-# polyfit_python_test(NAME FILE): a pytest file run by CTest against the
-# build tree's package. Tests needing ../shared/data look for it through
-# POLYFIT_SHARED_DATA_DIR and skip with a message when it is absent.
+# polyfit_python_test(NAME FILE [ENV VAR=VALUE...]): a pytest file run by
+# CTest against the build tree's package. Tests needing ../shared/data look
+# for it through POLYFIT_SHARED_DATA_DIR and skip with a message when it is
+# absent.
 function(polyfit_python_test name file)
+  cmake_parse_arguments(ARG "" "" "ENV" ${ARGN})
+  if(NOT POLYFIT_PYTHON)
+    return()
+  endif()
   execute_process(COMMAND ${Python3_EXECUTABLE} -c "import pytest" RESULT_VARIABLE no_pytest OUTPUT_QUIET ERROR_QUIET)
   if(no_pytest)
     message(STATUS "Python test ${name} skipped: no pytest for ${Python3_EXECUTABLE} (apt-get install python3-pytest)")
@@ -69,5 +74,5 @@ function(polyfit_python_test name file)
   endif()
   add_test(NAME ${name} COMMAND ${Python3_EXECUTABLE} -m pytest -q -p no:cacheprovider --import-mode=importlib ${file})
   set_tests_properties(${name} PROPERTIES ENVIRONMENT
-    "PYTHONPATH=${POLYFIT_PYTHON_DIR};POLYFIT_BIN_DIR=${CMAKE_BINARY_DIR}/bin;POLYFIT_SHARED_DATA_DIR=${PROJECT_SOURCE_DIR}/../shared/data;POLYFIT_SOURCE_DIR=${PROJECT_SOURCE_DIR}")
+    "PYTHONPATH=${POLYFIT_PYTHON_DIR};POLYFIT_BIN_DIR=${CMAKE_BINARY_DIR}/bin;POLYFIT_SHARED_DATA_DIR=${PROJECT_SOURCE_DIR}/../shared/data;POLYFIT_SOURCE_DIR=${PROJECT_SOURCE_DIR};${ARG_ENV}")
 endfunction()

@@ -145,6 +145,15 @@ Eigen::Matrix<std::uint8_t, 3, Eigen::Dynamic> PatchColours(const PolyFitModel& 
   return colours;
 }
 
+// An item with its status (and error): the reports' rows.
+json ItemToJson(const BatchFitItemSummary& item) {
+  json j =
+      item.status == BatchItemStatus::kFailed ? json{{"input", item.input}, {"name", item.name}} : SummaryToJson(item);
+  j["status"] = StatusName(item.status);
+  if (!item.error.empty()) j["error"] = item.error;
+  return j;
+}
+
 void WriteReports(const std::string& dir, const BatchFitSummary& summary) {
   WriteFileAtomically((fs::path(dir) / "report.csv").string(), [&](std::ostream& out) {
     out << "name,input,status,input_vertices,input_faces,fitted_faces,subdivision_levels,patches,"
@@ -162,13 +171,7 @@ void WriteReports(const std::string& dir, const BatchFitSummary& summary) {
     }
   });
   json items = json::array();
-  for (const BatchFitItemSummary& item : summary.items) {
-    json j = item.status == BatchItemStatus::kFailed ? json{{"input", item.input}, {"name", item.name}}
-                                                     : SummaryToJson(item);
-    j["status"] = StatusName(item.status);
-    if (!item.error.empty()) j["error"] = item.error;
-    items.push_back(j);
-  }
+  for (const BatchFitItemSummary& item : summary.items) items.push_back(ItemToJson(item));
   const json report = {
       {"fitted", summary.num_fitted},
       {"skipped", summary.num_skipped},
@@ -221,9 +224,7 @@ std::vector<std::string> ExpandMeshInputs(const std::vector<std::string>& inputs
   return files;
 }
 
-BatchFitSummary FitMeshFiles(const BatchFitOptions& options, const std::vector<std::string>& raw_inputs,
-                             const BatchProgressCallback& progress) {
-  const auto start = std::chrono::steady_clock::now();
+BatchFitSummary PlanMeshFiles(const BatchFitOptions& options, const std::vector<std::string>& raw_inputs) {
   if (const std::string problem = options.Validate(); !problem.empty()) {
     throw std::invalid_argument("BatchFitOptions: " + problem);
   }
@@ -255,64 +256,91 @@ BatchFitSummary FitMeshFiles(const BatchFitOptions& options, const std::vector<s
   if (!fs::is_directory(options.output_dir, ec)) {
     throw std::invalid_argument(options.output_dir + ": cannot create the output directory");
   }
+  return summary;
+}
 
+void FitMeshFile(const BatchFitOptions& options, int num_threads, BatchFitItemSummary* item) {
+  const fs::path stem = fs::path(options.output_dir) / item->name;
+  const std::string model_path = stem.string() + ".pfm";
+  const std::string recon_path = stem.string() + ".recon.ply";
+  const std::string summary_path = stem.string() + ".summary.json";
+  if (!options.force && fs::exists(summary_path) && fs::exists(model_path) && fs::exists(recon_path)) {
+    try {
+      std::ifstream in(summary_path);
+      SummaryFromJson(json::parse(in), item);
+      item->status = BatchItemStatus::kSkipped;
+      return;
+    } catch (const std::exception&) {
+      // An unreadable summary: fit again.
+    }
+  }
+  try {
+    const auto read_start = std::chrono::steady_clock::now();
+    const TriangleMesh mesh = ReadTriangleMesh(item->input);
+    item->read_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
+    MeshFitOptions fit_options = options.fit;
+    fit_options.num_threads = num_threads;
+    PolyFitModel model;
+    TriangleMesh reconstruction;
+    item->summary = FitMesh(fit_options, mesh, &model, &reconstruction);
+    SavePolyFitModel(model_path, model);
+    const auto colours = PatchColours(model);
+    WritePly(recon_path, reconstruction, &colours);
+    const json j = SummaryToJson(*item);
+    WriteFileAtomically(summary_path, [&](std::ostream& out) { out << j.dump(1) << '\n'; });
+    item->status = BatchItemStatus::kFitted;
+    item->error.clear();
+  } catch (const std::exception& e) {
+    item->status = BatchItemStatus::kFailed;
+    item->error = e.what();
+    if (item->error.find(item->input) == std::string::npos) item->error = item->input + ": " + item->error;
+  }
+}
+
+void FinishMeshFiles(const BatchFitOptions& options, BatchFitSummary* summary) {
+  summary->num_fitted = summary->num_skipped = summary->num_failed = 0;
+  for (const BatchFitItemSummary& item : summary->items) {
+    summary->num_fitted += item.status == BatchItemStatus::kFitted;
+    summary->num_skipped += item.status == BatchItemStatus::kSkipped;
+    summary->num_failed += item.status == BatchItemStatus::kFailed;
+  }
+  WriteReports(options.output_dir, *summary);
+}
+
+std::string BatchItemToJson(const BatchFitItemSummary& item) { return ItemToJson(item).dump(); }
+
+BatchFitItemSummary BatchItemFromJson(const std::string& text) {
+  const json j = json::parse(text);
+  BatchFitItemSummary item;
+  item.input = j.value("input", "");
+  item.name = j.value("name", "");
+  item.error = j.value("error", "");
+  const std::string status = j.value("status", "failed");
+  item.status = status == "fitted"    ? BatchItemStatus::kFitted
+                : status == "skipped" ? BatchItemStatus::kSkipped
+                                      : BatchItemStatus::kFailed;
+  if (item.status != BatchItemStatus::kFailed) SummaryFromJson(j, &item);
+  return item;
+}
+
+BatchFitSummary FitMeshFiles(const BatchFitOptions& options, const std::vector<std::string>& raw_inputs,
+                             const BatchProgressCallback& progress) {
+  const auto start = std::chrono::steady_clock::now();
+  BatchFitSummary summary = PlanMeshFiles(options, raw_inputs);
+  const int num_inputs = static_cast<int>(summary.items.size());
   const int threads = ResolveNumThreads(options.num_threads);
-  const bool across_inputs = inputs.size() > 1 && threads > 1;
-  MeshFitOptions fit_options = options.fit;
-  fit_options.num_threads = across_inputs ? 1 : threads;
+  const bool across_inputs = num_inputs > 1 && threads > 1;
   std::mutex progress_mutex;
   int done = 0;
-
   auto process = [&](int, int i) {
-    BatchFitItemSummary& item = summary.items[i];
-    const fs::path stem = fs::path(options.output_dir) / item.name;
-    const std::string model_path = stem.string() + ".pfm";
-    const std::string recon_path = stem.string() + ".recon.ply";
-    const std::string summary_path = stem.string() + ".summary.json";
-    bool skipped = false;
-    if (!options.force && fs::exists(summary_path) && fs::exists(model_path) && fs::exists(recon_path)) {
-      try {
-        std::ifstream in(summary_path);
-        SummaryFromJson(json::parse(in), &item);
-        item.status = BatchItemStatus::kSkipped;
-        skipped = true;
-      } catch (const std::exception&) {
-        // An unreadable summary: fit again.
-      }
-    }
-    if (!skipped) {
-      try {
-        const auto read_start = std::chrono::steady_clock::now();
-        const TriangleMesh mesh = ReadTriangleMesh(item.input);
-        item.read_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
-        PolyFitModel model;
-        TriangleMesh reconstruction;
-        item.summary = FitMesh(fit_options, mesh, &model, &reconstruction);
-        SavePolyFitModel(model_path, model);
-        const auto colours = PatchColours(model);
-        WritePly(recon_path, reconstruction, &colours);
-        const json j = SummaryToJson(item);
-        WriteFileAtomically(summary_path, [&](std::ostream& out) { out << j.dump(1) << '\n'; });
-        item.status = BatchItemStatus::kFitted;
-      } catch (const std::exception& e) {
-        item.status = BatchItemStatus::kFailed;
-        item.error = e.what();
-        if (item.error.find(item.input) == std::string::npos) item.error = item.input + ": " + item.error;
-      }
-    }
+    FitMeshFile(options, across_inputs ? 1 : threads, &summary.items[i]);
     std::lock_guard<std::mutex> lock(progress_mutex);
     ++done;
-    if (progress) progress(done, static_cast<int>(inputs.size()), item);
+    if (progress) progress(done, num_inputs, summary.items[i]);
   };
-  ParallelFor(static_cast<int>(inputs.size()), across_inputs ? threads : 1, process, 1);
-
-  for (const BatchFitItemSummary& item : summary.items) {
-    summary.num_fitted += item.status == BatchItemStatus::kFitted;
-    summary.num_skipped += item.status == BatchItemStatus::kSkipped;
-    summary.num_failed += item.status == BatchItemStatus::kFailed;
-  }
+  ParallelFor(num_inputs, across_inputs ? threads : 1, process, 1);
   summary.total_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  WriteReports(options.output_dir, summary);
+  FinishMeshFiles(options, &summary);
   return summary;
 }
 

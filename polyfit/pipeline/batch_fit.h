@@ -64,6 +64,23 @@ std::vector<std::string> ExpandMeshInputs(const std::vector<std::string>& inputs
 BatchFitSummary FitMeshFiles(const BatchFitOptions& options, const std::vector<std::string>& inputs,
                              const BatchProgressCallback& progress = nullptr);
 
+// The phases of FitMeshFiles, for drivers that share a batch over
+// processes (batch_fit_mpi.h). PlanMeshFiles expands and names the inputs
+// and creates the output directory (throws as FitMeshFiles does).
+// FitMeshFile fits one planned item with num_threads threads, or skips it
+// when its outputs exist, writing them atomically; a bad input marks the
+// item failed, never throws. FinishMeshFiles counts the statuses and writes
+// report.csv and report.json (set total_time_s first).
+BatchFitSummary PlanMeshFiles(const BatchFitOptions& options, const std::vector<std::string>& inputs);
+void FitMeshFile(const BatchFitOptions& options, int num_threads, BatchFitItemSummary* item);
+void FinishMeshFiles(const BatchFitOptions& options, BatchFitSummary* summary);
+
+// An item (status, error, the summary's reported fields) as one line of
+// JSON and back: the report's row, and what ranks send to the one that
+// writes the report.
+std::string BatchItemToJson(const BatchFitItemSummary& item);
+BatchFitItemSummary BatchItemFromJson(const std::string& text);
+
 }  // namespace polyfit
 
 #endif  // POLYFIT_PIPELINE_BATCH_FIT_H_

@@ -1,6 +1,7 @@
 // polyfit: fit meshes in batches, and compare meshes.
 //
 //   polyfit fit INPUT... --out DIR [--patches K|auto] [--order N] [--refine]
+//   mpirun -n N polyfit fit ...     (built with MPI: the inputs shared by N ranks)
 //   polyfit eval A B [--samples N]
 //
 // Every default lives in the library's options; this file only maps flags
@@ -8,6 +9,7 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -19,13 +21,18 @@
 #include "polyfit/mesh/mesh_io.h"
 #include "polyfit/pipeline/batch_fit.h"
 #include "polyfit/util/status.h"
+#ifdef POLYFIT_WITH_MPI
+#include "polyfit/pipeline/batch_fit_mpi.h"
+#endif
 
 namespace {
 
-// A bar redrawn in place on a terminal; one line per input otherwise.
+// A bar redrawn in place on a terminal; one line per input otherwise (and
+// always under MPI, each line naming its rank).
 class Progress {
  public:
   Progress() : terminal_(::isatty(STDERR_FILENO) != 0) {}
+  explicit Progress(std::string prefix) : terminal_(false), prefix_(std::move(prefix)) {}
 
   void operator()(int done, int total, const polyfit::BatchFitItemSummary& item) {
     const char* status = item.status == polyfit::BatchItemStatus::kFitted    ? "fitted"
@@ -41,7 +48,7 @@ class Progress {
                     1e3 * s.chamfer);
     }
     if (!terminal_) {
-      std::fprintf(stderr, "%s\n", line);
+      std::fprintf(stderr, "%s%s\n", prefix_.c_str(), line);
       return;
     }
     // Failures stay on screen; the bar is redrawn below them.
@@ -55,7 +62,39 @@ class Progress {
 
  private:
   bool terminal_;
+  std::string prefix_;
 };
+
+#ifdef POLYFIT_WITH_MPI
+// Started by mpirun or srun: Open MPI, MPICH's PMI and PMIx set these.
+bool LaunchedByMpi() {
+  for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK"}) {
+    if (std::getenv(name) != nullptr) return true;
+  }
+  return false;
+}
+
+// The batch over the job's ranks (batch_fit_mpi.h); rank 0 reports.
+int FitOverMpi(const polyfit::BatchFitOptions& batch, const std::vector<std::string>& inputs) {
+  struct MpiSession {
+    MpiSession() { MPI_Init(nullptr, nullptr); }
+    ~MpiSession() { MPI_Finalize(); }
+  } session;
+  int rank = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  Progress progress("rank " + std::to_string(rank) + " ");
+  const polyfit::MpiBatchSummary result = polyfit::FitMeshFilesMpi(
+      batch, inputs, MPI_COMM_WORLD,
+      [&progress](int done, int total, const polyfit::BatchFitItemSummary& item) { progress(done, total, item); });
+  const polyfit::BatchFitSummary& summary = result.batch;
+  if (rank == 0) {
+    std::printf("%d fitted, %d skipped, %d failed in %.2f s on %d ranks x %d threads; report: %s/report.csv\n",
+                summary.num_fitted, summary.num_skipped, summary.num_failed, summary.total_time_s, result.num_ranks,
+                result.threads_per_rank, batch.output_dir.c_str());
+  }
+  return summary.num_failed > 0 ? polyfit::kExitPartial : polyfit::kExitSuccess;
+}
+#endif
 
 }  // namespace
 
@@ -130,6 +169,9 @@ int main(int argc, char** argv) {
           subdivision == "loop" ? polyfit::SubdivisionScheme::kLoop : polyfit::SubdivisionScheme::kMidpoint;
       batch.fit.reconstruction.seam_mode = seam == "owner" ? polyfit::SeamMode::kOwner : polyfit::SeamMode::kAverage;
       batch.fit.evaluate = !no_eval;
+#ifdef POLYFIT_WITH_MPI
+      if (LaunchedByMpi()) return FitOverMpi(batch, inputs);
+#endif
       Progress progress;
       const polyfit::BatchFitSummary summary = polyfit::FitMeshFiles(
           batch, inputs,
