@@ -57,6 +57,11 @@ std::string OneFitTrainerOptions::Validate() const {
   if (warmup_batches < 0) return "warmup_batches must be >= 0";
   if (validation_every < 0 || validation_frames < 1) return "validation_every >= 0 and validation_frames >= 1";
   if (num_threads < 1) return "num_threads must be >= 1";
+  const OneFitDistribution& d = distribution;
+  if (d.num_processes < 1 || d.process < 0 || d.process >= d.num_processes) {
+    return "distribution: process must be in [0, num_processes)";
+  }
+  if (d.num_processes > 1 && !d.all_reduce) return "distribution: several processes need all_reduce";
   if (!(kext_final_epoch >= 0.0) || !std::isfinite(kext_final_epoch)) return "kext_final_epoch must be >= 0";
   return {};
 }
@@ -215,7 +220,10 @@ double OneFitTrainer::SampleLoss(const double* weights, const OneFitSample& samp
 }
 
 double OneFitTrainer::Loss(const double* weights, const std::vector<OneFitSample>& samples, double* gradient) {
-  const int threads = std::max(1, std::min<int>(options_.num_threads, static_cast<int>(samples.size())));
+  const OneFitDistribution& d = options_.distribution;
+  std::vector<size_t> mine;  // this process's share of the samples
+  for (size_t i = d.process; i < samples.size(); i += d.num_processes) mine.push_back(i);
+  const int threads = std::max(1, std::min<int>(options_.num_threads, static_cast<int>(mine.size())));
   const int n = num_parameters();
   // Eigen's vectorised kernels round differently with the alignment of
   // the arrays they read, so the weights and the gradients are copied to
@@ -232,21 +240,24 @@ double OneFitTrainer::Loss(const double* weights, const std::vector<OneFitSample
   ParallelFor(
       threads, threads,
       [&](int, int t) {
-        for (size_t i = t; i < samples.size(); i += threads) {
-          energies[i] = SampleLoss(weights, samples[i], t, gradient != nullptr ? gradients[t].data() : nullptr);
+        for (size_t k = t; k < mine.size(); k += threads) {
+          energies[mine[k]] =
+              SampleLoss(weights, samples[mine[k]], t, gradient != nullptr ? gradients[t].data() : nullptr);
         }
       },
       1);
   const double scale = 1.0 / static_cast<double>(samples.size());
-  double loss = 0.0;
-  for (double e : energies) loss += scale * e;
+  // [loss, gradient]: reduced over the processes in one call.
+  std::vector<double> sums(gradient != nullptr ? n + 1 : 1, 0.0);
+  for (size_t i : mine) sums[0] += scale * energies[i];
   if (gradient != nullptr) {
-    std::fill(gradient, gradient + n, 0.0);
     for (const auto& g : gradients) {
-      for (int i = 0; i < n; ++i) gradient[i] += scale * g[i];
+      for (int i = 0; i < n; ++i) sums[i + 1] += scale * g[i];
     }
   }
-  return loss;
+  if (d.num_processes > 1) d.all_reduce(sums.data(), static_cast<int>(sums.size()));
+  if (gradient != nullptr) std::copy(sums.begin() + 1, sums.end(), gradient);
+  return sums[0];
 }
 
 OneFitBatchSummary OneFitTrainer::LbfgsBatch(const std::vector<OneFitSample>& batch, int index,
@@ -345,7 +356,8 @@ OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights, int fir
     const OneFitBatchSummary record = options_.optimizer == OneFitOptimizer::kAdam ? AdamBatch(batch, b, &adam, weights)
                                                                                    : LbfgsBatch(batch, b, weights);
     summary.batches.push_back(record);
-    if (options_.validation_every > 0 && (b + 1) % options_.validation_every == 0) {
+    if (options_.validation_every > 0 && (b + 1) % options_.validation_every == 0 &&
+        options_.distribution.process == 0) {
       ValidationDrape(weights->data(), 0, 0, options_.validation_frames,
                       &summary.batches.back().validation_inside_percent,
                       &summary.batches.back().validation_edge_strain_percent);

@@ -48,6 +48,18 @@ enum class OneFitOptimizer {
   kAdam    // the control: Adam steps, moments kept across batches
 };
 
+// A mini-batch shared over processes (MPI ranks; `mpirun -n N onefit
+// train`): process p evaluates the batch's samples i with
+// i % num_processes == p, and all_reduce sums a buffer over the processes in
+// place (MPI_Allreduce with MPI_SUM), so that the batch's loss and gradient,
+// and with them every step, are the same on each process. The library needs
+// no MPI: the caller supplies the reduction.
+struct OneFitDistribution {
+  int process = 0;
+  int num_processes = 1;
+  std::function<void(double* values, int count)> all_reduce;
+};
+
 struct OneFitTrainerOptions {
   OneFitNetworkOptions network;
   // The loss: the reference drape's terms, weights and patches.
@@ -75,7 +87,8 @@ struct OneFitTrainerOptions {
   // frames (see OneFitBatchSummary).
   int validation_every = 25;
   int validation_frames = 30;
-  int num_threads = 2;
+  int num_threads = 2;  // per process
+  OneFitDistribution distribution;
 
   std::string Validate() const;
 };
@@ -86,9 +99,9 @@ struct OneFitBatchSummary {
   double final_loss = 0.0;    // and after
   int iterations = 0;
   double time_s = 0.0;  // since training started
-  // The validation drape (every validation_every batches, else NaN): the
-  // network alone on the first garment through the first frames of the
-  // first clip, epsilon_c and epsilon_e (%).
+  // The validation drape (every validation_every batches, else NaN; on
+  // process 0 only): the network alone on the first garment through the
+  // first frames of the first clip, epsilon_c and epsilon_e (%).
   double validation_inside_percent = std::numeric_limits<double>::quiet_NaN();
   double validation_edge_strain_percent = std::numeric_limits<double>::quiet_NaN();
 };
@@ -123,7 +136,9 @@ class OneFitTrainer {
   std::vector<double> InitialWeights() const;
 
   // The mean loss over `samples` and, if gradient is not null, its gradient
-  // (num_parameters()). Thread-safe across distinct trainers only.
+  // (num_parameters()); with a distribution, this process's share summed
+  // over the processes (every process must call it with the same samples).
+  // Thread-safe across distinct trainers only.
   double Loss(const double* weights, const std::vector<OneFitSample>& samples, double* gradient);
 
   // The trained network as a model file holds it.

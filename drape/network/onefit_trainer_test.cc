@@ -1,9 +1,12 @@
 #include "drape/network/onefit_trainer.h"
 
 #include <cmath>
+#include <condition_variable>
 #include <fstream>
 #include <iterator>
+#include <mutex>
 #include <random>
+#include <thread>
 
 #include <gtest/gtest.h>
 
@@ -148,6 +151,92 @@ TEST_F(OneFitTrainerTest, AdamLowersTheLossToo) {
   double largest = 0.0;
   for (size_t i = 0; i < start.size(); ++i) largest = std::max(largest, std::abs(stepped[i] - start[i]));
   EXPECT_NEAR(largest, options.learning_rate / 4.0, 1e-3 * options.learning_rate);
+}
+
+// Processes simulated by threads: MPI_Allreduce's sum, met at a barrier.
+class InMemoryAllReduce {
+ public:
+  explicit InMemoryAllReduce(int participants) : participants_(participants) {}
+
+  void operator()(double* values, int count) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    const long long round = round_;
+    if (arrived_ == 0) {
+      sum_.assign(values, values + count);
+    } else {
+      for (int i = 0; i < count; ++i) sum_[i] += values[i];
+    }
+    if (++arrived_ == participants_) {
+      arrived_ = 0;
+      result_ = sum_;
+      ++round_;
+      done_.notify_all();
+    } else {
+      done_.wait(lock, [&] { return round_ != round; });
+    }
+    std::copy(result_.begin(), result_.end(), values);
+  }
+
+ private:
+  int participants_;
+  std::mutex mutex_;
+  std::condition_variable done_;
+  int arrived_ = 0;
+  long long round_ = 0;
+  std::vector<double> sum_, result_;
+};
+
+TEST_F(OneFitTrainerTest, TwoProcessesSharingEachBatchTakeTheSameSteps) {
+  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
+  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
+  OneFitTrainerOptions options = options_;
+  options.optimizer = OneFitOptimizer::kAdam;
+  options.num_batches = 3;
+  options.validation_every = 2;
+  OneFitTrainer alone(body_, {shirt}, {Bob(body_, 8)}, options);
+  const std::vector<double> start = alone.InitialWeights();
+  const std::vector<OneFitSample> samples = {{0, 0, 1}, {0, 0, 4}, {0, 0, 6}};  // odd: uneven shares
+  std::vector<double> gradient(start.size());
+  const double loss = alone.Loss(start.data(), samples, gradient.data());
+  std::vector<double> trained = start;
+  const OneFitTrainingSummary summary = alone.Train(&trained);
+
+  InMemoryAllReduce reduce(2);
+  std::vector<double> shared_gradient[2], shared_trained[2];
+  double shared_loss[2];
+  OneFitTrainingSummary shared_summary[2];
+  std::vector<std::thread> processes;
+  for (int p = 0; p < 2; ++p) {
+    processes.emplace_back([&, p] {
+      OneFitTrainerOptions o = options;
+      o.distribution = {p, 2, [&reduce](double* values, int count) { reduce(values, count); }};
+      OneFitTrainer trainer(body_, {shirt}, {Bob(body_, 8)}, o);
+      shared_gradient[p].resize(start.size());
+      shared_loss[p] = trainer.Loss(start.data(), samples, shared_gradient[p].data());
+      shared_trained[p] = start;
+      shared_summary[p] = trainer.Train(&shared_trained[p]);
+    });
+  }
+  for (std::thread& t : processes) t.join();
+  for (int p = 0; p < 2; ++p) {
+    EXPECT_NEAR(shared_loss[p], loss, 1e-12 * loss);
+    double largest = 0.0, scale = 0.0;
+    for (size_t i = 0; i < start.size(); ++i) {
+      largest = std::max(largest, std::abs(shared_gradient[p][i] - gradient[i]));
+      scale = std::max(scale, std::abs(gradient[i]));
+    }
+    EXPECT_LT(largest, 1e-12 * scale);
+    // The same steps: every process ends with the weights of one process.
+    largest = 0.0;
+    for (size_t i = 0; i < start.size(); ++i) largest = std::max(largest, std::abs(shared_trained[p][i] - trained[i]));
+    EXPECT_LT(largest, 1e-10);
+    EXPECT_NEAR(shared_summary[p].batches.back().final_loss, summary.batches.back().final_loss,
+                1e-10 * summary.batches.back().final_loss);
+  }
+  EXPECT_EQ(shared_trained[0], shared_trained[1]);  // bit for bit: the same reduced numbers
+  // The validation drape runs on process 0 only.
+  EXPECT_TRUE(std::isfinite(shared_summary[0].batches[1].validation_inside_percent));
+  EXPECT_TRUE(std::isnan(shared_summary[1].batches[1].validation_inside_percent));
 }
 
 TEST_F(OneFitTrainerTest, AResumedRunEndsWhereAStraightRunEnds) {

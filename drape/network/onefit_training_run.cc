@@ -160,7 +160,11 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
     csv =
         "batch,initial_loss_J,final_loss_J,iterations,time_s,validation_inside_percent,validation_edge_strain_"
         "percent\n";
+  // Shared over processes, every one holds the same weights: the first
+  // writes them.
+  const bool writer = options.trainer.distribution.process == 0;
   const auto checkpoint = [&](const OneFitBatchSummary& batch, const std::vector<double>& w) {
+    if (!writer) return;
     if (options.trainer.optimizer == OneFitOptimizer::kAdam) SaveOneFitAdamState(adam_path, adam);
     SaveOneFitModel(options.model_path, trainer.MakeModel(w));
     std::ostringstream row;

@@ -26,6 +26,9 @@
 #include "drape/network/onefit_training_run.h"
 #include "drape/simulate/drape_simulation.h"
 #include "drape/simulate/onefit_evaluation.h"
+#ifdef POLYFIT_WITH_MPI
+#include "polyfit/util/mpi_session.h"
+#endif
 
 namespace {
 
@@ -218,15 +221,12 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
   return train;
 }
 
-int RunTrain(TrainFlags& f) {
-  if (!f.shape.empty()) f.options.shape = polyfit::BodyShape::Parse(f.shape);
-  if (f.optimizer != "lbfgs" && f.optimizer != "adam") {
-    throw std::invalid_argument("--optimizer: lbfgs or adam, not '" + f.optimizer + "'");
-  }
-  f.options.trainer.optimizer =
-      f.optimizer == "adam" ? polyfit::OneFitOptimizer::kAdam : polyfit::OneFitOptimizer::kLbfgs;
+// Every rank of an MPI job (`mpirun -n N onefit train`) trains the same
+// weights on its share of each mini-batch; rank 0 prints and writes.
+int RunTrainOn(TrainFlags& f, bool quiet) {
   const polyfit::OneFitTrainingSummary summary =
-      polyfit::RunOneFitTraining(f.options, [](const polyfit::OneFitBatchSummary& b) {
+      polyfit::RunOneFitTraining(f.options, [quiet](const polyfit::OneFitBatchSummary& b) {
+        if (quiet) return;
         std::printf("batch %4d  loss %.5g -> %.5g J  %2d it  %7.1f s", b.batch, b.initial_loss, b.final_loss,
                     b.iterations, b.time_s);
         if (std::isfinite(b.validation_inside_percent)) {
@@ -236,10 +236,32 @@ int RunTrain(TrainFlags& f) {
         std::printf("\n");
         std::fflush(stdout);
       });
-  std::printf("%s\nwrote %s (and %s.csv)\n", summary.BriefReport().c_str(), f.options.model_path.c_str(),
-              f.options.model_path.c_str());
+  if (!quiet) {
+    std::printf("%s\nwrote %s (and %s.csv)\n", summary.BriefReport().c_str(), f.options.model_path.c_str(),
+                f.options.model_path.c_str());
+  }
   return summary.termination_type == polyfit::TerminationType::kFailure ? polyfit::kExitSolverFailure
                                                                         : polyfit::kExitSuccess;
+}
+
+int RunTrain(TrainFlags& f) {
+  if (!f.shape.empty()) f.options.shape = polyfit::BodyShape::Parse(f.shape);
+  if (f.optimizer != "lbfgs" && f.optimizer != "adam") {
+    throw std::invalid_argument("--optimizer: lbfgs or adam, not '" + f.optimizer + "'");
+  }
+  f.options.trainer.optimizer =
+      f.optimizer == "adam" ? polyfit::OneFitOptimizer::kAdam : polyfit::OneFitOptimizer::kLbfgs;
+#ifdef POLYFIT_WITH_MPI
+  if (polyfit::LaunchedByMpi()) {
+    polyfit::MpiSession mpi;
+    f.options.trainer.distribution = {mpi.rank(), mpi.size(), [](double* values, int count) {
+                                        MPI_Allreduce(MPI_IN_PLACE, values, count, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+                                      }};
+    if (mpi.rank() == 0) std::printf("training on %d ranks x %d threads\n", mpi.size(), f.options.trainer.num_threads);
+    return mpi.Run("onefit", [&] { return RunTrainOn(f, mpi.rank() != 0); });
+  }
+#endif
+  return RunTrainOn(f, false);
 }
 
 // `onefit eval`: simulate's flags, --project the network's post-process.

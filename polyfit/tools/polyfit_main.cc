@@ -9,7 +9,6 @@
 #include <unistd.h>
 
 #include <cstdio>
-#include <cstdlib>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -23,6 +22,7 @@
 #include "polyfit/util/status.h"
 #ifdef POLYFIT_WITH_MPI
 #include "polyfit/pipeline/batch_fit_mpi.h"
+#include "polyfit/util/mpi_session.h"
 #endif
 
 namespace {
@@ -66,22 +66,8 @@ class Progress {
 };
 
 #ifdef POLYFIT_WITH_MPI
-// Started by mpirun or srun: Open MPI, MPICH's PMI and PMIx set these.
-bool LaunchedByMpi() {
-  for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK"}) {
-    if (std::getenv(name) != nullptr) return true;
-  }
-  return false;
-}
-
 // The batch over the job's ranks (batch_fit_mpi.h); rank 0 reports.
-int FitOverMpi(const polyfit::BatchFitOptions& batch, const std::vector<std::string>& inputs) {
-  struct MpiSession {
-    MpiSession() { MPI_Init(nullptr, nullptr); }
-    ~MpiSession() { MPI_Finalize(); }
-  } session;
-  int rank = 0;
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+int FitOverMpi(const polyfit::BatchFitOptions& batch, const std::vector<std::string>& inputs, int rank) {
   Progress progress("rank " + std::to_string(rank) + " ");
   const polyfit::MpiBatchSummary result = polyfit::FitMeshFilesMpi(
       batch, inputs, MPI_COMM_WORLD,
@@ -170,7 +156,10 @@ int main(int argc, char** argv) {
       batch.fit.reconstruction.seam_mode = seam == "owner" ? polyfit::SeamMode::kOwner : polyfit::SeamMode::kAverage;
       batch.fit.evaluate = !no_eval;
 #ifdef POLYFIT_WITH_MPI
-      if (LaunchedByMpi()) return FitOverMpi(batch, inputs);
+      if (polyfit::LaunchedByMpi()) {
+        polyfit::MpiSession mpi;
+        return mpi.Run("polyfit", [&] { return FitOverMpi(batch, inputs, mpi.rank()); });
+      }
 #endif
       Progress progress;
       const polyfit::BatchFitSummary summary = polyfit::FitMeshFiles(
