@@ -24,3 +24,15 @@ function(polyfit_test name source)
   polyfit_target_options(${name})
   add_test(NAME ${name} COMMAND ${name})
 endfunction()
+
+# polyfit_use_mpi(TARGET TEST NAME FILE): TARGET (a command line) shares its
+# work over MPI ranks when started by mpirun (POLYFIT_WITH_MPI), and the
+# pytest FILE runs it on a few ranks under CTest.
+function(polyfit_use_mpi target)
+  cmake_parse_arguments(ARG "" "TEST;FILE" "" ${ARGN})
+  target_link_libraries(${target} PRIVATE MPI::MPI_CXX)
+  target_compile_definitions(${target} PRIVATE POLYFIT_WITH_MPI)
+  if(POLYFIT_BUILD_TESTS)
+    polyfit_python_test(${ARG_TEST} ${ARG_FILE} ENV MPIEXEC=${MPIEXEC_EXECUTABLE})
+  endif()
+endfunction()

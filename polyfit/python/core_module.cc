@@ -590,27 +590,13 @@ void BindBatchFit(py::module_& m) {
   m.def(
       "fit_mesh_files",
       [](const BatchFitOptions& options, const std::vector<std::string>& inputs, py::object progress) {
-        // The callback runs on a worker thread: it takes the GIL, and the
-        // first exception it raises is re-raised once the batch is done.
-        std::exception_ptr callback_error;
-        BatchProgressCallback callback;
-        if (!progress.is_none()) {
-          callback = [&](int done, int total, const BatchFitItemSummary& item) {
-            py::gil_scoped_acquire acquire;
-            if (callback_error) return;
-            try {
-              progress(done, total, item);
-            } catch (...) {
-              callback_error = std::current_exception();
-            }
-          };
-        }
+        DeferredCallback<int, int, const BatchFitItemSummary&> callback(progress);
         BatchFitSummary summary;
         {
           py::gil_scoped_release release;
-          summary = FitMeshFiles(options, inputs, callback);
+          summary = FitMeshFiles(options, inputs, callback.Function());
         }
-        if (callback_error) std::rethrow_exception(callback_error);
+        callback.Rethrow();
         return summary;
       },
       "options"_a, "inputs"_a, "progress"_a = py::none(),

@@ -8,6 +8,8 @@
 #ifndef POLYFIT_PYTHON_PYTHON_UTIL_H_
 #define POLYFIT_PYTHON_PYTHON_UTIL_H_
 
+#include <exception>
+#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -116,6 +118,39 @@ inline nlohmann::json PythonToJson(py::handle value) {
   if (py::hasattr(value, "__float__")) return value.cast<double>();
   throw py::type_error("cannot pass a " + std::string(py::str(value.get_type())) + " as a setting");
 }
+
+// A Python callable as a C++ callback that runs while the GIL is released
+// (on the calling thread or a worker): each call takes the GIL back; the
+// first exception the callable raises is kept, later calls are skipped, and
+// Rethrow() raises it once the C++ call has returned, so that it never
+// unwinds through C++ mid-write.
+template <typename... Args>
+class DeferredCallback {
+ public:
+  explicit DeferredCallback(py::object callable) : callable_(std::move(callable)) {}
+
+  // Empty for None (the C++ side then calls nothing).
+  std::function<void(Args...)> Function() {
+    if (callable_.is_none()) return nullptr;
+    return [this](Args... args) {
+      py::gil_scoped_acquire acquire;
+      if (error_) return;
+      try {
+        callable_(args...);
+      } catch (...) {
+        error_ = std::current_exception();
+      }
+    };
+  }
+  bool failed() const { return static_cast<bool>(error_); }
+  void Rethrow() const {
+    if (error_) std::rethrow_exception(error_);
+  }
+
+ private:
+  py::object callable_;
+  std::exception_ptr error_;
+};
 
 // Lets options be copied from Python (copy.copy, copy.deepcopy).
 template <typename Class>

@@ -2,7 +2,6 @@
 // polyfit.polysft). Options are PolySfT's settings (polysft_settings.h),
 // the keys `polysft --config` reads, so a Python run and a command-line
 // run with the same settings are the same run.
-#include <exception>
 #include <optional>
 #include <string>
 
@@ -66,29 +65,15 @@ PolySftSummary RunPolySft(const std::string& scene_dir, const std::optional<std:
   if (config) ApplyPolySftSettingsFile(*config, &options);
   ApplyPolySftSettings(PythonToJson(settings), "keyword arguments", &options);
   options.rasterizer.num_threads = options.num_threads;  // as `polysft` does
-  // on_frame runs on this thread with the GIL released: it takes it back,
-  // and its first exception is re-raised once the solve is done.
-  std::exception_ptr callback_error;
-  SftFrameCallback callback;
-  if (!on_frame.is_none()) {
-    callback = [&](const SftFrameSummary& frame) {
-      py::gil_scoped_acquire acquire;
-      if (callback_error) return;
-      try {
-        on_frame(frame);
-      } catch (...) {
-        callback_error = std::current_exception();
-      }
-    };
-  }
+  DeferredCallback<const SftFrameSummary&> callback(on_frame);
   PolySftSummary summary;
   {
     py::gil_scoped_release release;
     const SftScene scene = LoadScene(scene_dir);
-    summary = SolvePolySft(options, scene, callback);
-    if (out_dir && !callback_error) WriteSftOutputs(*out_dir, scene, options, summary);
+    summary = SolvePolySft(options, scene, callback.Function());
+    if (out_dir && !callback.failed()) WriteSftOutputs(*out_dir, scene, options, summary);
   }
-  if (callback_error) std::rethrow_exception(callback_error);
+  callback.Rethrow();
   return summary;
 }
 
