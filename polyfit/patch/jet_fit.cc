@@ -4,13 +4,11 @@
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
-#include <tuple>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
-#include "polyfit/patch/local_jet_solver.h"
-#include "polyfit/patch/orientation_refinement.h"
+#include "polyfit/patch/jet_fit_kernel.h"
 #include "polyfit/util/parallel_for.h"
 
 namespace polyfit {
@@ -40,120 +38,34 @@ std::string JetFitOptions::Validate() const {
   return e.str();
 }
 
-namespace {
+namespace internal {
 
-using internal::LocalJetSolver;
-
-constexpr double kMaxTiltStep = 0.3;  // radians
-
-// Rotation by the tilt (t0, t1, 0) (axis-angle).
-Eigen::Matrix3d TiltRotation(double t0, double t1) {
-  const double angle = std::hypot(t0, t1);
-  if (angle < 1e-300) return Eigen::Matrix3d::Identity();
-  return Eigen::AngleAxisd(angle, Eigen::Vector3d(t0 / angle, t1 / angle, 0.0)).toRotationMatrix();
+std::unique_ptr<JetOrderKernel> MakeJetOrderKernel(int order) {
+  if (order <= 2) return MakeJetOrderKernel1To2(order);
+  if (order <= 4) return MakeJetOrderKernel3To4(order);
+  if (order <= 6) return MakeJetOrderKernel5To6(order);
+  return MakeJetOrderKernel7To8(order);
 }
 
-}  // namespace
+}  // namespace internal
 
 struct JetFitter::Impl {
   JetFitOptions options;
-  // Local points: x0 in the PCA frame, x in the current (tilted) frame.
-  Eigen::Matrix3Xd x0, x;
-  std::vector<double> sqrt_w;
-  Eigen::Matrix<double, Eigen::Dynamic, 2> jacobian;
-  std::tuple<LocalJetSolver<3>, LocalJetSolver<6>, LocalJetSolver<10>, LocalJetSolver<15>, LocalJetSolver<21>,
-             LocalJetSolver<28>, LocalJetSolver<36>, LocalJetSolver<45>>
-      solvers;
+  internal::JetFitWorkspace ws;
+  // Per order, made on first use: after that a fit does not allocate.
+  std::unique_ptr<internal::JetOrderKernel> kernels[kMaxJetOrder + 1];
 
-  template <typename F>
-  void WithSolver(int order, F&& f) {
-    switch (order) {
-      case 1: f(std::get<0>(solvers)); break;
-      case 2: f(std::get<1>(solvers)); break;
-      case 3: f(std::get<2>(solvers)); break;
-      case 4: f(std::get<3>(solvers)); break;
-      case 5: f(std::get<4>(solvers)); break;
-      case 6: f(std::get<5>(solvers)); break;
-      case 7: f(std::get<6>(solvers)); break;
-      default: f(std::get<7>(solvers)); break;
-    }
-  }
-
-  void Reserve(int m) {
-    if (x0.cols() < m) {
-      x0.resize(3, m);
-      x.resize(3, m);
-      sqrt_w.resize(m);
-      jacobian.resize(m, 2);
-    }
-  }
-
-  // Levenberg-Marquardt over the tilt with the Kaufman var-pro Jacobian.
-  // On entry solver holds the fit at x == x0; on exit the fit at x = tilt^T x0.
-  template <typename Solver>
-  int RefineVarProLM(Solver& solver, int m, const double* sw, Eigen::Matrix3d* tilt) {
-    const int order = solver.order();
-    Eigen::Matrix3d rc = Eigen::Matrix3d::Identity();
-    double cost = solver.ssr();
-    double lambda = 1e-4;
-    int iterations = 0;
-    for (; iterations < options.refinement.max_iterations; ++iterations) {
-      if (!solver.well_conditioned() || cost <= 0.0) break;
-      // dr/dt at fixed alpha, r = z - h(u, v), (u, v, z) = exp(-t^) x.
-      auto j = jacobian.topRows(m);
-      const auto& alpha = solver.alpha();
-      for (int i = 0; i < m; ++i) {
-        const double u = x(0, i), v = x(1, i), z = x(2, i);
-        const auto d = EvaluateJetDerivatives(order, alpha.data(), u, v);
-        const double w = sw ? sw[i] : 1.0;
-        j(i, 0) = w * (-v - d.z_v * z);
-        j(i, 1) = w * (u + d.z_u * z);
-      }
-      solver.ProjectOut(j);
-      const Eigen::Matrix2d jtj = j.transpose() * j;
-      const Eigen::Vector2d jtr = j.transpose() * solver.residual();
-      bool accepted = false;
-      for (int attempt = 0; attempt < 12 && !accepted; ++attempt) {
-        Eigen::Matrix2d h = jtj;
-        h.diagonal() *= 1.0 + lambda;
-        Eigen::Vector2d step = -h.ldlt().solve(jtr);
-        if (!step.allFinite()) break;
-        // A tilt step beyond ~17 degrees leaves the linearisation's reach.
-        const double step_norm = step.norm();
-        if (step_norm > kMaxTiltStep) step *= kMaxTiltStep / step_norm;
-        const Eigen::Matrix3d rc_new = rc * TiltRotation(step[0], step[1]);
-        x.leftCols(m).noalias() = rc_new.transpose() * x0.leftCols(m);
-        solver.Solve(order, x, m, sw);
-        if (solver.ssr() < cost) {
-          accepted = true;
-          const double decrease = (cost - solver.ssr()) / cost;
-          rc = rc_new;
-          cost = solver.ssr();
-          lambda = std::max(lambda * 0.1, 1e-8);
-          if (decrease < options.refinement.function_tolerance) {
-            ++iterations;
-            *tilt = rc;
-            return iterations;
-          }
-        } else {
-          lambda *= 10.0;
-        }
-      }
-      if (!accepted) {
-        // Restore the fit at the best rotation.
-        x.leftCols(m).noalias() = rc.transpose() * x0.leftCols(m);
-        solver.Solve(order, x, m, sw);
-        break;
-      }
-    }
-    *tilt = rc;
-    return iterations;
+  internal::JetOrderKernel& Kernel(int order) {
+    if (!kernels[order]) kernels[order] = internal::MakeJetOrderKernel(order);
+    return *kernels[order];
   }
 
   JetPatch Fit(const Eigen::Ref<const Eigen::Matrix3Xd>& points, const double* weights) {
     JetPatch patch;
     const int n = static_cast<int>(points.cols());
-    Reserve(n);
+    ws.Reserve(n);
+    Eigen::Matrix3Xd& x0 = ws.x0;
+    std::vector<double>& sqrt_w = ws.sqrt_w;
 
     // Centroid of the finite points (weighted), then their centred covariance.
     double weight_sum = 0.0;
@@ -202,7 +114,7 @@ struct JetFitter::Impl {
     }
     patch.frame.scale = extent;
     x0.leftCols(m) /= extent;
-    x.leftCols(m) = x0.leftCols(m);
+    ws.x.leftCols(m) = x0.leftCols(m);
 
     int order = options.order;
     while (NumJetCoefficients(order) > m) --order;
@@ -210,24 +122,10 @@ struct JetFitter::Impl {
     patch.order = order;
 
     const double* sw = weights ? sqrt_w.data() : nullptr;
-    WithSolver(order, [&](auto& solver) {
-      patch.flags |= solver.Solve(order, x, m, sw);
-      if (options.refine_orientation && solver.well_conditioned()) {
-        Eigen::Matrix3d tilt = Eigen::Matrix3d::Identity();
-        if (options.refinement.solver == OrientationSolver::kCeres) {
-          patch.refinement_iterations = RefineOrientationWithCeres(options.refinement, order, x0, m, sw, &tilt);
-          x.leftCols(m).noalias() = tilt.transpose() * x0.leftCols(m);
-          patch.flags |= solver.Solve(order, x, m, sw);
-        } else {
-          patch.refinement_iterations = RefineVarProLM(solver, m, sw, &tilt);
-        }
-        patch.frame.rotation = rotation * tilt;
-      }
-      const int k = NumJetCoefficients(order);
-      for (int i = 0; i < k; ++i) patch.coefficients[i] = solver.alpha()[i];
-      const double mean_sq = solver.ssr() / (weights ? weight_sum : double(m));
-      patch.rms_residual = std::sqrt(mean_sq) * extent;
-    });
+    Eigen::Matrix3d tilt;
+    Kernel(order).Fit(options, order, m, sw, weight_sum, &ws, &patch, &tilt);
+    patch.frame.rotation = rotation * tilt;
+    patch.rms_residual *= extent;
     if (patch.rms_residual > options.not_height_field_threshold * extent) {
       patch.flags |= kJetFitNotHeightField;
     }
