@@ -144,6 +144,7 @@ void BindSimulation(py::module_& m) {
       .def_readonly("inside_percent", &DrapeFrameSummary::inside_percent)
       .def_readonly("inside_unprojected_percent", &DrapeFrameSummary::inside_unprojected_percent)
       .def_readonly("inside_nearest_percent", &DrapeFrameSummary::inside_nearest_percent)
+      .def_readonly("inside_area_percent", &DrapeFrameSummary::inside_area_percent)
       .def_readonly("min_distance", &DrapeFrameSummary::min_distance)
       .def_readonly("edge_strain_percent", &DrapeFrameSummary::edge_strain_percent)
       .def_readonly("area_change_percent", &DrapeFrameSummary::area_change_percent)

@@ -36,6 +36,12 @@ double PercentNegative(const Eigen::VectorXd& d) {
   return 100.0 * (d.array() < 0.0).count() / static_cast<double>(d.size());
 }
 
+// The % of `area` (per vertex) where d < 0.
+double PercentAreaNegative(const Eigen::VectorXd& d, const Eigen::VectorXd& area) {
+  const double total = area.sum();
+  return total > 0.0 ? 100.0 * (d.array() < 0.0).select(area, 0.0).sum() / total : 0.0;
+}
+
 // Everything read from disk, checked before anything is written.
 struct DrapeInputs {
   SkinnedBody body;
@@ -117,6 +123,8 @@ DrapeFrameSummary MeasureFrame(const DrapeSimulationOptions& options, const Drap
   record.finite = step.IsSolutionUsable();
   const Eigen::VectorXd raw = solver.SignedDistances();
   record.inside_unprojected_percent = PercentNegative(raw);
+  record.inside_area_percent =
+      PercentAreaNegative(raw, VertexAreas(TriangleMesh{solver.positions(), posed->faces, {}}));
   const bool project = options.project_offset >= 0.0;
   const auto project_start = Clock::now();
   posed->vertices = project ? solver.ProjectedOutOfBody(options.project_offset) : solver.positions();
@@ -248,6 +256,7 @@ nlohmann::json FramesJson(const std::vector<DrapeFrameSummary>& records) {
                       {"time_s", r.time_s},
                       {"inside_percent", r.inside_percent},
                       {"inside_nearest_percent", r.inside_nearest_percent},
+                      {"inside_area_percent", r.inside_area_percent},
                       {"edge_strain_percent", r.edge_strain_percent},
                       {"area_change_percent", r.area_change_percent},
                       {"min_distance_m", JsonNumber(r.min_distance)},
@@ -262,15 +271,15 @@ void WriteOutputs(const DrapeSimulationOptions& options, const DrapeSimulationSu
   const fs::path out(options.out_dir);
   WriteFileAtomically((out / "frames.csv").string(), [&](std::ostream& csv) {
     csv << "frame,time_s,solve_time_s,iterations,passes,inside_percent,inside_nearest_percent,"
-           "inside_unprojected_percent,min_distance_m,edge_strain_percent,area_change_percent,"
+           "inside_unprojected_percent,inside_area_percent,min_distance_m,edge_strain_percent,area_change_percent,"
            "max_edge_strain_percent,stretch_energy_J,bending_energy_J,cost,finite\n";
     csv << std::setprecision(6);
     for (const DrapeFrameSummary& r : summary.records) {
       csv << r.frame << ',' << r.time_s << ',' << r.solve_time_s << ',' << r.iterations << ',' << r.passes << ','
           << r.inside_percent << ',' << r.inside_nearest_percent << ',' << r.inside_unprojected_percent << ','
-          << r.min_distance << ',' << r.edge_strain_percent << ',' << r.area_change_percent << ','
-          << r.max_edge_strain_percent << ',' << r.stretch_energy << ',' << r.bending_energy << ',' << r.cost << ','
-          << (r.finite ? 1 : 0) << '\n';
+          << r.inside_area_percent << ',' << r.min_distance << ',' << r.edge_strain_percent << ','
+          << r.area_change_percent << ',' << r.max_edge_strain_percent << ',' << r.stretch_energy << ','
+          << r.bending_energy << ',' << r.cost << ',' << (r.finite ? 1 : 0) << '\n';
     }
   });
   const DrapePhysicsOptions& physics = options.solver.physics;

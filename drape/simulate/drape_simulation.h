@@ -10,7 +10,8 @@
 //   metrics.json            options, sizes, termination, per-frame metrics,
 //                           their summary
 // Metrics per frame: epsilon_c (% of garment vertices inside the body, exact
-// signed distance; and with the nearest-vertex approximation), epsilon_e and
+// signed distance; by area; and with the nearest-vertex approximation),
+// epsilon_e and
 // epsilon_a (mean % edge-length and area change against the garment at rest
 // as its patches rebuild it),
 // the StVK stretch and bending energies (J), the solver's cost, time.
@@ -84,10 +85,14 @@ struct DrapeFrameSummary {
   int passes = 0;
   double inside_percent = 0.0;              // epsilon_c, exact signed distance
   double inside_unprojected_percent = 0.0;  // before project_offset's post-process (= inside_percent without it)
-  double inside_nearest_percent = 0.0;      // epsilon_c, nearest body vertex
-  double min_distance = 0.0;                // m, negative inside
-  double edge_strain_percent = 0.0;         // epsilon_e
-  double area_change_percent = 0.0;         // epsilon_a
+  // epsilon_c by area, before the post-process: the % of the garment's
+  // area (lumped at its vertices) inside the body. Unlike the vertex count
+  // it does not change with how densely a region is meshed.
+  double inside_area_percent = 0.0;
+  double inside_nearest_percent = 0.0;  // epsilon_c, nearest body vertex
+  double min_distance = 0.0;            // m, negative inside
+  double edge_strain_percent = 0.0;     // epsilon_e
+  double area_change_percent = 0.0;     // epsilon_a
   double max_edge_strain_percent = 0.0;
   double stretch_energy = 0.0;
   double bending_energy = 0.0;

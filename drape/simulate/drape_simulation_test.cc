@@ -111,6 +111,10 @@ TEST_F(DrapeSimulationTest, ProjectionMovesVerticesLeftInsideOut) {
   EXPECT_NEAR(projected.records[0].inside_unprojected_percent, raw.records[0].inside_percent, 1e-9);
   EXPECT_EQ(projected.records[0].inside_percent, 0.0);
   EXPECT_GE(projected.records[0].min_distance, 0.0);
+  // By area, before the post-process: on this evenly meshed tube about
+  // the vertex count (its end rings carry half a row's area each).
+  EXPECT_NEAR(projected.records[0].inside_area_percent, raw.records[0].inside_area_percent, 1e-9);
+  EXPECT_NEAR(raw.records[0].inside_area_percent, raw.records[0].inside_percent, 0.25 * raw.records[0].inside_percent);
 }
 
 TEST_F(DrapeSimulationTest, BadInputsAreNamedBeforeAnythingIsWritten) {

@@ -57,6 +57,7 @@ OneFitEvaluationRow Summarize(const std::string& name, const DrapeSimulationSumm
   for (const DrapeFrameSummary& r : drape.records) {
     row.inside_percent += r.inside_unprojected_percent / n;
     row.inside_projected_percent += r.inside_percent / n;
+    row.inside_area_percent += r.inside_area_percent / n;
     row.edge_strain_percent += r.edge_strain_percent / n;
     row.area_change_percent += r.area_change_percent / n;
     row.ms_per_frame += 1e3 * r.time_s / n;
@@ -71,6 +72,7 @@ void WriteReport(const OneFitEvaluationOptions& options, const OneFitEvaluationS
   const fs::path out(options.simulation.out_dir);
   WriteFileAtomically((out / "eval.csv").string(), [&](std::ostream& csv) {
     csv << "frame,reference_inside_percent,network_inside_percent,network_projected_inside_percent,"
+           "reference_inside_area_percent,network_inside_area_percent,"
            "reference_edge_strain_percent,network_edge_strain_percent,reference_area_change_percent,"
            "network_area_change_percent,distance_to_reference_mm,reference_jitter_mm,network_jitter_mm,"
            "reference_ms,network_ms\n";
@@ -78,9 +80,10 @@ void WriteReport(const OneFitEvaluationOptions& options, const OneFitEvaluationS
     for (size_t t = 0; t < summary.frame_numbers.size(); ++t) {
       const DrapeFrameSummary &r = reference.records[t], &k = network.records[t];
       csv << summary.frame_numbers[t] << ',' << r.inside_percent << ',' << k.inside_unprojected_percent << ','
-          << k.inside_percent << ',' << r.edge_strain_percent << ',' << k.edge_strain_percent << ','
-          << r.area_change_percent << ',' << k.area_change_percent << ',' << summary.distance_mm[t] << ','
-          << reference_jitter[t] << ',' << network_jitter[t] << ',' << 1e3 * r.time_s << ',' << 1e3 * k.time_s << '\n';
+          << k.inside_percent << ',' << r.inside_area_percent << ',' << k.inside_area_percent << ','
+          << r.edge_strain_percent << ',' << k.edge_strain_percent << ',' << r.area_change_percent << ','
+          << k.area_change_percent << ',' << summary.distance_mm[t] << ',' << reference_jitter[t] << ','
+          << network_jitter[t] << ',' << 1e3 * r.time_s << ',' << 1e3 * k.time_s << '\n';
     }
   });
   WriteFileAtomically((out / "eval.md").string(), [&](std::ostream& md) { md << summary.Table(); });
@@ -115,14 +118,16 @@ std::string OneFitEvaluationOptions::Validate() const {
 
 std::string OneFitEvaluationSummary::Table() const {
   std::string table =
-      "| drape | eps_c % | eps_c % post | eps_e % | eps_a % | to reference mm (max frame) | jitter mm | ms / frame |\n"
-      "|---|---:|---:|---:|---:|---|---:|---:|\n";
+      "| drape | eps_c % | eps_c % post | eps_c % area | eps_e % | eps_a % | to reference mm (max frame) | jitter mm | "
+      "ms / "
+      "frame |\n"
+      "|---|---:|---:|---:|---:|---:|---|---:|---:|\n";
   for (const OneFitEvaluationRow* row : {&reference, &network}) {
     char line[512];
-    std::snprintf(line, sizeof(line), "| %s | %.2f | %.2f | %.2f | %.2f | %.1f (%.1f) | %.2f | %.3g |\n",
-                  row->name.c_str(), row->inside_percent, row->inside_projected_percent, row->edge_strain_percent,
-                  row->area_change_percent, row->distance_to_reference_mm, row->max_distance_to_reference_mm,
-                  row->jitter_mm, row->ms_per_frame);
+    std::snprintf(line, sizeof(line), "| %s | %.2f | %.2f | %.2f | %.2f | %.2f | %.1f (%.1f) | %.2f | %.3g |\n",
+                  row->name.c_str(), row->inside_percent, row->inside_projected_percent, row->inside_area_percent,
+                  row->edge_strain_percent, row->area_change_percent, row->distance_to_reference_mm,
+                  row->max_distance_to_reference_mm, row->jitter_mm, row->ms_per_frame);
     table += line;
   }
   return table;
