@@ -1,11 +1,15 @@
 #include "polyfit/model/polyfit_model.h"
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <random>
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
 #include "polyfit/mesh/primitives.h"
+#include "polyfit/model/orient_patches.h"
 #include "polyfit/model/reconstruction.h"
 #include "polyfit/pipeline/fit_mesh.h"
 #include "polyfit/util/scoped_temp_dir.h"
@@ -123,6 +127,54 @@ TEST_F(PolyFitModelTest, InvalidModelIsNotSaved) {
   broken.membership_patch[0] = 12345;
   EXPECT_THROW(SavePolyFitModel(Path("b.pfm"), broken), ModelIoError);
   EXPECT_FALSE(fs::exists(Path("b.pfm")));
+}
+
+// Frames turned about their normals keep the surface: the jet re-expressed
+// in the turned (u, v) gives the same points.
+TEST(AlignPatchFramesTest, TurningAPatchKeepsItsSurface) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  for (int order = 1; order <= kMaxJetOrder; ++order) {
+    JetPatch patch;
+    patch.order = order;
+    for (int k = 0; k < NumJetCoefficients(order); ++k) patch.coefficients[k] = 0.3 * uniform(rng);
+    patch.frame.scale = 0.7;
+    patch.frame.rotation = Eigen::AngleAxisd(1.1, Eigen::Vector3d(0.3, -0.5, 0.8).normalized()).toRotationMatrix();
+    patch.frame.translation = Eigen::Vector3d(0.2, -0.4, 1.5);
+    JetPatch turned = patch;
+    const double theta = 2.0 * uniform(rng);
+    TurnPatchAboutNormal(theta, &turned);
+    EXPECT_TRUE(turned.frame.rotation.col(2).isApprox(patch.frame.rotation.col(2), 1e-15));
+    for (int i = 0; i < 20; ++i) {
+      const double u = uniform(rng), v = uniform(rng);
+      const double u_turned = std::cos(theta) * u + std::sin(theta) * v;
+      const double v_turned = -std::sin(theta) * u + std::cos(theta) * v;
+      EXPECT_LT((turned.PointInWorld(u_turned, v_turned) - patch.PointInWorld(u, v)).norm(), 1e-12) << order;
+      EXPECT_LT((turned.NormalInWorld(u_turned, v_turned) - patch.NormalInWorld(u, v)).norm(), 1e-12) << order;
+    }
+  }
+}
+
+TEST(AlignPatchFramesTest, AFittedModelKeepsItsPointsAndItsUAxesFollowTheDirection) {
+  MeshFitOptions options;
+  options.clustering.num_patches = 30;
+  options.evaluate = false;
+  PolyFitModel model;
+  FitMesh(options, MakeBumpyTorus(48, 24), &model, nullptr);
+  std::vector<Eigen::Vector3d> points;
+  for (int k = 0; k < model.num_memberships(); ++k) points.push_back(model.MembershipPoint(k));
+  const Eigen::Vector3d up = Eigen::Vector3d::UnitY(), forward = Eigen::Vector3d::UnitZ();
+  EXPECT_GT(AlignPatchFrames(up, forward, &model), 0.1);
+  for (int k = 0; k < model.num_memberships(); ++k) EXPECT_LT((model.MembershipPoint(k) - points[k]).norm(), 1e-12);
+  for (const JetPatch& patch : model.patches) {
+    const Eigen::Matrix3d& r = patch.frame.rotation;
+    EXPECT_NEAR(r.determinant(), 1.0, 1e-12);
+    Eigen::Vector3d target = up - up.dot(r.col(2)) * r.col(2);
+    if (target.norm() < std::sin(15.0 * M_PI / 180.0)) target = forward - forward.dot(r.col(2)) * r.col(2);
+    EXPECT_GT(r.col(0).dot(target.normalized()), 1.0 - 1e-12);
+  }
+  // A second alignment finds every frame aligned already.
+  EXPECT_LT(AlignPatchFrames(up, forward, &model), 1e-12);
 }
 
 }  // namespace
