@@ -101,6 +101,7 @@ void SaveOneFitModel(const std::string& path, const OneFitModel& model) {
   w.Put<std::uint32_t>(static_cast<std::uint32_t>(model.jet_order));
   w.Put<std::uint32_t>(static_cast<std::uint32_t>(model.num_joints));
   w.Put<std::int32_t>(model.network.warp_order());
+  w.Put<std::int32_t>(model.aligned_frames ? 1 : 0);
   PutMlp(model.network.patch_encoder(), &w);
   PutMlp(model.network.body_encoder(), &w);
   PutMlp(model.network.decoder(), &w);
@@ -173,6 +174,9 @@ OneFitModel LoadOneFitModel(const std::string& path) {
   model.jet_order = static_cast<int>(r.Get<std::uint32_t>("the header"));
   model.num_joints = static_cast<int>(r.Get<std::uint32_t>("the header"));
   const int warp_order = version >= 2 ? r.Get<std::int32_t>("the header") : -1;
+  const int aligned = version >= 3 ? r.Get<std::int32_t>("the header") : 0;
+  if (aligned != 0 && aligned != 1) r.Fail("frame alignment flag out of range");
+  model.aligned_frames = aligned == 1;
   if (model.jet_order < 1 || model.jet_order > kMaxJetOrder) r.Fail("jet order out of range");
   if (model.num_joints < 1 || model.num_joints > static_cast<int>(kMaxWidth)) r.Fail("joint count out of range");
   if (warp_order < -1 || warp_order > kMaxJetOrder) r.Fail("warp order out of range");

@@ -14,8 +14,9 @@
 
 namespace polyfit {
 
-// Version 2 adds the warp head's order; version 1 files still load.
-inline constexpr int kOneFitModelVersion = 2;
+// Version 2 adds the warp head's order, version 3 whether the patch frames
+// were aligned; earlier files still load.
+inline constexpr int kOneFitModelVersion = 3;
 
 class OneFitModelError : public Error {
  public:
@@ -25,6 +26,9 @@ class OneFitModelError : public Error {
 struct OneFitModel {
   int jet_order = 4;
   int num_joints = 0;
+  // Trained on patches with aligned frames (GarmentPatchOptions::
+  // align_frames): a garment is patched the same way to be draped.
+  bool aligned_frames = false;
   OneFitNetwork network;
   FeatureNormalizer patch_normalizer, body_normalizer;
   std::vector<double> weights;

@@ -160,6 +160,7 @@ OneFitModel OneFitTrainer::MakeModel(const std::vector<double>& weights) const {
   OneFitModel model;
   model.jet_order = options_.drape.patching.jet_order;
   model.num_joints = body_.skeleton.num_joints();
+  model.aligned_frames = options_.drape.patching.align_frames;
   model.network = network_;
   model.patch_normalizer = patch_normalizer_;
   model.body_normalizer = body_normalizer_;
@@ -169,9 +170,11 @@ OneFitModel OneFitTrainer::MakeModel(const std::vector<double>& weights) const {
 
 void OneFitTrainer::StartFrom(const OneFitModel& model) {
   if (model.jet_order != options_.drape.patching.jet_order || model.num_joints != body_.skeleton.num_joints() ||
-      model.network.warp_order() != options_.network.warp_order) {
+      model.network.warp_order() != options_.network.warp_order ||
+      model.aligned_frames != options_.drape.patching.align_frames) {
     throw std::invalid_argument(
-        "OneFitTrainer::StartFrom: the model's jet order, warp order or rig differs from the training's");
+        "OneFitTrainer::StartFrom: the model's jet order, warp order, frame alignment or rig differs from the "
+        "training's");
   }
   if (model.patch_normalizer.mean.size() != patch_normalizer_.mean.size() ||
       model.body_normalizer.mean.size() != body_normalizer_.mean.size()) {

@@ -357,8 +357,8 @@ TEST_F(OneFitTrainerTest, AModelFileRoundTripsAndTheDraperPredictsAsTraining) {
   wrong_version[8] = 9;
   expect_error(wrong_version, "version 9");
   std::string huge = bytes;
-  huge[24] = '\xff';  // the patch encoder's layer count
-  huge[25] = '\xff';
+  huge[28] = '\xff';  // the patch encoder's layer count
+  huge[29] = '\xff';
   expect_error(huge, "layer sizes");
   EXPECT_THROW(LoadOneFitModel(path + ".absent"), OneFitModelError);
 }
@@ -383,7 +383,7 @@ TEST(FeatureNormalizerTest, FloorsTheSpreadClampsAndIgnoresConstants) {
 }
 
 // A version-1 file (before the warp head) loads as a model without one.
-TEST(OneFitModelTest, VersionOneFilesStillLoad) {
+TEST(OneFitModelTest, OlderVersionsStillLoadAndTheAlignmentRoundTrips) {
   const int order = 2, joints = 3;
   OneFitNetworkOptions options;
   options.patch_hidden = {4};
@@ -402,19 +402,32 @@ TEST(OneFitModelTest, VersionOneFilesStillLoad) {
   }
   model.weights.resize(model.network.num_parameters());
   model.network.Initialize(3, 1.0, model.weights.data());
-  const std::string path = ::testing::TempDir() + "/onefit_v1.pfonefit";
+  model.aligned_frames = true;
+  const std::string path = ::testing::TempDir() + "/onefit_v3.pfonefit";
   SaveOneFitModel(path, model);
+  EXPECT_TRUE(LoadOneFitModel(path).aligned_frames);
   std::string bytes;
   {
     std::ifstream in(path, std::ios::binary);
     bytes.assign(std::istreambuf_iterator<char>(in), {});
   }
-  ASSERT_EQ(bytes[8], 2);  // the version
-  bytes[8] = 1;
-  bytes.erase(20, 4);  // version 1 has no warp order
-  std::ofstream(path, std::ios::binary) << bytes;
-  const OneFitModel loaded = LoadOneFitModel(path);
+  ASSERT_EQ(bytes[8], 3);  // the version
+  // Version 2: no alignment flag (PCA's frames).
+  std::string v2 = bytes;
+  v2[8] = 2;
+  v2.erase(24, 4);
+  const std::string path2 = ::testing::TempDir() + "/onefit_v2.pfonefit";
+  std::ofstream(path2, std::ios::binary) << v2;
+  EXPECT_FALSE(LoadOneFitModel(path2).aligned_frames);
+  // Version 1: no warp order either.
+  std::string v1 = bytes;
+  v1[8] = 1;
+  v1.erase(20, 8);
+  const std::string path1 = ::testing::TempDir() + "/onefit_v1.pfonefit";
+  std::ofstream(path1, std::ios::binary) << v1;
+  const OneFitModel loaded = LoadOneFitModel(path1);
   EXPECT_EQ(loaded.network.warp_order(), -1);
+  EXPECT_FALSE(loaded.aligned_frames);
   EXPECT_EQ(loaded.weights, model.weights);
 }
 

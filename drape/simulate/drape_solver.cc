@@ -52,6 +52,7 @@ PolyFitModel PatchGarment(const TriangleMesh& mesh, const GarmentPatchOptions& p
   options.max_splits = patching.max_splits;
   PolyFitModel model = FitAdaptivePatches(options, mesh);
   OrientPatchesLikeFaces(mesh, &model);
+  if (patching.align_frames) AlignPatchFrames(Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitZ(), &model);
   return model;
 }
 

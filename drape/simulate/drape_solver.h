@@ -81,6 +81,13 @@ struct GarmentPatchOptions {
   // max_splits rounds.
   double max_fit_error = 8e-3;
   int max_splits = 4;
+  // Turn each patch's frame about its normal so that its u axis follows
+  // the body's up axis (y; forward z where a patch faces up or down):
+  // AlignPatchFrames. PCA's in-plane axes are arbitrary (random on a round
+  // patch), so a network reading and predicting jets in them sees noise; a
+  // remeshed garment's patches share aligned frames. A model records
+  // whether it was trained so (OneFitModel::aligned_frames).
+  bool align_frames = false;
 };
 
 // Each vertex's slide along its patch ((u, v) a parameter too); disabled,

@@ -19,6 +19,16 @@ TEST(DrapeSolverTest, PatchesReproduceTheRestGarment) {
   DrapeSolverOptions options;
   DrapeSolver solver(body, garment, SingleJointWeights(garment.num_vertices(), 0), options);
   EXPECT_LT((solver.positions() - garment.vertices).cwiseAbs().maxCoeff(), 1e-6);
+  // Frames aligned to the up axis: other jets, the same garment.
+  const TriangleMesh tube = MakeTube(0.2, 0.1, 0.5, 24, 8);
+  const SkinWeights weights = SingleJointWeights(tube.num_vertices(), 0);
+  options.patching.align_frames = true;
+  DrapeSolver aligned(body, tube, weights, options);
+  options.patching.align_frames = false;
+  DrapeSolver pca(body, tube, weights, options);
+  EXPECT_LT((aligned.rest_garment().vertices - pca.rest_garment().vertices).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_NE(aligned.RestPatchParameters(), pca.RestPatchParameters());
+  for (const JetPatch& patch : aligned.model().patches) EXPECT_GT(patch.frame.rotation.col(0).y(), 0.99);
 }
 
 TEST(DrapeSolverTest, AFreeSheetFallsWithTheWeightsAccelerationAndKeepsItsShape) {
