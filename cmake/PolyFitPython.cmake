@@ -72,7 +72,20 @@ function(polyfit_python_test name file)
     message(STATUS "Python test ${name} skipped: no pytest for ${Python3_EXECUTABLE} (apt-get install python3-pytest)")
     return()
   endif()
+  # Under the sanitizers the interpreter is not instrumented: their runtime
+  # is preloaded, and leak detection left to the C++ tests (CPython keeps
+  # its allocations to the end by design).
+  set(sanitizer_env "")
+  if(POLYFIT_SANITIZE)
+    set(runtime libasan.so)
+    if(POLYFIT_SANITIZE MATCHES "thread")
+      set(runtime libtsan.so)
+    endif()
+    execute_process(COMMAND ${CMAKE_CXX_COMPILER} -print-file-name=${runtime} OUTPUT_VARIABLE preload
+                    OUTPUT_STRIP_TRAILING_WHITESPACE)
+    set(sanitizer_env "LD_PRELOAD=${preload};ASAN_OPTIONS=detect_leaks=0:halt_on_error=1")
+  endif()
   add_test(NAME ${name} COMMAND ${Python3_EXECUTABLE} -m pytest -q -p no:cacheprovider --import-mode=importlib ${file})
   set_tests_properties(${name} PROPERTIES ENVIRONMENT
-    "PYTHONPATH=${POLYFIT_PYTHON_DIR};POLYFIT_BIN_DIR=${CMAKE_BINARY_DIR}/bin;POLYFIT_SHARED_DATA_DIR=${PROJECT_SOURCE_DIR}/../shared/data;POLYFIT_SOURCE_DIR=${PROJECT_SOURCE_DIR};${ARG_ENV}")
+    "PYTHONPATH=${POLYFIT_PYTHON_DIR};POLYFIT_BIN_DIR=${CMAKE_BINARY_DIR}/bin;POLYFIT_SHARED_DATA_DIR=${PROJECT_SOURCE_DIR}/../shared/data;POLYFIT_SOURCE_DIR=${PROJECT_SOURCE_DIR};${ARG_ENV};${sanitizer_env}")
 endfunction()
