@@ -60,6 +60,15 @@ std::unique_ptr<JetOrderKernel> MakeJetOrderKernel3To4(int order);
 std::unique_ptr<JetOrderKernel> MakeJetOrderKernel5To6(int order);
 std::unique_ptr<JetOrderKernel> MakeJetOrderKernel7To8(int order);
 
+// Defines MakeJetOrderKernel<A>To<B>, the kernels of orders A and B (one
+// translation unit's pair).
+#define POLYFIT_DEFINE_JET_ORDER_KERNELS(A, B)                                              \
+  std::unique_ptr<JetOrderKernel> MakeJetOrderKernel##A##To##B(int order) {                 \
+    if (order == (A)) return std::make_unique<JetOrderKernelImpl<NumJetCoefficients(A)>>(); \
+    if (order == (B)) return std::make_unique<JetOrderKernelImpl<NumJetCoefficients(B)>>(); \
+    return nullptr;                                                                         \
+  }
+
 constexpr double kMaxTiltStep = 0.3;  // radians
 
 // Rotation by the tilt (t0, t1, 0) (axis-angle).

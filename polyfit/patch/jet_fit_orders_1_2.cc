@@ -4,13 +4,7 @@
 namespace polyfit {
 namespace internal {
 
-std::unique_ptr<JetOrderKernel> MakeJetOrderKernel1To2(int order) {
-  switch (order) {
-    case 1: return std::make_unique<JetOrderKernelImpl<3>>();
-    case 2: return std::make_unique<JetOrderKernelImpl<6>>();
-    default: return nullptr;
-  }
-}
+POLYFIT_DEFINE_JET_ORDER_KERNELS(1, 2)
 
 }  // namespace internal
 }  // namespace polyfit

@@ -4,13 +4,7 @@
 namespace polyfit {
 namespace internal {
 
-std::unique_ptr<JetOrderKernel> MakeJetOrderKernel3To4(int order) {
-  switch (order) {
-    case 3: return std::make_unique<JetOrderKernelImpl<10>>();
-    case 4: return std::make_unique<JetOrderKernelImpl<15>>();
-    default: return nullptr;
-  }
-}
+POLYFIT_DEFINE_JET_ORDER_KERNELS(3, 4)
 
 }  // namespace internal
 }  // namespace polyfit

@@ -4,13 +4,7 @@
 namespace polyfit {
 namespace internal {
 
-std::unique_ptr<JetOrderKernel> MakeJetOrderKernel5To6(int order) {
-  switch (order) {
-    case 5: return std::make_unique<JetOrderKernelImpl<21>>();
-    case 6: return std::make_unique<JetOrderKernelImpl<28>>();
-    default: return nullptr;
-  }
-}
+POLYFIT_DEFINE_JET_ORDER_KERNELS(5, 6)
 
 }  // namespace internal
 }  // namespace polyfit

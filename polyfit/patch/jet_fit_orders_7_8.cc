@@ -4,13 +4,7 @@
 namespace polyfit {
 namespace internal {
 
-std::unique_ptr<JetOrderKernel> MakeJetOrderKernel7To8(int order) {
-  switch (order) {
-    case 7: return std::make_unique<JetOrderKernelImpl<36>>();
-    case 8: return std::make_unique<JetOrderKernelImpl<45>>();
-    default: return nullptr;
-  }
-}
+POLYFIT_DEFINE_JET_ORDER_KERNELS(7, 8)
 
 }  // namespace internal
 }  // namespace polyfit
