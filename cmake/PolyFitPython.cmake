@@ -83,7 +83,11 @@ function(polyfit_python_test name file)
     endif()
     execute_process(COMMAND ${CMAKE_CXX_COMPILER} -print-file-name=${runtime} OUTPUT_VARIABLE preload
                     OUTPUT_STRIP_TRAILING_WHITESPACE)
-    set(sanitizer_env "LD_PRELOAD=${preload};ASAN_OPTIONS=detect_leaks=0:halt_on_error=1")
+    # libstdc++ too: the runtime's __cxa_throw interceptor must find it
+    # loaded, and the interpreter does not link it.
+    execute_process(COMMAND ${CMAKE_CXX_COMPILER} -print-file-name=libstdc++.so OUTPUT_VARIABLE libstdcxx
+                    OUTPUT_STRIP_TRAILING_WHITESPACE)
+    set(sanitizer_env "LD_PRELOAD=${preload} ${libstdcxx};ASAN_OPTIONS=detect_leaks=0:halt_on_error=1")
   endif()
   add_test(NAME ${name} COMMAND ${Python3_EXECUTABLE} -m pytest -q -p no:cacheprovider --import-mode=importlib ${file})
   set_tests_properties(${name} PROPERTIES ENVIRONMENT
