@@ -112,7 +112,7 @@ void BindSolverOptions(py::module_& m) {
   AddCopy(shape);
 }
 
-void BindSimulation(py::module_& m) {
+void BindSimulationOptions(py::module_& m) {
   py::class_<DrapeSimulationOptions> options(m, "DrapeSimulationOptions");
   options.def(py::init<>())
       .def_readwrite("body_dir", &DrapeSimulationOptions::body_dir)
@@ -134,7 +134,10 @@ void BindSimulation(py::module_& m) {
       .def_readwrite("skin", &DrapeSimulationOptions::skin)
       .def("validate", &DrapeSimulationOptions::Validate);
   AddCopy(options);
+}
 
+// Per-frame and whole-run summaries, and the run itself.
+void BindSimulationRun(py::module_& m) {
   py::class_<DrapeFrameSummary>(m, "DrapeFrameSummary")
       .def_readonly("frame", &DrapeFrameSummary::frame)
       .def_readonly("termination_type", &DrapeFrameSummary::termination_type)
@@ -206,5 +209,6 @@ PYBIND11_MODULE(_drape, m) {
   pybind11::module_::import("polyfit._core");  // TerminationType, the errors
   pp::BindPhysics(m);
   pp::BindSolverOptions(m);
-  pp::BindSimulation(m);
+  pp::BindSimulationOptions(m);
+  pp::BindSimulationRun(m);
 }

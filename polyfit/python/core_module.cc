@@ -272,7 +272,7 @@ py::array_t<double> PerPoint(py::object u, py::object v, int width, F f) {
   return out;
 }
 
-void BindPatches(py::module_& m) {
+void BindPatchFrame(py::module_& m) {
   py::class_<PatchFrame> frame(m, "PatchFrame", "x_world = scale * rotation @ x_patch + translation.");
   frame.def(py::init<>())
       .def_readwrite("scale", &PatchFrame::scale)
@@ -298,7 +298,10 @@ void BindPatches(py::module_& m) {
           },
           "points_in_world"_a);
   AddCopy(frame);
+}
 
+// A patch: its frame, order, coefficients, and its surface by (u, v).
+void BindJetPatch(py::module_& m) {
   m.def("jet_fit_flags_to_string", &JetFitFlagsToString, "flags"_a);
   py::class_<JetPatch> patch(m, "JetPatch", "A patch: its frame and the n-jet height function over it.");
   patch.def(py::init<>())
@@ -349,7 +352,9 @@ void BindPatches(py::module_& m) {
                std::to_string(p.rms_residual) + ", " + JetFitFlagsToString(p.flags) + ")";
       });
   AddCopy(patch);
+}
 
+void BindJetFitting(py::module_& m) {
   py::enum_<OrientationSolver>(m, "OrientationSolver")
       .value("VARPRO_LM", OrientationSolver::kVarProLM)
       .value("CERES", OrientationSolver::kCeres);
@@ -469,7 +474,7 @@ void BindModel(py::module_& m) {
 
 // ---------------------------------------------------------------- fitting
 
-void BindFitMesh(py::module_& m) {
+void BindClustering(py::module_& m) {
   py::enum_<SubdivisionScheme>(m, "SubdivisionScheme")
       .value("MIDPOINT", SubdivisionScheme::kMidpoint)
       .value("LOOP", SubdivisionScheme::kLoop);
@@ -500,7 +505,9 @@ void BindFitMesh(py::module_& m) {
       .def_readonly("levels", &SubdivisionSummary::levels)
       .def_readonly("scheme_used", &SubdivisionSummary::scheme_used)
       .def_readonly("fallback_reason", &SubdivisionSummary::fallback_reason);
+}
 
+void BindFitMesh(py::module_& m) {
   py::class_<MeshFitOptions> options(m, "MeshFitOptions");
   options.def(py::init<>())
       .def_readwrite("clustering", &MeshFitOptions::clustering)
@@ -612,8 +619,11 @@ PYBIND11_MODULE(_core, m) {
   pp::BindErrors(m);
   pp::BindMesh(m);
   pp::BindJets(m);
-  pp::BindPatches(m);
+  pp::BindPatchFrame(m);
+  pp::BindJetPatch(m);
+  pp::BindJetFitting(m);
   pp::BindModel(m);
+  pp::BindClustering(m);
   pp::BindFitMesh(m);
   pp::BindBatchFit(m);
 }

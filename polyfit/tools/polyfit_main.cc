@@ -82,6 +82,39 @@ int FitOverMpi(const polyfit::BatchFitOptions& batch, const std::vector<std::str
 }
 #endif
 
+// The fit command: over MPI ranks when started by mpirun, else here.
+int RunFit(const polyfit::BatchFitOptions& batch, const std::vector<std::string>& inputs) {
+#ifdef POLYFIT_WITH_MPI
+  if (polyfit::LaunchedByMpi()) {
+    polyfit::MpiSession mpi;
+    return mpi.Run("polyfit", [&] { return FitOverMpi(batch, inputs, mpi.rank()); });
+  }
+#endif
+  Progress progress;
+  const polyfit::BatchFitSummary summary = polyfit::FitMeshFiles(
+      batch, inputs,
+      [&progress](int done, int total, const polyfit::BatchFitItemSummary& item) { progress(done, total, item); });
+  std::printf("%d fitted, %d skipped, %d failed in %.2f s; report: %s/report.csv\n", summary.num_fitted,
+              summary.num_skipped, summary.num_failed, summary.total_time_s, batch.output_dir.c_str());
+  return summary.num_failed > 0 ? polyfit::kExitPartial : polyfit::kExitSuccess;
+}
+
+// The eval command: Chamfer distances between two meshes.
+int RunEval(const std::string& mesh_a, const std::string& mesh_b, int samples) {
+  const polyfit::TriangleMesh a = polyfit::ReadTriangleMesh(mesh_a);
+  const polyfit::TriangleMesh b = polyfit::ReadTriangleMesh(mesh_b);
+  const polyfit::ChamferDistance chamfer = polyfit::MeshChamferDistance(a, b, samples, 7);
+  const polyfit::ChamferDistance floor = polyfit::MeshChamferDistance(a, a, samples, 7);
+  const polyfit::ChamferDistance surface = polyfit::MeshToSurfaceChamferDistance(a, b, samples, 7);
+  std::printf(
+      "Chamfer x1e3 %.6f (A->B %.6f, B->A %.6f), %d samples each, A's unit-sphere normalisation\n"
+      "  sampling floor (A against a second sampling of A) x1e3 %.6f\n"
+      "  samples to surface (no floor) x1e3 %.6f (A->B %.6f, B->A %.6f)\n",
+      1e3 * chamfer.sum(), 1e3 * chamfer.a_to_b, 1e3 * chamfer.b_to_a, samples, 1e3 * floor.sum(), 1e3 * surface.sum(),
+      1e3 * surface.a_to_b, 1e3 * surface.b_to_a);
+  return polyfit::kExitSuccess;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -155,33 +188,10 @@ int main(int argc, char** argv) {
           subdivision == "loop" ? polyfit::SubdivisionScheme::kLoop : polyfit::SubdivisionScheme::kMidpoint;
       batch.fit.reconstruction.seam_mode = seam == "owner" ? polyfit::SeamMode::kOwner : polyfit::SeamMode::kAverage;
       batch.fit.evaluate = !no_eval;
-#ifdef POLYFIT_WITH_MPI
-      if (polyfit::LaunchedByMpi()) {
-        polyfit::MpiSession mpi;
-        return mpi.Run("polyfit", [&] { return FitOverMpi(batch, inputs, mpi.rank()); });
-      }
-#endif
-      Progress progress;
-      const polyfit::BatchFitSummary summary = polyfit::FitMeshFiles(
-          batch, inputs,
-          [&progress](int done, int total, const polyfit::BatchFitItemSummary& item) { progress(done, total, item); });
-      std::printf("%d fitted, %d skipped, %d failed in %.2f s; report: %s/report.csv\n", summary.num_fitted,
-                  summary.num_skipped, summary.num_failed, summary.total_time_s, batch.output_dir.c_str());
-      return summary.num_failed > 0 ? polyfit::kExitPartial : polyfit::kExitSuccess;
+      return RunFit(batch, inputs);
     }
     if (eval->parsed()) {
-      const polyfit::TriangleMesh a = polyfit::ReadTriangleMesh(mesh_a);
-      const polyfit::TriangleMesh b = polyfit::ReadTriangleMesh(mesh_b);
-      const polyfit::ChamferDistance chamfer = polyfit::MeshChamferDistance(a, b, samples, 7);
-      const polyfit::ChamferDistance floor = polyfit::MeshChamferDistance(a, a, samples, 7);
-      const polyfit::ChamferDistance surface = polyfit::MeshToSurfaceChamferDistance(a, b, samples, 7);
-      std::printf(
-          "Chamfer x1e3 %.6f (A->B %.6f, B->A %.6f), %d samples each, A's unit-sphere normalisation\n"
-          "  sampling floor (A against a second sampling of A) x1e3 %.6f\n"
-          "  samples to surface (no floor) x1e3 %.6f (A->B %.6f, B->A %.6f)\n",
-          1e3 * chamfer.sum(), 1e3 * chamfer.a_to_b, 1e3 * chamfer.b_to_a, samples, 1e3 * floor.sum(),
-          1e3 * surface.sum(), 1e3 * surface.a_to_b, 1e3 * surface.b_to_a);
-      return polyfit::kExitSuccess;
+      return RunEval(mesh_a, mesh_b, samples);
     }
     return polyfit::kExitSuccess;
   });
