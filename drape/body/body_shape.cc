@@ -18,8 +18,9 @@ std::array<double, 3> Tent(double p) {
   return {0.0, 2.0 - 2.0 * p, 2.0 * p - 1.0};
 }
 
-// Adds w times the target's offsets (decimetres) to base (metres).
-void AddTarget(const std::string& path, double w, Eigen::Matrix3Xd* base) {
+}  // namespace
+
+void AddBodyShapeTarget(const std::string& path, double w, Eigen::Matrix3Xd* base) {
   if (w == 0.0) return;
   if (!std::filesystem::exists(path)) throw BodyError(path + ": no such shape target");
   gzFile file = gzopen(path.c_str(), "rb");
@@ -27,10 +28,16 @@ void AddTarget(const std::string& path, double w, Eigen::Matrix3Xd* base) {
   std::string text;
   char buffer[1 << 16];
   int got = 0;
-  while ((got = gzread(file, buffer, sizeof(buffer))) > 0) text.append(buffer, static_cast<size_t>(got));
+  // The shipped targets inflate to under 1 MB; a compression bomb must
+  // not take the memory.
+  constexpr size_t kMaxText = size_t{64} << 20;
+  while ((got = gzread(file, buffer, sizeof(buffer))) > 0 && text.size() <= kMaxText) {
+    text.append(buffer, static_cast<size_t>(got));
+  }
   const bool failed = got < 0;
   gzclose(file);
   if (failed) throw BodyError(path + ": not a readable gzip file");
+  if (text.size() > kMaxText) throw BodyError(path + ": inflates to over 64 MB, not a shape target");
   std::istringstream lines(text);
   std::string line;
   int number = 0;
@@ -50,8 +57,6 @@ void AddTarget(const std::string& path, double w, Eigen::Matrix3Xd* base) {
     base->col(index) += 0.1 * w * Eigen::Vector3d(dx, dy, dz);
   }
 }
-
-}  // namespace
 
 bool BodyShape::IsNeutral() const {
   return gender == 0.5 && muscle == 0.5 && weight == 0.5 && height == 0.5 && proportions == 0.5;
@@ -123,25 +128,28 @@ void ApplyBodyShape(const std::string& body_dir, const BodyShape& shape, Skinned
       for (int b = 0; b < 3; ++b) {
         const double w = w_gender * muscle[a] * weight[b];
         if (a == 1 && b == 1) continue;  // empty: the base mesh
-        AddTarget((dir / ("universal-" + gender + "-young-" + levels[a] + "muscle-" + levels[b] + "weight.target.gz"))
-                      .string(),
-                  w, &base);
+        AddBodyShapeTarget(
+            (dir / ("universal-" + gender + "-young-" + levels[a] + "muscle-" + levels[b] + "weight.target.gz"))
+                .string(),
+            w, &base);
       }
     }
     // Gender at average muscle and weight lives in the ethnic targets; only
     // the caucasian ones are shipped. Relative to the neutral mix (half of
     // each), so that the neutral shape stays the base mesh.
-    AddTarget((dir / ("caucasian-" + gender + "-young.target.gz")).string(), w_gender - 0.5, &base);
+    AddBodyShapeTarget((dir / ("caucasian-" + gender + "-young.target.gz")).string(), w_gender - 0.5, &base);
     const std::string stem = gender + "-young-averagemuscle-averageweight-";
     if (shape.height != 0.5) {
-      AddTarget((dir / "height" / (stem + (shape.height > 0.5 ? "maxheight" : "minheight") + ".target.gz")).string(),
-                w_gender * std::abs(2.0 * shape.height - 1.0), &base);
+      AddBodyShapeTarget(
+          (dir / "height" / (stem + (shape.height > 0.5 ? "maxheight" : "minheight") + ".target.gz")).string(),
+          w_gender * std::abs(2.0 * shape.height - 1.0), &base);
     }
     if (shape.proportions != 0.5) {
-      AddTarget((dir / "proportions" /
-                 (stem + (shape.proportions > 0.5 ? "idealproportions" : "uncommonproportions") + ".target.gz"))
-                    .string(),
-                w_gender * std::abs(2.0 * shape.proportions - 1.0), &base);
+      AddBodyShapeTarget(
+          (dir / "proportions" /
+           (stem + (shape.proportions > 0.5 ? "idealproportions" : "uncommonproportions") + ".target.gz"))
+              .string(),
+          w_gender * std::abs(2.0 * shape.proportions - 1.0), &base);
     }
   }
   const int n = body->mesh.num_vertices();

@@ -43,6 +43,11 @@ struct BodyShape {
 // BodyError naming a missing or malformed target file.
 void ApplyBodyShape(const std::string& body_dir, const BodyShape& shape, SkinnedBody* body);
 
+// Adds w times a target's offsets (a .target.gz: "vertex dx dy dz" lines in
+// decimetres) to base (3 by #V, metres). Throws BodyError naming the file
+// and line for a malformed line or a vertex out of range.
+void AddBodyShapeTarget(const std::string& path, double w, Eigen::Matrix3Xd* base);
+
 }  // namespace polyfit
 
 #endif  // POLYFIT_DRAPE_BODY_BODY_SHAPE_H_

@@ -1,6 +1,7 @@
 #include "drape/body/makehuman_body.h"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -8,6 +9,8 @@
 #include <sstream>
 
 #include <nlohmann/json.hpp>
+
+#include "drape/body/makehuman_files.h"
 
 namespace polyfit {
 namespace {
@@ -17,16 +20,17 @@ constexpr int kBodyVertices = 13380;  // group "body": vertices 0 .. 13379 (READ
 
 [[noreturn]] void Fail(const std::string& message) { throw BodyError(message); }
 
-struct ObjGroups {
-  std::vector<Eigen::Vector3d> vertices;  // decimetres
-  // Per group: its faces' corner vertex indices (0-based), polygon by polygon.
-  std::map<std::string, std::vector<std::vector<int>>> faces;
-};
+}  // namespace
 
-ObjGroups ReadObjGroups(const std::string& path) {
+int Skeleton::Find(const std::string& name) const {
+  const auto it = std::find(names.begin(), names.end(), name);
+  return it == names.end() ? -1 : static_cast<int>(it - names.begin());
+}
+
+MakeHumanObj ReadMakeHumanObj(const std::string& path) {
   std::ifstream in(path);
   if (!in) Fail(path + ": cannot be opened (missing?)");
-  ObjGroups obj;
+  MakeHumanObj obj;
   std::string line, group = "default";
   int number = 0;
   while (std::getline(in, line)) {
@@ -59,7 +63,7 @@ ObjGroups ReadObjGroups(const std::string& path) {
   return obj;
 }
 
-nlohmann::json ReadJson(const std::string& path) {
+nlohmann::json ReadBodyJson(const std::string& path) {
   std::ifstream in(path);
   if (!in) Fail(path + ": cannot be opened (missing?)");
   try {
@@ -69,18 +73,11 @@ nlohmann::json ReadJson(const std::string& path) {
   }
 }
 
-}  // namespace
-
-int Skeleton::Find(const std::string& name) const {
-  const auto it = std::find(names.begin(), names.end(), name);
-  return it == names.end() ? -1 : static_cast<int>(it - names.begin());
-}
-
 namespace {
 
 // The body's mesh (decimetres to metres) and every vertex of the OBJ
 // (helpers included, for garments' bindings).
-void ReadBodyMesh(const ObjGroups& obj, const std::string& obj_path, SkinnedBody* body) {
+void ReadBodyMesh(const MakeHumanObj& obj, const std::string& obj_path, SkinnedBody* body) {
   if (static_cast<int>(obj.vertices.size()) < kBodyVertices) Fail(obj_path + ": fewer vertices than the hm08 body");
   const auto body_faces = obj.faces.find("body");
   if (body_faces == obj.faces.end()) Fail(obj_path + ": no group 'body'");
@@ -107,7 +104,7 @@ void ReadBones(const nlohmann::json& rig, const std::string& rig_path, Skeleton*
   while (!pending.empty()) {
     const size_t before = pending.size();
     for (auto it = pending.begin(); it != pending.end();) {
-      const std::string parent = rig[*it].value("parent", std::string());
+      const std::string parent = rig.at(*it).value("parent", std::string());
       const int parent_index = parent.empty() ? -1 : skeleton->Find(parent);
       if (!parent.empty() && parent_index < 0) {
         ++it;
@@ -119,15 +116,17 @@ void ReadBones(const nlohmann::json& rig, const std::string& rig_path, Skeleton*
     }
     if (pending.size() == before) Fail(rig_path + ": bone '" + pending.front() + "' has a missing parent (or a cycle)");
   }
+  if (skeleton->names.empty()) Fail(rig_path + ": no bones");
 }
 
 // Heads: the mean of the joint cube's vertices, or of listed vertices.
-void PlaceJointHeads(const nlohmann::json& rig, const std::string& rig_path, const ObjGroups& obj,
+void PlaceJointHeads(const nlohmann::json& rig, const std::string& rig_path, const MakeHumanObj& obj,
                      const std::string& obj_path, Skeleton* skeleton) {
   skeleton->rest_heads.resize(3, skeleton->num_joints());
   for (int j = 0; j < skeleton->num_joints(); ++j) {
     const std::string& name = skeleton->names[j];
-    const nlohmann::json& head = rig[name]["head"];
+    // at(): a const operator[] on a missing key is undefined behaviour.
+    const nlohmann::json& head = rig.at(name).at("head");
     std::set<int> vertices;
     const std::string strategy = head.value("strategy", std::string());
     if (strategy == "CUBE") {
@@ -155,12 +154,13 @@ void PlaceJointHeads(const nlohmann::json& rig, const std::string& rig_path, con
 void ReadSkinWeights(const nlohmann::json& weights, const std::string& weights_path, SkinnedBody* body) {
   if (!weights.contains("weights")) Fail(weights_path + ": missing key 'weights'");
   std::vector<std::vector<std::pair<int, double>>> per_vertex(kBodyVertices);
-  for (const auto& [bone, list] : weights["weights"].items()) {
+  for (const auto& [bone, list] : weights.at("weights").items()) {
     const int j = body->skeleton.Find(bone);
     if (j < 0) Fail(weights_path + ": bone '" + bone + "' is not in the rig");
     for (const auto& entry : list) {
       const int v = entry.at(0).get<int>();
       const double w = entry.at(1).get<double>();
+      if (!std::isfinite(w)) Fail(weights_path + ": bone '" + bone + "': a weight is not finite");
       if (v >= 0 && v < kBodyVertices && w > 0.0) per_vertex[v].emplace_back(j, w);
     }
   }
@@ -179,19 +179,37 @@ void ReadSkinWeights(const nlohmann::json& weights, const std::string& weights_p
 
 }  // namespace
 
+SkinnedBody AssembleMakeHumanBody(const MakeHumanObj& obj, const std::string& obj_path, const nlohmann::json& rig,
+                                  const std::string& rig_path, const nlohmann::json& weights,
+                                  const std::string& weights_path) {
+  SkinnedBody body;
+  ReadBodyMesh(obj, obj_path, &body);
+  // nlohmann's own errors (a key missing, a value of the wrong type) name
+  // neither the file nor the bone: they are reported against the file.
+  try {
+    if (!rig.is_object()) Fail(rig_path + ": expected an object of bones");
+    ReadBones(rig, rig_path, &body.skeleton);
+    PlaceJointHeads(rig, rig_path, obj, obj_path, &body.skeleton);
+  } catch (const nlohmann::json::exception& e) {
+    Fail(rig_path + ": " + e.what());
+  }
+  try {
+    if (!weights.is_object()) Fail(weights_path + ": expected an object");
+    ReadSkinWeights(weights, weights_path, &body);
+  } catch (const nlohmann::json::exception& e) {
+    Fail(weights_path + ": " + e.what());
+  }
+  return body;
+}
+
 SkinnedBody LoadMakeHumanBody(const std::string& body_dir) {
   const fs::path dir(body_dir);
   const std::string obj_path = (dir / "makehuman" / "base.obj").string();
   const std::string rig_path = (dir / "mpfb2_rigs" / "rig.cmu_mb.json").string();
   const std::string weights_path = (dir / "mpfb2_rigs" / "weights.cmu_mb.json").string();
-  const ObjGroups obj = ReadObjGroups(obj_path);
-  SkinnedBody body;
-  ReadBodyMesh(obj, obj_path, &body);
-  const nlohmann::json rig = ReadJson(rig_path);
-  ReadBones(rig, rig_path, &body.skeleton);
-  PlaceJointHeads(rig, rig_path, obj, obj_path, &body.skeleton);
-  ReadSkinWeights(ReadJson(weights_path), weights_path, &body);
-  return body;
+  const MakeHumanObj obj = ReadMakeHumanObj(obj_path);
+  return AssembleMakeHumanBody(obj, obj_path, ReadBodyJson(rig_path), rig_path, ReadBodyJson(weights_path),
+                               weights_path);
 }
 
 Eigen::Matrix3Xd SkinVertices(const SkinnedBody& body, const std::vector<Eigen::Isometry3d>& rest_to_posed) {

@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# The fuzzing configuration: builds build-fuzz/ with clang, libFuzzer and
+# address;undefined, then fuzzes every target of tests/fuzz from its corpus.
+#   bash cmake/fuzz.sh                 # each target for 10 s (the CTest smoke)
+#   bash cmake/fuzz.sh 1000000         # each target for a million executions
+#   bash cmake/fuzz.sh 1000000 bvh_fuzzer mhclo_fuzzer
+# New inputs go to build-fuzz/tests/fuzz/new_<target>/, findings to
+# build-fuzz/findings/<target>/ (crash-*, timeout-*, oom-*): copy one into
+# tests/fuzz/corpus/<target>/ once fixed, as a regression.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+runs="${1:-}"
+shift || true
+generator=()
+[ -f build-fuzz/CMakeCache.txt ] || generator=(-G Ninja)
+CXX=clang++ cmake -S . -B build-fuzz "${generator[@]}" -DCMAKE_BUILD_TYPE=Release -DPOLYFIT_FUZZ=ON \
+      -DPOLYFIT_BUILD_BENCHMARKS=OFF -DPOLYFIT_BUILD_EXAMPLES=OFF -DPOLYFIT_BUILD_PYTHON=OFF -DPOLYFIT_BUILD_MPI=OFF \
+      ${POLYFIT_CMAKE_ARGS:-}
+targets=("$@")
+if [ ${#targets[@]} -eq 0 ]; then
+  mapfile -t targets < <(ls tests/fuzz/corpus)
+fi
+cmake --build build-fuzz -j2 --target "${targets[@]}"
+export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1:abort_on_error=1"
+export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
+if [ -z "$runs" ]; then
+  ctest --test-dir build-fuzz -L fuzz --output-on-failure
+  exit
+fi
+for t in "${targets[@]}"; do
+  new=build-fuzz/tests/fuzz/new_$t findings=build-fuzz/findings/$t
+  mkdir -p "$new" "$findings"
+  dict=()
+  [ -f "tests/fuzz/dict/$t.dict" ] && dict=(-dict="tests/fuzz/dict/$t.dict")
+  echo "== $t"
+  build-fuzz/bin/$t -runs="$runs" -timeout=1 -rss_limit_mb=2048 -malloc_limit_mb=512 -print_final_stats=1 \
+      -artifact_prefix="$findings/" "${dict[@]}" "$new" "tests/fuzz/corpus/$t" 2>&1 | tail -n 12
+done

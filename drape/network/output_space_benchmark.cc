@@ -1,0 +1,124 @@
+// The best any network could do: the drape solved in the network's output
+// space. Per frame, the patch parameters a network predicts (jet, scale,
+// centre, and with a warp head of order m each patch's in-plane warp) are
+// optimised directly, by L-BFGS on the training loss (DrapeSolver::Evaluate,
+// the same terms, weights, collisions and inertia from its own previous
+// frames), starting from the frame before. A network trained on that loss
+// cannot beat this drape on its metrics, so the gap between this and the
+// reference drape (per-vertex slides, LM) is the output space's, and the gap
+// between this and a trained network is the training's.
+//
+//   output_space_benchmark [DATA_DIR [GARMENT [FRAMES]]]   (DATA_DIR: ../shared/data/drape)
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+
+#include <ceres/ceres.h>
+#include <glog/logging.h>
+
+#include "drape/eval/cloth_energy.h"
+#include "drape/garment/skin_transfer.h"
+#include "drape/simulate/drape_inputs.h"
+#include "drape/simulate/drape_solver.h"
+
+namespace {
+
+using polyfit::DrapeSolver;
+
+// The loss of one frame as a function of the flat patch parameters.
+class FrameLoss : public ceres::FirstOrderFunction {
+ public:
+  explicit FrameLoss(DrapeSolver* solver) : solver_(solver) {}
+  bool Evaluate(const double* parameters, double* cost, double* gradient) const override {
+    const int n = NumParameters();
+    const std::vector<double> x(parameters, parameters + n);
+    *cost = solver_->Evaluate(x, gradient ? &gradient_ : nullptr);
+    if (gradient) std::copy(gradient_.begin(), gradient_.end(), gradient);
+    return std::isfinite(*cost);
+  }
+  int NumParameters() const override { return solver_->num_patches() * solver_->num_patch_parameters(); }
+
+ private:
+  DrapeSolver* solver_;
+  mutable std::vector<double> gradient_;
+};
+
+struct Row {
+  double energy = 0.0, inside = 0.0, strain = 0.0, iterations = 0.0;
+};
+
+double PercentNegative(const Eigen::VectorXd& d) { return 100.0 * (d.array() < 0.0).count() / d.size(); }
+
+// Lead-in from rest to the first pose, then `frames` frames, each solved
+// from the one before with `iterations` L-BFGS iterations.
+Row DrapeInOutputSpace(DrapeSolver* solver, const polyfit::MotionRetargeter& clip, int frames, int iterations) {
+  const int lead_in = 10;
+  std::vector<double> params = solver->RestPatchParameters();
+  Eigen::Matrix3Xd previous = solver->PositionsOf(params), before_previous = previous;
+  const polyfit::ClothRest rest = polyfit::PrepareClothRest(solver->rest_garment());
+  ceres::GradientProblemSolver::Options options;
+  options.max_num_iterations = iterations;
+  options.line_search_direction_type = ceres::LBFGS;
+  options.max_num_line_search_step_size_iterations = 40;
+  options.function_tolerance = 1e-10;
+  options.gradient_tolerance = 1e-12;
+  Row row;
+  for (int k = 0; k < lead_in + frames; ++k) {
+    const auto pose = k < lead_in ? clip.Pose(0, (k + 1.0) / (lead_in + 1.0)) : clip.Pose(k - lead_in);
+    solver->SetHistory(previous, before_previous);
+    solver->Pose(pose, k);
+    ceres::GradientProblem problem(new FrameLoss(solver));
+    ceres::GradientProblemSolver::Summary summary;
+    ceres::Solve(options, problem, params.data(), &summary);
+    row.iterations += static_cast<double>(summary.iterations.size()) / (lead_in + frames);
+    before_previous = previous;
+    previous = solver->PositionsOf(params);
+    if (k < lead_in) continue;
+    row.energy += summary.final_cost / frames;
+    row.inside += PercentNegative(solver->SignedDistances(previous)) / frames;
+    row.strain += polyfit::MeasureCloth(rest, previous).edge_strain_percent / frames;
+  }
+  return row;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace polyfit;
+  google::InitGoogleLogging(argv[0]);
+  FLAGS_minloglevel = 2;
+  const std::string data = argc > 1 ? argv[1] : "../shared/data/drape";
+  const std::string garment = argc > 2 ? argv[2] : data + "/garments/makehuman_cc0/male_casualsuit02.mhclo";
+  const int frames = argc > 3 ? std::atoi(argv[3]) : 30;
+  if (!std::filesystem::exists(data + "/body/makehuman/base.obj")) {
+    std::fprintf(stderr, "output_space_benchmark: no MakeHuman body under %s/body\n", data.c_str());
+    return 1;
+  }
+  const SkinnedBody body = LoadDrapeBody(data + "/body", BodyShape{});
+  const TriangleMesh mesh = LoadDrapeGarment(garment, body, true);
+  const SkinWeights weights = TransferSkinWeights(body, mesh, SkinTransferOptions{});
+  const auto clip = LoadRetargetedClip(data + "/motion/02_01.bvh", 0.056444, 30.0, body.skeleton);
+  std::printf("%s, walk frames 0-%d, the drape solved in the network's output space (L-BFGS per frame)\n\n",
+              garment.c_str(), frames - 1);
+  std::printf(
+      "| patch area m^2 | patches | warp order | L-BFGS iterations (mean taken) | energy J | eps_c %% | eps_e %% |\n");
+  std::printf("|---:|---:|---:|---:|---:|---:|---:|\n");
+  struct Config {
+    double area;
+    int warp, iterations;
+  };
+  for (const Config c : {Config{0.04, -1, 200}, Config{0.04, 2, 200}, Config{0.04, 2, 1000}, Config{0.04, 4, 200},
+                         Config{0.02, 2, 200}}) {
+    DrapeSolverOptions options;
+    options.patching.patch_area = c.area;
+    options.slide.warp_order = c.warp;
+    options.slide.enabled = c.warp >= 0;
+    options.num_threads = 2;
+    DrapeSolver solver(body, mesh, weights, options);
+    const Row row = DrapeInOutputSpace(&solver, *clip, frames, c.iterations);
+    std::printf("| %.2f | %d | %d | %d (%.0f) | %.0f | %.2f | %.2f |\n", c.area, solver.num_patches(), c.warp,
+                c.iterations, row.iterations, row.energy, row.inside, row.strain);
+    std::fflush(stdout);
+  }
+  return 0;
+}
