@@ -27,12 +27,22 @@ if [ -z "$runs" ]; then
   ctest --test-dir build-fuzz -L fuzz --output-on-failure
   exit
 fi
+status=0
 for t in "${targets[@]}"; do
   new=build-fuzz/tests/fuzz/new_$t findings=build-fuzz/findings/$t
   mkdir -p "$new" "$findings"
   dict=()
   [ -f "tests/fuzz/dict/$t.dict" ] && dict=(-dict="tests/fuzz/dict/$t.dict")
-  echo "== $t"
-  build-fuzz/bin/$t -runs="$runs" -timeout=1 -rss_limit_mb=2048 -malloc_limit_mb=512 -print_final_stats=1 \
-      -artifact_prefix="$findings/" "${dict[@]}" "$new" "tests/fuzz/corpus/$t" 2>&1 | tail -n 12
+  log=build-fuzz/findings/$t.log
+  if build-fuzz/bin/$t -runs="$runs" -timeout=1 -rss_limit_mb=2048 -malloc_limit_mb=512 -print_final_stats=1 \
+      -artifact_prefix="$findings/" "${dict[@]}" "$new" "tests/fuzz/corpus/$t" > "$log" 2>&1; then
+    result=clean
+  else
+    result="FINDING in $findings (see $log)"
+    status=1
+  fi
+  execs=$(grep -o "number_of_executed_units: [0-9]*" "$log" | grep -o "[0-9]*$" || true)
+  cov=$(grep -o "cov: [0-9]*" "$log" | tail -1 | grep -o "[0-9]*$" || true)
+  echo "$t: ${execs:-?} executions, coverage ${cov:-?} edges, $result"
 done
+exit $status

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -50,11 +51,12 @@ MakeHumanObj ReadMakeHumanObj(const std::string& path) {
       std::vector<int> face;
       std::string corner;
       while (tokens >> corner) {
-        const int v = std::atoi(corner.substr(0, corner.find('/')).c_str()) - 1;
-        if (v < 0 || v >= static_cast<int>(obj.vertices.size())) {
+        // strtol, not atoi: an index beyond long is reported, not undefined.
+        const long index = std::strtol(corner.substr(0, corner.find('/')).c_str(), nullptr, 10);
+        if (index < 1 || index > static_cast<long>(obj.vertices.size())) {
           Fail(path + ": line " + std::to_string(number) + ": vertex index out of range");
         }
-        face.push_back(v);
+        face.push_back(static_cast<int>(index - 1));
       }
       if (face.size() < 3) Fail(path + ": line " + std::to_string(number) + ": a face needs three corners");
       obj.faces[group].push_back(face);

@@ -1,6 +1,7 @@
 #include "drape/garment/mhclo_garment.h"
 
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -30,17 +31,25 @@ ClothesBinding ReadMhclo(const std::string& path) {
     const bool numeric = std::isdigit(static_cast<unsigned char>(first[0])) != 0;
     if (in_verts && numeric) {
       std::vector<double> values;
-      values.push_back(std::stod(first));
-      double x;
-      while (tokens >> x) values.push_back(x);
+      for (std::string token = first; !token.empty(); token.clear(), tokens >> token) {
+        char* end = nullptr;
+        const double value = std::strtod(token.c_str(), &end);
+        if (*end != '\0' || !std::isfinite(value)) fail("bad number '" + token + "'");
+        values.push_back(value);
+      }
+      // References are base-mesh vertex indices (hm08 has 19,158): whole,
+      // and small enough to be ints.
+      const auto reference = [&](double v) {
+        if (v < 0 || v > 1e8 || v != std::floor(v)) fail("bad vertex index " + std::to_string(v));
+        return static_cast<int>(v);
+      };
       if (values.size() == 1) {
-        const int v = static_cast<int>(values[0]);
+        const int v = reference(values[0]);
         binding.references.push_back({v, v, v});
         binding.weights.push_back({1.0, 0.0, 0.0});
         binding.offsets.emplace_back(Eigen::Vector3d::Zero());
       } else if (values.size() == 9) {
-        binding.references.push_back(
-            {static_cast<int>(values[0]), static_cast<int>(values[1]), static_cast<int>(values[2])});
+        binding.references.push_back({reference(values[0]), reference(values[1]), reference(values[2])});
         binding.weights.push_back({values[3], values[4], values[5]});
         binding.offsets.emplace_back(values[6], values[7], values[8]);
       } else {
@@ -59,7 +68,7 @@ ClothesBinding ReadMhclo(const std::string& path) {
       const int axis = first[0] - 'x';
       if (!(tokens >> binding.scale_vertices[axis][0] >> binding.scale_vertices[axis][1] >>
             binding.scale_distances[axis]) ||
-          !(binding.scale_distances[axis] > 0.0)) {
+          !(binding.scale_distances[axis] > 0.0) || !std::isfinite(binding.scale_distances[axis])) {
         fail("bad " + first);
       }
       scales[axis] = true;

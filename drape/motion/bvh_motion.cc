@@ -203,11 +203,16 @@ void ReadMotion(std::istream& in, Tokenizer& tokens, const std::string& path,
   tokens.Expect("MOTION");
   tokens.Expect("Frames:");
   const double num_frames = tokens.Number();
-  if (num_frames < 1 || num_frames != std::floor(num_frames)) tokens.Fail("bad frame count");
+  // Frames are read one per line, never preallocated: the bound only keeps
+  // the count an int.
+  if (num_frames < 1 || num_frames > 1e9 || num_frames != std::floor(num_frames)) tokens.Fail("bad frame count");
+  const int frame_count = static_cast<int>(num_frames);
   tokens.Expect("Frame");
   tokens.Expect("Time:");
   const double frame_time = tokens.Number();
-  if (!(frame_time > 0.0)) tokens.Fail("the frame time must be positive");
+  // Beyond 10 kHz (or below a frame a minute) a clip resampled to a frame
+  // rate would take more frames than memory holds.
+  if (!(frame_time >= 1e-4 && frame_time <= 60.0)) tokens.Fail("the frame time must be in [1e-4, 60] s");
   clip->fps = 1.0 / frame_time;
   int total_channels = 0;
   for (const auto& list : channels) total_channels += static_cast<int>(list.size());
@@ -219,11 +224,10 @@ void ReadMotion(std::istream& in, Tokenizer& tokens, const std::string& path,
     std::getline(in, line);
     line_number = tokens.line;
   }
-  for (int f = 0; f < static_cast<int>(num_frames);) {
+  for (int f = 0; f < frame_count;) {
     if (!std::getline(in, line)) {
       tokens.line = line_number;
-      tokens.Fail("the file ends after " + std::to_string(f) + " of " + std::to_string(static_cast<int>(num_frames)) +
-                  " frames");
+      tokens.Fail("the file ends after " + std::to_string(f) + " of " + std::to_string(frame_count) + " frames");
     }
     ++line_number;
     const std::string where = path + ": line " + std::to_string(line_number) + ": frame " + std::to_string(f);

@@ -161,7 +161,7 @@ Eigen::Matrix3Xd ReadPlyVertices(const std::string& path) {
                                              : (Fail(path, "unknown PLY format '" + f + "'"), PlyFormat::kAscii);
     } else if (word == "element") {
       std::string name;
-      long long count;
+      long long count = -1;
       tokens >> name >> count;
       in_vertex = name == "vertex";
       if (in_vertex) {
@@ -190,6 +190,19 @@ Eigen::Matrix3Xd ReadPlyVertices(const std::string& path) {
     return static_cast<int>(it - names.begin());
   };
   const int ix = find("x"), iy = find("y"), iz = find("z");
+  // The header's count, checked against what the file holds before it is
+  // allocated: an ASCII value takes at least two bytes ("0 "), a binary
+  // vertex its stride.
+  size_t min_vertex_bytes = 0;
+  for (const std::string& t : types) min_vertex_bytes += format == PlyFormat::kAscii ? 2 : PlyTypeSize(t);
+  const std::streampos data_start = in.tellg();
+  in.seekg(0, std::ios::end);
+  const long long remaining = static_cast<long long>(in.tellg() - data_start);
+  in.seekg(data_start);
+  if (data_start < 0 || num_vertices > remaining / static_cast<long long>(std::max<size_t>(min_vertex_bytes, 1)) + 1) {
+    Fail(path, "the header declares " + std::to_string(num_vertices) + " vertices; the file holds at most " +
+                   std::to_string(remaining / static_cast<long long>(std::max<size_t>(min_vertex_bytes, 1)) + 1));
+  }
   Eigen::Matrix3Xd points(3, num_vertices);
   if (format == PlyFormat::kAscii) {
     std::vector<double> row(names.size());
