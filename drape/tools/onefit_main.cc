@@ -28,6 +28,7 @@
 #include "drape/simulate/onefit_evaluation.h"
 #ifdef POLYFIT_WITH_MPI
 #include "polyfit/util/mpi_session.h"
+#include "polyfit/util/output_folder.h"
 #endif
 
 namespace {
@@ -152,11 +153,19 @@ CLI::App* AddSimulateCommand(CLI::App* app, SimulateFlags* f, const char* name =
   return simulate;
 }
 
+// What an earlier run left in `dir` (its last file `marker`), said before
+// this one replaces it.
+void SayWhatAnEarlierRunLeft(const std::string& dir, const char* marker) {
+  const std::string earlier = polyfit::CleanOutputFolder(dir, marker).Describe(dir, marker);
+  if (!earlier.empty()) std::printf("%s\n", earlier.c_str());
+}
+
 int RunSimulate(SimulateFlags& f) {
   polyfit::DrapeSimulationOptions& options = f.options;
   if (!f.shape.empty()) options.shape = polyfit::BodyShape::Parse(f.shape);
   options.solver.slide.enabled = !f.no_slide;
   if (f.cholesky) options.solver.solve.linear_solver = polyfit::DrapeLinearSolver::kSparseCholesky;
+  SayWhatAnEarlierRunLeft(options.out_dir, "metrics.json");
   const polyfit::DrapeSimulationSummary summary = polyfit::RunDrapeSimulation(options);
   for (const std::string& warning : summary.warnings) std::cerr << "warning: " << warning << '\n';
   std::printf("%s\n", summary.BriefReport().c_str());
@@ -275,6 +284,7 @@ int RunEval(SimulateFlags& f) {
   if (f.cholesky) options.simulation.solver.solve.linear_solver = polyfit::DrapeLinearSolver::kSparseCholesky;
   if (f.options.project_offset >= 0.0) options.project_offset = f.options.project_offset;
   options.simulation.project_offset = -1.0;
+  SayWhatAnEarlierRunLeft(options.simulation.out_dir, "eval.md");
   const polyfit::OneFitEvaluationSummary summary = polyfit::EvaluateOneFitModel(options);
   std::printf("%s\n%s", summary.BriefReport().c_str(), summary.Table().c_str());
   std::printf("wrote %s (reference/, network/, eval.csv, eval.md, eval.png)\n", options.simulation.out_dir.c_str());

@@ -6,6 +6,8 @@
 #define POLYFIT_UTIL_ATOMIC_FILE_H_
 
 #include <atomic>
+#include <csignal>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
@@ -16,6 +18,24 @@
 #include "polyfit/util/status.h"
 
 namespace polyfit {
+namespace internal {
+
+// Crash injection for the kill-safety tests (tests/kill_safety_test.py):
+// with POLYFIT_KILL_AT_WRITE=N in the environment, the process kills itself
+// (SIGKILL, no clean-up) when its Nth atomically written file is filled
+// and not yet renamed, the worst moment for a crash. Unset: one load of a
+// static per write.
+inline void KillPointForTesting() {
+  static const long kill_at = [] {
+    const char* value = std::getenv("POLYFIT_KILL_AT_WRITE");
+    return value ? std::atol(value) : 0L;
+  }();
+  if (kill_at <= 0) return;
+  static std::atomic<long> writes{0};
+  if (writes.fetch_add(1) + 1 == kill_at) std::raise(SIGKILL);
+}
+
+}  // namespace internal
 
 template <typename WriteFn>
 void WriteFileAtomically(const std::string& path, WriteFn&& write) {
@@ -35,6 +55,7 @@ void WriteFileAtomically(const std::string& path, WriteFn&& write) {
     out.flush();
     if (!out) throw Error(ErrorKind::kOutput, path + ": writing failed (disk full?)");
     out.close();
+    internal::KillPointForTesting();
     std::error_code ec;
     fs::rename(temp, path, ec);
     if (ec) throw Error(ErrorKind::kOutput, path + ": cannot be replaced: " + ec.message());

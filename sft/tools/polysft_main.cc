@@ -20,6 +20,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "polyfit/util/atomic_file.h"
+#include "polyfit/util/output_folder.h"
 #include "polyfit/util/status.h"
 #include "sft/scene/scene.h"
 #include "sft/solver/polysft.h"
@@ -130,6 +131,9 @@ int RunSolve(const SolveFlags& f) {
               scene.frame_count, scene.camera.width, scene.camera.height, scene.template_mesh.num_vertices(),
               scene.template_mesh.num_faces(), scene.has_masks() ? ", masks" : "",
               scene.has_ground_truth() ? ", ground truth" : "");
+  // Outputs are written when every frame is solved, metrics.json last.
+  const std::string earlier = polyfit::CleanOutputFolder(f.out_dir, "metrics.json").Describe(f.out_dir, "metrics.json");
+  if (!earlier.empty()) std::printf("%s\n", earlier.c_str());
   const polyfit::PolySftSummary summary = polyfit::SolvePolySft(options, scene, PrintFrame);
   polyfit::WriteSftOutputs(f.out_dir, scene, options, summary);
   if (f.overlays) WriteOverlays(f.out_dir, scene, summary);
