@@ -129,11 +129,12 @@ Eigen::Matrix3Xd SheetVerticesAt(const SheetSceneOptions& o, double tau) {
   const double curvature = bend                             ? std::sin(M_PI * tau) / 0.13
                            : o.motion == SheetMotion::kRoll ? (1.5 * M_PI - 0.5 * M_PI * tau) / o.sheet_width
                                                             : 0.0;
-  const Eigen::Matrix3d rotation = rigid ? (Eigen::AngleAxisd(0.35 * std::sin(M_PI * tau), Eigen::Vector3d::UnitY()) *
-                                            Eigen::AngleAxisd(0.2 * std::sin(2 * M_PI * tau), Eigen::Vector3d::UnitX()))
-                                               .toRotationMatrix()
-                                         : Eigen::Matrix3d::Identity();
-  const Eigen::Vector3d translation = rigid ? Eigen::Vector3d(0.03 * std::sin(2 * M_PI * tau),
+  const Eigen::Matrix3d rotation =
+      rigid ? (Eigen::AngleAxisd(o.yaw_amplitude * std::sin(M_PI * tau), Eigen::Vector3d::UnitY()) *
+               Eigen::AngleAxisd(0.2 * std::sin(2 * M_PI * tau), Eigen::Vector3d::UnitX()))
+                  .toRotationMatrix()
+            : Eigen::Matrix3d::Identity();
+  const Eigen::Vector3d translation = rigid ? Eigen::Vector3d(o.sideways_amplitude * std::sin(2 * M_PI * tau),
                                                               0.015 * std::sin(M_PI * tau), 0.05 * std::sin(M_PI * tau))
                                             : Eigen::Vector3d::Zero();
   // The wave: the profile z = A sin(2 pi (w / lambda + phase)) across the
@@ -354,6 +355,8 @@ void WriteSceneJson(const SheetSceneOptions& o, const fs::path& dir, double cx, 
                             {"seed", o.seed},
                             {"wavelength", o.wavelength},
                             {"wave_amplitude", o.wave_amplitude},
+                            {"yaw_amplitude", o.yaw_amplitude},
+                            {"sideways_amplitude", o.sideways_amplitude},
                             {"noise_sigma", o.noise_sigma}}}};
   if (o.write_masks) scene["masks"] = "masks/%06d.png";
   WriteFileAtomically((dir / "scene.json").string(), [&](std::ostream& out) { out << scene.dump(2) << '\n'; });

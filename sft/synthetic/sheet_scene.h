@@ -45,6 +45,11 @@ struct SheetSceneOptions {
   // beyond what one 4-jet represents.
   double wavelength = 0.3;
   double wave_amplitude = 0.015;
+  // The rigid motion's peak turn about the vertical axis (radians; pi / 2:
+  // edge-on mid-sequence) and sideways travel (m; from about 0.25 the sheet
+  // leaves the image and comes back).
+  double yaw_amplitude = 0.35;
+  double sideways_amplitude = 0.03;
   // Samples per pixel per axis for the hard rasterizer.
   int supersampling = 4;
   bool write_masks = true;

@@ -90,6 +90,13 @@ CLI::App* AddGenerateCommand(CLI::App* app, GenerateFlags* f) {
   generate->add_option("--focal", o.focal_length, "Focal length (pixels)")->capture_default_str();
   generate->add_option("--wavelength", o.wavelength, "Wave length (m), motion wave")->capture_default_str();
   generate->add_option("--amplitude", o.wave_amplitude, "Wave amplitude (m)")->capture_default_str();
+  generate
+      ->add_option("--yaw", o.yaw_amplitude,
+                   "Motions rigid and mixed: peak turn about the vertical (rad; 1.5708: edge-on)")
+      ->capture_default_str();
+  generate
+      ->add_option("--sideways", o.sideways_amplitude, "Motions rigid and mixed: sideways travel (m; 0.3: out of view)")
+      ->capture_default_str();
   generate->add_option("--grid-x", o.grid_x, "Template cells across")->capture_default_str();
   generate->add_option("--grid-y", o.grid_y, "Template cells down")->capture_default_str();
   generate->add_option("--noise", o.noise_sigma, "Pixel noise sigma")->capture_default_str();
