@@ -22,6 +22,7 @@ if [ ${#targets[@]} -eq 0 ]; then
 fi
 cmake --build build-fuzz -j2 --target "${targets[@]}"
 export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1:abort_on_error=1"
+export LSAN_OPTIONS="suppressions=$PWD/cmake/lsan.supp:print_suppressions=0"
 export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
 if [ -z "$runs" ]; then
   ctest --test-dir build-fuzz -L fuzz --output-on-failure

@@ -1,12 +1,17 @@
 #include "polyfit/mesh/mesh_io.h"
 
+#include <cctype>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
+#include <sstream>
 #include <stdexcept>
+#include <string>
 #include <unordered_map>
 #include <vector>
 
@@ -99,6 +104,78 @@ void WriteMeshFile(const std::string& path, WriteFn&& write) {
   }
 }
 
+// The least bytes a PLY property takes per element: its binary size, or
+// "0 " in ASCII; a list property its count (binary) or "0 ".
+double PlyMinBytes(const std::vector<std::string>& words, bool ascii) {
+  if (ascii) return 2.0;
+  static const std::pair<const char*, int> kSizes[] = {{"char", 1},  {"uchar", 1},   {"int8", 1},   {"uint8", 1},
+                                                       {"short", 2}, {"ushort", 2},  {"int16", 2},  {"uint16", 2},
+                                                       {"int", 4},   {"uint", 4},    {"int32", 4},  {"uint32", 4},
+                                                       {"float", 4}, {"float32", 4}, {"double", 8}, {"float64", 8}};
+  const std::string& type = words.size() > 2 && words[1] == "list" ? words[2] : words.size() > 1 ? words[1] : "";
+  for (const auto& [name, size] : kSizes) {
+    if (type == name) return size;
+  }
+  return 1.0;
+}
+
+// Counts declared in a header (OFF, PLY, binary STL) checked against the
+// file's size before assimp allocates for them: assimp 5.2 allocates what
+// a header declares, so 10 million vertices declared in a 200-byte file
+// would take gigabytes (found by tests/fuzz/mesh_*_fuzzer).
+void CheckDeclaredSizes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  in.seekg(0, std::ios::end);
+  const double size = static_cast<double>(in.tellg());
+  in.seekg(0);
+  std::string first;
+  in >> first;
+  const auto too_many = [&](double needed, const std::string& what) {
+    if (needed > size) {
+      Fail(path, "the header declares " + what + ", more than its " + std::to_string(static_cast<long long>(size)) +
+                     " bytes can hold");
+    }
+  };
+  if (first == "ply") {
+    in.seekg(0);
+    std::string line;
+    bool ascii = true;
+    double needed = 0.0, element_count = 0.0, element_bytes = 0.0;
+    for (int lines = 0; std::getline(in, line) && lines < 10000; ++lines) {
+      std::istringstream tokens(line);
+      std::vector<std::string> words;
+      for (std::string w; tokens >> w;) words.push_back(w);
+      if (words.empty()) continue;
+      if (words[0] == "format" && words.size() > 1) ascii = words[1] == "ascii";
+      if (words[0] == "element" || words[0] == "end_header") {
+        needed += element_count * element_bytes;
+        element_count = words.size() > 2 && words[0] == "element" ? std::strtod(words[2].c_str(), nullptr) : 0.0;
+        element_bytes = 0.0;
+        if (!(element_count >= 0.0)) element_count = 0.0;
+      }
+      if (words[0] == "property") element_bytes += PlyMinBytes(words, ascii);
+      if (words[0] == "end_header") break;
+    }
+    too_many(needed, "elements");
+  } else if (first.size() >= 3 && first.compare(first.size() - 3, 3, "OFF") == 0 && first[0] != 'n' &&
+             first[0] != '4') {
+    double vertices = 0.0, faces = 0.0;
+    if (in >> vertices >> faces && vertices >= 0.0 && faces >= 0.0) {
+      // "0 0 0\n" per vertex, "0\n" per face at the least.
+      too_many(6.0 * vertices + 2.0 * faces, std::to_string(static_cast<long long>(vertices)) + " vertices and " +
+                                                 std::to_string(static_cast<long long>(faces)) + " faces");
+    }
+  } else if (first.rfind("solid", 0) != 0 && size >= 84.0) {
+    // A binary STL: 80 bytes of header, a facet count, 50 bytes a facet.
+    std::uint32_t facets = 0;
+    in.seekg(80);
+    in.read(reinterpret_cast<char*>(&facets), sizeof(facets));
+    std::string extension = std::filesystem::path(path).extension().string();
+    for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (in && extension == ".stl") too_many(84.0 + 50.0 * facets, std::to_string(facets) + " facets");
+  }
+}
+
 }  // namespace
 
 TriangleMesh ReadTriangleMesh(const std::string& path, MeshReadSummary* summary) {
@@ -111,6 +188,7 @@ TriangleMesh ReadTriangleMesh(const std::string& path, MeshReadSummary* summary)
     if (!probe) Fail(path, "cannot be opened for reading");
     if (probe.peek() == std::ifstream::traits_type::eof()) Fail(path, "is empty");
   }
+  CheckDeclaredSizes(path);
 
   InstallErrorCollector();
   assimp_errors.clear();

@@ -4,6 +4,9 @@
 #include <fstream>
 #include <string>
 
+#include <utility>
+#include <vector>
+
 #include <gtest/gtest.h>
 
 #include "polyfit/mesh/primitives.h"
@@ -164,6 +167,18 @@ TEST_F(MeshIoTest, TruncatedFileIsNamedNotACrash) {
   // Debian's assimp aborts on this one unless its assertion is intercepted.
   const std::string error = ReadError(Write("cut.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n"));
   EXPECT_NE(error.find("cut.off"), std::string::npos) << error;
+}
+
+TEST_F(MeshIoTest, ImpossibleDeclaredSizesAreRefusedBeforeAllocating) {
+  // Found by tests/fuzz: assimp allocates what a header declares.
+  for (const auto& [name, text] : std::vector<std::pair<std::string, std::string>>{
+           {"huge.off", "OFF\n10000000 1 0\n0 0 0\n"},
+           {"huge.ply", "ply\nformat ascii 1.0\nelement vertex 10000000\nproperty float x\nproperty float y\n"
+                        "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n"},
+           {"huge.stl", std::string(80, ' ') + std::string("\xff\xff\xff\x0f", 4) + std::string(50, '\0')}}) {
+    const std::string error = ReadError(Write(name, text));
+    EXPECT_NE(error.find(name + ": the header declares"), std::string::npos) << error;
+  }
 }
 
 TEST_F(MeshIoTest, DegenerateFacesAfterWeldingAreDropped) {
