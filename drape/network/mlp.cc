@@ -1,6 +1,7 @@
 #include "drape/network/mlp.h"
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace polyfit {
@@ -13,12 +14,14 @@ Mlp::Mlp(std::vector<int> sizes, bool residual, double leaky_slope)
   }
   if (!(leaky_slope_ >= 0.0 && leaky_slope_ < 1.0)) throw std::invalid_argument("Mlp: leaky_slope must be in [0, 1)");
   offsets_.resize(sizes_.size() - 1);
-  int offset = 0;
+  // Counted in 64 bits: the weights are indexed by int.
+  long long offset = 0;
   for (int l = 0; l + 1 < static_cast<int>(sizes_.size()); ++l) {
-    offsets_[l] = offset;
-    offset += sizes_[l + 1] * sizes_[l] + sizes_[l + 1];
+    offsets_[l] = static_cast<int>(offset);
+    offset += static_cast<long long>(sizes_[l + 1]) * sizes_[l] + sizes_[l + 1];
+    if (offset > std::numeric_limits<int>::max()) throw std::invalid_argument("Mlp: more than 2^31 parameters");
   }
-  num_parameters_ = offset;
+  num_parameters_ = static_cast<int>(offset);
 }
 
 void Mlp::Initialize(std::uint64_t seed, double last_layer_scale, double* params) const {

@@ -42,7 +42,11 @@ Mlp GetMlp(Reader* r, const char* what) {
   const bool residual = r->Get<std::uint8_t>(what) != 0;
   const double slope = r->Get<double>(what);
   if (!(slope >= 0.0 && slope < 1.0)) r->Fail(std::string(what) + ": bad LeakyReLU slope");
-  return Mlp(sizes, residual, slope);
+  try {
+    return Mlp(sizes, residual, slope);
+  } catch (const std::invalid_argument& e) {
+    r->Fail(std::string(what) + ": " + e.what());
+  }
 }
 
 void PutNormalizer(const FeatureNormalizer& n, Writer* w) {

@@ -45,6 +45,7 @@ class BinaryReader {
   }
   void GetBytes(void* out, size_t size, const char* section) {
     if (size > remaining()) Fail(std::string("truncated in section '") + section + "'");
+    if (size == 0) return;  // out may be an empty vector's null data()
     std::memcpy(out, data_.data() + position_, size);
     position_ += size;
   }
