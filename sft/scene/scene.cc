@@ -1,8 +1,11 @@
 #include "sft/scene/scene.h"
 
+#include <cctype>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 
 #include <nlohmann/json.hpp>
 #include <opencv2/calib3d.hpp>
@@ -19,10 +22,52 @@ using nlohmann::json;
 
 [[noreturn]] void Fail(const std::string& message) { throw SceneError(message); }
 
-std::string FormatPattern(const std::string& pattern, int index) {
-  char buffer[1024];
-  std::snprintf(buffer, sizeof(buffer), pattern.c_str(), index);
-  return buffer;
+// A file pattern of the frame index: text with one integer conversion
+// (%d, %5d, %06d; %% for a percent sign). Formatted here, never handed to
+// printf: a pattern such as "%s" from scene.json would read memory that is
+// not there (found by tests/fuzz/scene_fuzzer).
+std::string FormatPattern(const std::string& pattern, int index, const std::string& key, const std::string& where) {
+  std::string out;
+  int conversions = 0;
+  for (size_t i = 0; i < pattern.size(); ++i) {
+    if (pattern[i] != '%') {
+      out += pattern[i];
+      continue;
+    }
+    if (i + 1 < pattern.size() && pattern[i + 1] == '%') {
+      out += '%';
+      ++i;
+      continue;
+    }
+    size_t j = i + 1;
+    const bool zero = j < pattern.size() && pattern[j] == '0';
+    if (zero) ++j;
+    int width = 0;
+    while (j < pattern.size() && std::isdigit(static_cast<unsigned char>(pattern[j])) && width < 100) {
+      width = 10 * width + (pattern[j++] - '0');
+    }
+    if (j >= pattern.size() || (pattern[j] != 'd' && pattern[j] != 'i') || width > 20 || ++conversions > 1) {
+      Fail(where + ": '" + key + "' must be a pattern with one integer conversion such as frames/%06d.png, not '" +
+           pattern + "'");
+    }
+    std::string digits = std::to_string(index < 0 ? -static_cast<long long>(index) : index);
+    if (index < 0) digits.insert(0, 1, '-');
+    if (static_cast<int>(digits.size()) < width) {
+      const size_t pad = width - digits.size();
+      if (zero) {
+        digits.insert(index < 0 ? 1 : 0, pad, '0');
+      } else {
+        digits.insert(0, pad, ' ');
+      }
+    }
+    out += digits;
+    i = j;
+  }
+  if (conversions != 1) {
+    Fail(where + ": '" + key + "' must be a pattern with one integer conversion such as frames/%06d.png, not '" +
+         pattern + "'");
+  }
+  return out;
 }
 
 template <typename T>
@@ -33,6 +78,28 @@ T Required(const json& object, const char* key, const std::string& where) {
   } catch (const json::exception&) {
     Fail(where + ": key '" + key + "' has the wrong type");
   }
+}
+
+// An int key: a whole number in int's range (nlohmann's get<int> of 1e300
+// or of a fraction would convert it unchecked).
+int IntValue(const json& value, const char* key, const std::string& where) {
+  const bool whole = value.is_number_integer() || (value.is_number_float() && std::isfinite(value.get<double>()) &&
+                                                   value.get<double>() == std::floor(value.get<double>()));
+  const double x = value.is_number() ? value.get<double>() : 0.0;
+  if (!whole || x < std::numeric_limits<int>::min() || x > std::numeric_limits<int>::max()) {
+    Fail(where + ": key '" + key + "' must be a whole number in int's range");
+  }
+  return static_cast<int>(x);
+}
+
+template <>
+int Required<int>(const json& object, const char* key, const std::string& where) {
+  if (!object.contains(key)) Fail(where + ": missing required key '" + key + "'");
+  return IntValue(object.at(key), key, where);
+}
+
+int Optional(const json& object, const char* key, int fallback, const std::string& where) {
+  return object.contains(key) ? IntValue(object.at(key), key, where) : fallback;
 }
 
 cv::Mat ReadMask(const std::string& path) {
@@ -81,7 +148,7 @@ PinholeCamera ReadCamera(const json& root, const std::string& where) {
     Fail(where + ": camera: fx, fy, width and height must be positive");
   }
   if (cam.contains("distortion")) {
-    camera.distortion = cam["distortion"].get<std::vector<double>>();
+    camera.distortion = Required<std::vector<double>>(cam, "distortion", where + " camera");
     if (camera.distortion.size() != 5) Fail(where + ": camera 'distortion' needs 5 values (k1, k2, p1, p2, k3)");
   }
   return camera;
@@ -107,8 +174,12 @@ void ReadTemplate(const json& root, const fs::path& dir, const std::string& wher
 // Every frame's image, mask and ground-truth paths, each checked to exist.
 void ListFrameFiles(const json& root, const fs::path& dir, const std::string& where, SftScene* scene) {
   scene->frame_count = Required<int>(root, "frame_count", where);
-  scene->first_frame = root.value("first_frame", 0);
+  scene->first_frame = Optional(root, "first_frame", 0, where);
   if (scene->frame_count <= 0) Fail(where + ": 'frame_count' must be positive");
+  // Indices stay far from int's end.
+  if (scene->first_frame < 0 || scene->first_frame > 100000000 || scene->frame_count > 100000000) {
+    Fail(where + ": 'first_frame' must be in [0, 1e8] and 'frame_count' at most 1e8");
+  }
   const std::string frames = Required<std::string>(root, "frames", where);
   const std::string masks = root.value("masks", std::string());
   const std::string ground_truth = root.value("ground_truth", std::string());
@@ -123,7 +194,7 @@ void ListFrameFiles(const json& root, const fs::path& dir, const std::string& wh
     }
   }
   const auto path_of = [&](const std::string& pattern, int index, const char* key) {
-    const std::string path = (dir / FormatPattern(pattern, index)).string();
+    const std::string path = (dir / FormatPattern(pattern, index, key, where)).string();
     if (!fs::exists(path)) Fail(path + ": missing (frame " + std::to_string(index) + ", key '" + key + "')");
     return path;
   };

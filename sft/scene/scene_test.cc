@@ -61,6 +61,35 @@ TEST_F(SceneTest, MissingKeyIsNamed) {
   EXPECT_NE(Error().find("'fx'"), std::string::npos) << Error();
 }
 
+TEST_F(SceneTest, FilePatternsAreFormattedHereNotByPrintf) {
+  // Found by tests/fuzz/scene_fuzzer: "%s" went to snprintf.
+  for (const char* pattern : {"frames/%s.png", "frames/%06d_%d.png", "frames/all.png", "frames/%99d.png"}) {
+    EditJson([&](nlohmann::json& j) { j["frames"] = pattern; });
+    EXPECT_NE(Error().find("'frames' must be a pattern with one integer conversion"), std::string::npos) << Error();
+  }
+  // Widths, zero padding and %% as printf would give them.
+  EditJson([](nlohmann::json& j) {
+    j["frames"] = "frames/%06d.png";
+    j["masks"] = "masks/%6d%%.png";
+  });
+  EXPECT_NE(Error().find("masks/     0%.png: missing"), std::string::npos) << Error();
+}
+
+TEST_F(SceneTest, IntegersOutOfRangeAreNamed) {
+  EditJson([](nlohmann::json& j) { j["first_frame"] = 1e300; });
+  EXPECT_NE(Error().find("'first_frame' must be a whole number"), std::string::npos) << Error();
+  EditJson([](nlohmann::json& j) {
+    j["first_frame"] = 0;
+    j["frame_count"] = 2.5;
+  });
+  EXPECT_NE(Error().find("'frame_count' must be a whole number"), std::string::npos) << Error();
+  EditJson([](nlohmann::json& j) {
+    j["frame_count"] = 3;
+    j["first_frame"] = 2147483000;
+  });
+  EXPECT_NE(Error().find("'first_frame' must be in [0, 1e8]"), std::string::npos) << Error();
+}
+
 TEST_F(SceneTest, MissingFrameIsNamed) {
   fs::remove(dir_.path() / "frames" / "000001.png");
   EXPECT_NE(Error().find("000001.png: missing"), std::string::npos) << Error();
