@@ -26,10 +26,11 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "slide_warp_benchmark: no MakeHuman body under %s/body\n", data.c_str());
     return 1;
   }
-  const SkinnedBody body = LoadDrapeBody(data + "/body", BodyShape{});
-  const TriangleMesh mesh = LoadDrapeGarment(garment, body, true);
-  const SkinWeights weights = TransferSkinWeights(body, mesh, SkinTransferOptions{});
-  const auto clip = LoadRetargetedClip(data + "/motion/02_01.bvh", 0.056444, 30.0, body.skeleton);
+  DrapeCase walk = LoadMakeHumanDrapeCase(data + "/body", garment, data + "/motion/02_01.bvh", 30.0);
+  const SkinnedBody& body = walk.body;
+  const TriangleMesh& mesh = walk.garment;
+  const SkinWeights& weights = walk.weights;
+  const auto& clip = walk.clip;
   const int lead_in = 10, frames = 30;
   std::printf("%s, walk frames 0-%d (every fifth), mean energy J\n\n", garment.c_str(), frames - 1);
   std::printf(

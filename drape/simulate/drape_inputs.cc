@@ -36,4 +36,14 @@ std::unique_ptr<MotionRetargeter> LoadRetargetedClip(const std::string& path, do
   }
 }
 
+DrapeCase LoadMakeHumanDrapeCase(const std::string& body_dir, const std::string& garment_path,
+                                 const std::string& clip_path, double fps) {
+  DrapeCase c;
+  c.body = LoadDrapeBody(body_dir, BodyShape{});
+  c.garment = LoadDrapeGarment(garment_path, c.body, true);
+  c.weights = TransferSkinWeights(c.body, c.garment, SkinTransferOptions{});
+  c.clip = LoadRetargetedClip(clip_path, 0.056444, fps, c.body.skeleton);
+  return c;
+}
+
 }  // namespace polyfit

@@ -13,6 +13,7 @@
 
 #include "drape/body/body_shape.h"
 #include "drape/body/makehuman_body.h"
+#include "drape/garment/skin_transfer.h"
 #include "drape/motion/retarget.h"
 #include "polyfit/mesh/triangle_mesh.h"
 
@@ -31,6 +32,18 @@ TriangleMesh LoadDrapeGarment(const std::string& path, const SkinnedBody& body, 
 // an Error (kInput) naming the file.
 std::unique_ptr<MotionRetargeter> LoadRetargetedClip(const std::string& path, double units_to_metres, double fps,
                                                      const Skeleton& skeleton);
+
+// A garment on the neutral MakeHuman body with its transferred skinning, and
+// a clip (BVH units of the CMU clips), as the benchmarks and stress tests
+// load them. Throws what the loaders above throw.
+struct DrapeCase {
+  SkinnedBody body;
+  TriangleMesh garment;
+  SkinWeights weights;
+  std::unique_ptr<MotionRetargeter> clip;
+};
+DrapeCase LoadMakeHumanDrapeCase(const std::string& body_dir, const std::string& garment_path,
+                                 const std::string& clip_path, double fps);
 
 }  // namespace polyfit
 

@@ -26,13 +26,12 @@ class DrapeStressTest : public ::testing::Test {
   void SetUp() override {
     data_ = fs::path(POLYFIT_SHARED_DATA_DIR) / "drape";
     if (!fs::exists(data_ / "body" / "makehuman" / "base.obj")) GTEST_SKIP() << "needs the MakeHuman body in " << data_;
-    body_ = LoadDrapeBody((data_ / "body").string(), BodyShape{});
-    garment_ =
-        LoadDrapeGarment((data_ / "garments" / "makehuman_cc0" / "male_casualsuit02.mhclo").string(), body_, true);
-    weights_ = TransferSkinWeights(body_, garment_, SkinTransferOptions{});
+    walk_ = LoadMakeHumanDrapeCase((data_ / "body").string(),
+                                   (data_ / "garments" / "makehuman_cc0" / "male_casualsuit02.mhclo").string(),
+                                   (data_ / "motion" / "02_01.bvh").string(), 30.0);
   }
   std::unique_ptr<MotionRetargeter> Walk(double fps) const {
-    return LoadRetargetedClip((data_ / "motion" / "02_01.bvh").string(), 0.056444, fps, body_.skeleton);
+    return LoadRetargetedClip((data_ / "motion" / "02_01.bvh").string(), 0.056444, fps, walk_.body.skeleton);
   }
   // Steps the solver through `poses`; returns the largest epsilon_c (%).
   static double Run(DrapeSolver* solver, const std::vector<JointTransforms>& poses, const char* name) {
@@ -56,18 +55,16 @@ class DrapeStressTest : public ::testing::Test {
   }
 
   fs::path data_;
-  SkinnedBody body_;
-  TriangleMesh garment_;
-  SkinWeights weights_;
+  DrapeCase walk_;
 };
 
 TEST_F(DrapeStressTest, LimbsThroughTheBody) {
-  const auto walk = Walk(30.0);
-  const PosePerturbation twist(body_.skeleton, 80.0 * M_PI / 180.0, 7);
+  const auto& walk = walk_.clip;
+  const PosePerturbation twist(walk_.body.skeleton, 80.0 * M_PI / 180.0, 7);
   std::vector<JointTransforms> poses;
   for (int f = 0; f < 12; ++f) poses.push_back(twist.Apply(walk->Pose(f), f / 30.0));
   DrapeSolverOptions options;
-  DrapeSolver solver(body_, garment_, weights_, options);
+  DrapeSolver solver(walk_.body, walk_.garment, walk_.weights, options);
   Run(&solver, poses, "reference drape, limbs through the body");
 
   // The shipped network on the same poses: finite predictions.
@@ -77,8 +74,8 @@ TEST_F(DrapeStressTest, LimbsThroughTheBody) {
   DrapeSolverOptions network_options;
   network_options.slide.warp_order = model.network.warp_order();
   network_options.patching.align_frames = model.aligned_frames;
-  DrapeSolver network_solver(body_, garment_, weights_, network_options);
-  const OneFitDraper draper(model, network_solver, weights_, body_.skeleton);
+  DrapeSolver network_solver(walk_.body, walk_.garment, walk_.weights, network_options);
+  const OneFitDraper draper(model, network_solver, walk_.weights, walk_.body.skeleton);
   for (size_t f = 2; f < poses.size(); ++f) {
     const std::vector<double> params = draper.Predict(poses[f - 2], poses[f - 1], poses[f], 30.0, BodyShape{});
     for (double p : params) ASSERT_TRUE(std::isfinite(p)) << "frame " << f;
@@ -92,7 +89,7 @@ TEST_F(DrapeStressTest, TenTimesTheFrameRate) {
   for (int f = 0; f < 20; ++f) poses.push_back(walk->Pose(f));
   DrapeSolverOptions options;
   options.physics.fps = 300.0;
-  DrapeSolver solver(body_, garment_, weights_, options);
+  DrapeSolver solver(walk_.body, walk_.garment, walk_.weights, options);
   const double inside = Run(&solver, poses, "reference drape, 300 frames per second");
   // The garment starts on the body and the body barely moves in 20 frames
   // at 300 fps: it must stay on it.
