@@ -17,8 +17,7 @@
 #include <glog/logging.h>
 
 #include "drape/eval/cloth_energy.h"
-#include "drape/garment/skin_transfer.h"
-#include "drape/simulate/drape_inputs.h"
+#include "drape/network/benchmark_walk.h"
 #include "drape/simulate/drape_solver.h"
 
 namespace {
@@ -87,18 +86,14 @@ int main(int argc, char** argv) {
   using namespace polyfit;
   google::InitGoogleLogging(argv[0]);
   FLAGS_minloglevel = 2;
-  const std::string data = argc > 1 ? argv[1] : "../shared/data/drape";
-  const std::string garment = argc > 2 ? argv[2] : data + "/garments/makehuman_cc0/male_casualsuit02.mhclo";
+  const std::optional<BenchmarkWalk> loaded = LoadBenchmarkWalk(argc, argv);
+  if (!loaded) return 1;
   const int frames = argc > 3 ? std::atoi(argv[3]) : 30;
-  if (!std::filesystem::exists(data + "/body/makehuman/base.obj")) {
-    std::fprintf(stderr, "output_space_benchmark: no MakeHuman body under %s/body\n", data.c_str());
-    return 1;
-  }
-  DrapeCase walk = LoadMakeHumanDrapeCase(data + "/body", garment, data + "/motion/02_01.bvh", 30.0);
-  const SkinnedBody& body = walk.body;
-  const TriangleMesh& mesh = walk.garment;
-  const SkinWeights& weights = walk.weights;
-  const auto& clip = walk.clip;
+  const std::string& garment = loaded->garment_path;
+  const SkinnedBody& body = loaded->walk.body;
+  const TriangleMesh& mesh = loaded->walk.garment;
+  const SkinWeights& weights = loaded->walk.weights;
+  const auto& clip = loaded->walk.clip;
   std::printf("%s, walk frames 0-%d, the drape solved in the network's output space (L-BFGS per frame)\n\n",
               garment.c_str(), frames - 1);
   std::printf(

@@ -13,24 +13,19 @@
 #include <cstdio>
 #include <filesystem>
 
-#include "drape/garment/skin_transfer.h"
-#include "drape/simulate/drape_inputs.h"
+#include "drape/network/benchmark_walk.h"
 #include "drape/simulate/drape_solver.h"
 #include "polyfit/jet/jet_basis.h"
 
 int main(int argc, char** argv) {
   using namespace polyfit;
-  const std::string data = argc > 1 ? argv[1] : "../shared/data/drape";
-  const std::string garment = argc > 2 ? argv[2] : data + "/garments/makehuman_cc0/male_casualsuit02.mhclo";
-  if (!std::filesystem::exists(data + "/body/makehuman/base.obj")) {
-    std::fprintf(stderr, "slide_warp_benchmark: no MakeHuman body under %s/body\n", data.c_str());
-    return 1;
-  }
-  DrapeCase walk = LoadMakeHumanDrapeCase(data + "/body", garment, data + "/motion/02_01.bvh", 30.0);
-  const SkinnedBody& body = walk.body;
-  const TriangleMesh& mesh = walk.garment;
-  const SkinWeights& weights = walk.weights;
-  const auto& clip = walk.clip;
+  const std::optional<BenchmarkWalk> loaded = LoadBenchmarkWalk(argc, argv);
+  if (!loaded) return 1;
+  const std::string& garment = loaded->garment_path;
+  const SkinnedBody& body = loaded->walk.body;
+  const TriangleMesh& mesh = loaded->walk.garment;
+  const SkinWeights& weights = loaded->walk.weights;
+  const auto& clip = loaded->walk.clip;
   const int lead_in = 10, frames = 30;
   std::printf("%s, walk frames 0-%d (every fifth), mean energy J\n\n", garment.c_str(), frames - 1);
   std::printf(
