@@ -8,10 +8,15 @@
 // reference drape (per-vertex slides, LM) is the output space's, and the gap
 // between this and a trained network is the training's.
 //
-//   output_space_benchmark [DATA_DIR [GARMENT [FRAMES]]]   (DATA_DIR: ../shared/data/drape)
+//   output_space_benchmark [DATA_DIR [GARMENT [FRAMES [AREA:WARP:ITERATIONS,...]]]]
+//   (DATA_DIR: ../shared/data/drape; WARP -1: no warp head; the default
+//   configurations are the table of docs/benchmarks.md)
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
 
 #include <ceres/ceres.h>
 #include <glog/logging.h>
@@ -103,8 +108,21 @@ int main(int argc, char** argv) {
     double area;
     int warp, iterations;
   };
-  for (const Config c : {Config{0.04, -1, 200}, Config{0.04, 2, 200}, Config{0.04, 2, 1000}, Config{0.04, 4, 200},
-                         Config{0.02, 2, 200}}) {
+  std::vector<Config> configs = {Config{0.04, -1, 200}, Config{0.04, 2, 200}, Config{0.04, 2, 1000},
+                                 Config{0.04, 4, 200}, Config{0.02, 2, 200}};
+  if (argc > 4) {
+    configs.clear();
+    std::istringstream list(argv[4]);
+    for (std::string item; std::getline(list, item, ',');) {
+      Config c{};
+      if (std::sscanf(item.c_str(), "%lf:%d:%d", &c.area, &c.warp, &c.iterations) != 3) {
+        std::fprintf(stderr, "output_space_benchmark: '%s' is not AREA:WARP:ITERATIONS\n", item.c_str());
+        return 2;
+      }
+      configs.push_back(c);
+    }
+  }
+  for (const Config c : configs) {
     DrapeSolverOptions options;
     options.patching.patch_area = c.area;
     options.slide.warp_order = c.warp;
