@@ -119,6 +119,58 @@ double PlyMinBytes(const std::vector<std::string>& words, bool ascii) {
   return 1.0;
 }
 
+// An ASCII OFF's vertex and face lines, after the counts, checked line by
+// line before assimp reads them: its OFF reader read past its buffers on a
+// face line of no corners and on vertex lines holding colours under a
+// plain OFF header (found by tests/fuzz/mesh_off_fuzzer). Vertex lines
+// need three finite numbers (more, colours, are allowed); face lines a
+// corner count of at least one and that many indices of existing
+// vertices.
+void CheckOffBody(const std::string& path, std::istream* in, long long num_vertices, long long num_faces) {
+  std::string line;
+  long long vertices = 0, faces = 0;
+  int number = 0;
+  const auto bad = [&](const std::string& what) {
+    Fail(path, "malformed: after the counts, line " + std::to_string(number) + ": " + what);
+  };
+  while ((vertices < num_vertices || faces < num_faces) && std::getline(*in, line)) {
+    ++number;
+    const size_t hash = line.find('#');
+    if (hash != std::string::npos) line.resize(hash);
+    std::istringstream tokens(line);
+    std::vector<double> values;
+    for (std::string token; tokens >> token;) {
+      char* end = nullptr;
+      const double value = std::strtod(token.c_str(), &end);
+      if (*end != '\0') bad("'" + token + "' is not a number");
+      values.push_back(value);
+    }
+    if (values.empty()) continue;
+    if (vertices < num_vertices) {
+      if (values.size() < 3) bad("a vertex needs three coordinates");
+      for (double v : values) {
+        if (!std::isfinite(v)) bad("a non-finite value");
+      }
+      ++vertices;
+      continue;
+    }
+    const double corners = values[0];
+    if (!(corners >= 1.0) || corners != std::floor(corners) || corners + 1.0 > values.size()) {
+      bad("a face needs a corner count of at least 1 and that many indices");
+    }
+    for (size_t k = 1; k <= static_cast<size_t>(corners); ++k) {
+      if (!(values[k] >= 0.0 && values[k] < static_cast<double>(num_vertices)) || values[k] != std::floor(values[k])) {
+        bad("a face index out of range");
+      }
+    }
+    ++faces;
+  }
+  if (vertices < num_vertices || faces < num_faces) {
+    Fail(path, "truncated: " + std::to_string(vertices) + " of " + std::to_string(num_vertices) + " vertices and " +
+                   std::to_string(faces) + " of " + std::to_string(num_faces) + " faces");
+  }
+}
+
 // Counts declared in a header (OFF, PLY, binary STL) checked against the
 // file's size before assimp allocates for them: assimp 5.2 allocates what
 // a header declares, so 10 million vertices declared in a 200-byte file
@@ -141,6 +193,7 @@ void CheckDeclaredSizes(const std::string& path) {
     std::string line;
     bool ascii = true;
     double needed = 0.0, element_count = 0.0, element_bytes = 0.0;
+    bool ended = false;
     for (int lines = 0; std::getline(in, line) && lines < 10000; ++lines) {
       std::istringstream tokens(line);
       std::vector<std::string> words;
@@ -154,16 +207,31 @@ void CheckDeclaredSizes(const std::string& path) {
         if (!(element_count >= 0.0)) element_count = 0.0;
       }
       if (words[0] == "property") element_bytes += PlyMinBytes(words, ascii);
-      if (words[0] == "end_header") break;
+      if (words[0] == "end_header") {
+        ended = true;
+        break;
+      }
     }
+    // assimp 5.2 looped for seconds on a header without its end.
+    if (!ended) Fail(path, "a PLY header without 'end_header'");
     too_many(needed, "elements");
   } else if (first.size() >= 3 && first.compare(first.size() - 3, 3, "OFF") == 0 && first[0] != 'n' &&
              first[0] != '4') {
+    // The counts: the first line after the header that is not blank or a
+    // comment.
+    std::string line;
+    std::getline(in, line);
+    while (std::getline(in, line)) {
+      line.resize(std::min(line.size(), line.find('#')));
+      if (line.find_first_not_of(" \t\r") != std::string::npos) break;
+    }
+    std::istringstream counts(line);
     double vertices = 0.0, faces = 0.0;
-    if (in >> vertices >> faces && vertices >= 0.0 && faces >= 0.0) {
+    if (counts >> vertices >> faces && vertices >= 0.0 && faces >= 0.0) {
       // "0 0 0\n" per vertex, "0\n" per face at the least.
       too_many(6.0 * vertices + 2.0 * faces, std::to_string(static_cast<long long>(vertices)) + " vertices and " +
                                                  std::to_string(static_cast<long long>(faces)) + " faces");
+      CheckOffBody(path, &in, static_cast<long long>(vertices), static_cast<long long>(faces));
     }
   } else if (first.rfind("solid", 0) != 0 && size >= 84.0) {
     // A binary STL: 80 bytes of header, a facet count, 50 bytes a facet.

@@ -3,7 +3,6 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
-
 #include <utility>
 #include <vector>
 
@@ -173,11 +172,30 @@ TEST_F(MeshIoTest, ImpossibleDeclaredSizesAreRefusedBeforeAllocating) {
   // Found by tests/fuzz: assimp allocates what a header declares.
   for (const auto& [name, text] : std::vector<std::pair<std::string, std::string>>{
            {"huge.off", "OFF\n10000000 1 0\n0 0 0\n"},
-           {"huge.ply", "ply\nformat ascii 1.0\nelement vertex 10000000\nproperty float x\nproperty float y\n"
-                        "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n"},
+           {"huge.ply",
+            "ply\nformat ascii 1.0\nelement vertex 10000000\nproperty float x\nproperty float y\n"
+            "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n"},
            {"huge.stl", std::string(80, ' ') + std::string("\xff\xff\xff\x0f", 4) + std::string(50, '\0')}}) {
     const std::string error = ReadError(Write(name, text));
     EXPECT_NE(error.find(name + ": the header declares"), std::string::npos) << error;
+  }
+}
+
+TEST_F(MeshIoTest, MalformedOffAndPlyAreRefusedBeforeAssimpReadsThem) {
+  // Found by tests/fuzz: assimp read past its buffers on a face of no
+  // corners and looped on a PLY header without its end.
+  struct Case {
+    const char *name, *text, *expected;
+  };
+  for (const Case& c : {Case{"no_corners.off", "OFF\n# a comment\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n0\n",
+                             "line 5: a face needs a corner count"},
+                        Case{"short.off", "OFF\n3 1 0\n0 0 0\n1 0\n0 1 0\n3 0 1 2\n", "a vertex needs three"},
+                        Case{"cut.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n", "truncated: 2 of 3 vertices"},
+                        Case{"open.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n0 0 0\n",
+                             "without 'end_header'"}}) {
+    const std::string error = ReadError(Write(c.name, c.text));
+    EXPECT_NE(error.find(std::string(c.name) + ": "), std::string::npos) << error;
+    EXPECT_NE(error.find(c.expected), std::string::npos) << error;
   }
 }
 
