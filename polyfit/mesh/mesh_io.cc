@@ -119,6 +119,12 @@ double PlyMinBytes(const std::vector<std::string>& words, bool ascii) {
   return 1.0;
 }
 
+std::string CountText(double count) {
+  char text[64];
+  std::snprintf(text, sizeof(text), "%.0f", count);
+  return text;
+}
+
 // An ASCII OFF's vertex and face lines, after the counts, checked line by
 // line before assimp reads them: its OFF reader read past its buffers on a
 // face line of no corners and on vertex lines holding colours under a
@@ -184,8 +190,7 @@ void CheckDeclaredSizes(const std::string& path) {
   in >> first;
   const auto too_many = [&](double needed, const std::string& what) {
     if (needed > size) {
-      Fail(path, "the header declares " + what + ", more than its " + std::to_string(static_cast<long long>(size)) +
-                     " bytes can hold");
+      Fail(path, "the header declares " + what + ", more than its " + CountText(size) + " bytes can hold");
     }
   };
   if (first == "ply") {
@@ -229,8 +234,9 @@ void CheckDeclaredSizes(const std::string& path) {
     double vertices = 0.0, faces = 0.0;
     if (counts >> vertices >> faces && vertices >= 0.0 && faces >= 0.0) {
       // "0 0 0\n" per vertex, "0\n" per face at the least.
-      too_many(6.0 * vertices + 2.0 * faces, std::to_string(static_cast<long long>(vertices)) + " vertices and " +
-                                                 std::to_string(static_cast<long long>(faces)) + " faces");
+      // Counts as text without converting them to an integer type first:
+      // a header may declare 1e24 (found by tests/fuzz/mesh_stl_fuzzer).
+      too_many(6.0 * vertices + 2.0 * faces, CountText(vertices) + " vertices and " + CountText(faces) + " faces");
       CheckOffBody(path, &in, static_cast<long long>(vertices), static_cast<long long>(faces));
     }
   } else if (first.rfind("solid", 0) != 0 && size >= 84.0) {
