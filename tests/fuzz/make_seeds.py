@@ -106,42 +106,23 @@ def ply_vertices_seeds(target):
 
 
 def bvh_seeds(target):
-    hierarchy = """HIERARCHY
-ROOT Hips
-{
-\tOFFSET 0.000000 0.000000 0.000000
-\tCHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation
-\tJOINT LeftUpLeg
-\t{
-\t\tOFFSET 1.000000 -1.000000 0.000000
-\t\tCHANNELS 3 Zrotation Yrotation Xrotation
-\t\tJOINT LeftLeg
-\t\t{
-\t\t\tOFFSET 0.000000 -7.000000 0.000000
-\t\t\tCHANNELS 3 Zrotation Yrotation Xrotation
-\t\t\tEnd Site
-\t\t\t{
-\t\t\t\tOFFSET 0.000000 -7.000000 0.000000
-\t\t\t}
-\t\t}
-\t}
-\tJOINT Spine
-\t{
-\t\tOFFSET 0.000000 2.000000 0.000000
-\t\tCHANNELS 3 Zrotation Yrotation Xrotation
-\t\tEnd Site
-\t\t{
-\t\t\tOFFSET 0.000000 3.000000 0.000000
-\t\t}
-\t}
-}
-"""
-    motion = "MOTION\nFrames: 3\nFrame Time: 0.033333\n"
+    """A three-joint rig of our own (names and offsets invented here)."""
+    hierarchy = (
+        "HIERARCHY\nROOT pelvis\n{\n  OFFSET 0.5 17.25 -0.75\n"
+        "  CHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation\n"
+        "  JOINT thigh\n  {\n    OFFSET 1.5 -1.25 0.25\n    CHANNELS 3 Zrotation Yrotation Xrotation\n"
+        "    JOINT shin\n    {\n      OFFSET 0.0 -7.5 0.5\n      CHANNELS 3 Zrotation Yrotation Xrotation\n"
+        "      End Site\n      {\n        OFFSET 0.0 -7.0 1.0\n      }\n    }\n  }\n"
+        "  JOINT chest\n  {\n    OFFSET 0.0 2.5 0.0\n    CHANNELS 3 Zrotation Yrotation Xrotation\n"
+        "    End Site\n    {\n      OFFSET 0.0 3.0 0.0\n    }\n  }\n}\n")
+    motion = "MOTION\nFrames: 3\nFrame Time: 0.04\n"
     for t in range(3):
-        motion += "0 %g 0 %g 0 0 %g 0 0 0 0 %g 0 0 0\n" % (17 + t * 0.1, 5 * t, -10 * t, 20 * t)
+        motion += "0.1 %g 0 %g 0 0 %g 0 0 0 0 %g 0 0 0\n" % (17 + t * 0.1, 5 * t, -10 * t, 20 * t)
     put(target, "three_joints.bvh", hierarchy + motion)
-    put(target, "no_frames.bvh", hierarchy + "MOTION\nFrames: 0\nFrame Time: 0.033333\n")
-    put(target, "short_frame.bvh", hierarchy + "MOTION\nFrames: 2\nFrame Time: 0.033333\n0 0 0\n")
+    put(target, "no_frames.bvh", hierarchy + "MOTION\nFrames: 0\nFrame Time: 0.04\n")
+    put(target, "short_frame.bvh", hierarchy + "MOTION\nFrames: 2\nFrame Time: 0.04\n0 0 0\n")
+    # The first finding (UBSan): a frame count beyond int.
+    put(target, "regression_frame_count_overflow.bvh", hierarchy + "MOTION\nFrames: 42147483647\nFrame Time: 0.03\n0 0 0\n")
 
 
 def mhclo_seeds(target):
