@@ -252,7 +252,10 @@ void CheckDeclaredSizes(const std::string& path) {
 
 }  // namespace
 
-TriangleMesh ReadTriangleMesh(const std::string& path, MeshReadSummary* summary) {
+namespace {
+
+// The file exists, is a file, and is not empty; its declared sizes fit.
+void CheckMeshFile(const std::string& path) {
   namespace fs = std::filesystem;
   std::error_code ec;
   if (!fs::exists(path, ec)) Fail(path, "no such file");
@@ -263,43 +266,29 @@ TriangleMesh ReadTriangleMesh(const std::string& path, MeshReadSummary* summary)
     if (probe.peek() == std::ifstream::traits_type::eof()) Fail(path, "is empty");
   }
   CheckDeclaredSizes(path);
+}
 
-  InstallErrorCollector();
-  assimp_errors.clear();
-  Assimp::Importer importer;
-  importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
-  const aiScene* scene = nullptr;
-  try {
-    scene = importer.ReadFile(path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_SortByPType |
-                                        aiProcess_PreTransformVertices);
-  } catch (const std::exception& e) {
-    Fail(path, std::string("malformed: ") + e.what());
-  }
-  if (scene == nullptr) {
-    std::string reason = importer.GetErrorString();
-    if (reason.empty()) reason = "assimp could not read it";
-    // assimp's words when every primitive was a point or a line.
-    if (reason.find("No output meshes") != std::string::npos || reason.find("no faces") != std::string::npos) {
-      Fail(path, "holds no triangles (a point cloud or lines only?): " + reason);
-    }
-    Fail(path, "unreadable: " + reason);
-  }
-
-  const std::string errors = Trimmed(assimp_errors);
-  if (errors.find("out of range") != std::string::npos || errors.find("nvalid") != std::string::npos) {
-    Fail(path, "malformed: " + errors);
-  }
-
-  // Concatenate the triangles of every mesh, welding by position.
+// Welded triangles of every mesh of a scene (PreTransformVertices: in one
+// frame), texture coordinates per corner when any mesh has them.
+struct WeldedTriangles {
   std::vector<Eigen::Vector3d> positions;
   std::vector<Eigen::Vector3i> faces;
   std::vector<Eigen::Vector2d> texcoords;
   bool any_texcoords = false;
+  int dropped_degenerate = 0;
+};
+
+WeldedTriangles WeldScene(const std::string& path, const aiScene* scene) {
+  WeldedTriangles w;
+  std::vector<Eigen::Vector3d>& positions = w.positions;
+  std::vector<Eigen::Vector3i>& faces = w.faces;
+  std::vector<Eigen::Vector2d>& texcoords = w.texcoords;
+  bool& any_texcoords = w.any_texcoords;
+  int& dropped_degenerate = w.dropped_degenerate;
   for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
     any_texcoords |= scene->mMeshes[m]->HasTextureCoords(0);
   }
   std::unordered_map<PositionKey, int, PositionKeyHash> welded;
-  int dropped_degenerate = 0;
   for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
     const aiMesh* mesh = scene->mMeshes[m];
     std::vector<int> remap(mesh->mNumVertices);
@@ -345,8 +334,14 @@ TriangleMesh ReadTriangleMesh(const std::string& path, MeshReadSummary* summary)
     Fail(path,
          dropped_degenerate > 0 ? "every triangle is degenerate" : "holds no triangles (a point cloud or lines only?)");
   }
+  return w;
+}
 
-  // Drop vertices no face uses (welding and dropped faces can leave some).
+// The welded triangles without the vertices no face uses (welding and
+// dropped faces can leave some), validated.
+TriangleMesh CompactMesh(const std::string& path, const WeldedTriangles& w) {
+  const std::vector<Eigen::Vector3d>& positions = w.positions;
+  const std::vector<Eigen::Vector3i>& faces = w.faces;
   std::vector<int> used(positions.size(), -1);
   int num_used = 0;
   for (const Eigen::Vector3i& f : faces) {
@@ -363,15 +358,49 @@ TriangleMesh ReadTriangleMesh(const std::string& path, MeshReadSummary* summary)
   for (size_t f = 0; f < faces.size(); ++f) {
     for (int c = 0; c < 3; ++c) out.faces(c, f) = used[faces[f][c]];
   }
-  if (any_texcoords) {
-    out.corner_texcoords.resize(2, static_cast<Eigen::Index>(texcoords.size()));
-    for (size_t i = 0; i < texcoords.size(); ++i) out.corner_texcoords.col(i) = texcoords[i];
+  if (w.any_texcoords) {
+    out.corner_texcoords.resize(2, static_cast<Eigen::Index>(w.texcoords.size()));
+    for (size_t i = 0; i < w.texcoords.size(); ++i) out.corner_texcoords.col(i) = w.texcoords[i];
   }
   const std::string problem = out.Validate();
   if (!problem.empty()) Fail(path, problem);
+  return out;
+}
+
+}  // namespace
+
+TriangleMesh ReadTriangleMesh(const std::string& path, MeshReadSummary* summary) {
+  CheckMeshFile(path);
+  InstallErrorCollector();
+  assimp_errors.clear();
+  Assimp::Importer importer;
+  importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
+  const aiScene* scene = nullptr;
+  try {
+    scene = importer.ReadFile(path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_SortByPType |
+                                        aiProcess_PreTransformVertices);
+  } catch (const std::exception& e) {
+    Fail(path, std::string("malformed: ") + e.what());
+  }
+  if (scene == nullptr) {
+    std::string reason = importer.GetErrorString();
+    if (reason.empty()) reason = "assimp could not read it";
+    // assimp's words when every primitive was a point or a line.
+    if (reason.find("No output meshes") != std::string::npos || reason.find("no faces") != std::string::npos) {
+      Fail(path, "holds no triangles (a point cloud or lines only?): " + reason);
+    }
+    Fail(path, "unreadable: " + reason);
+  }
+
+  const std::string errors = Trimmed(assimp_errors);
+  if (errors.find("out of range") != std::string::npos || errors.find("nvalid") != std::string::npos) {
+    Fail(path, "malformed: " + errors);
+  }
+  const WeldedTriangles welded = WeldScene(path, scene);
+  const TriangleMesh out = CompactMesh(path, welded);
   if (summary != nullptr) {
-    summary->num_dropped_degenerate_faces = dropped_degenerate;
-    summary->num_dropped_unreferenced_vertices = static_cast<int>(positions.size()) - num_used;
+    summary->num_dropped_degenerate_faces = welded.dropped_degenerate;
+    summary->num_dropped_unreferenced_vertices = static_cast<int>(welded.positions.size()) - out.num_vertices();
     summary->num_meshes = static_cast<int>(scene->mNumMeshes);
     summary->loader_messages = errors;
   }

@@ -135,18 +135,20 @@ double ReadBinaryValue(const char* data, const std::string& type, bool swap) {
   return type[0] == 'u' ? static_cast<double>(static_cast<std::uint32_t>(i)) : i;
 }
 
-}  // namespace
+// The vertex element of a PLY header: its format, count and properties.
+struct PlyVertexHeader {
+  PlyFormat format = PlyFormat::kAscii;
+  long long num_vertices = -1;
+  std::vector<std::string> types, names;
+  int x = 0, y = 0, z = 0;  // the coordinates' properties
+};
 
-Eigen::Matrix3Xd ReadPlyVertices(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) Fail(path, "cannot be opened (missing?)");
+PlyVertexHeader ReadPlyVertexHeader(const std::string& path, std::istream& in) {
+  PlyVertexHeader h;
   std::string line;
   std::getline(in, line);
   if (line.rfind("ply", 0) != 0) Fail(path, "not a PLY file");
-  PlyFormat format = PlyFormat::kAscii;
-  long long num_vertices = -1;
   bool in_vertex = false, vertex_seen = false, before_vertex = true;
-  std::vector<std::string> types, names;
   while (std::getline(in, line)) {
     if (!line.empty() && line.back() == '\r') line.pop_back();
     std::istringstream tokens(line);
@@ -155,17 +157,17 @@ Eigen::Matrix3Xd ReadPlyVertices(const std::string& path) {
     if (word == "format") {
       std::string f;
       tokens >> f;
-      format = f == "ascii"                  ? PlyFormat::kAscii
-               : f == "binary_little_endian" ? PlyFormat::kBinaryLittle
-               : f == "binary_big_endian"    ? PlyFormat::kBinaryBig
-                                             : (Fail(path, "unknown PLY format '" + f + "'"), PlyFormat::kAscii);
+      h.format = f == "ascii"                  ? PlyFormat::kAscii
+                 : f == "binary_little_endian" ? PlyFormat::kBinaryLittle
+                 : f == "binary_big_endian"    ? PlyFormat::kBinaryBig
+                                               : (Fail(path, "unknown PLY format '" + f + "'"), PlyFormat::kAscii);
     } else if (word == "element") {
       std::string name;
       long long count = -1;
       tokens >> name >> count;
       in_vertex = name == "vertex";
       if (in_vertex) {
-        num_vertices = count;
+        h.num_vertices = count;
         vertex_seen = true;
       } else if (!vertex_seen) {
         before_vertex = false;  // another element first: not supported
@@ -176,59 +178,80 @@ Eigen::Matrix3Xd ReadPlyVertices(const std::string& path) {
       if (type == "list") Fail(path, "list property in the vertex element");
       tokens >> name;
       if (PlyTypeSize(type) == 0) Fail(path, "unknown property type '" + type + "'");
-      types.push_back(type);
-      names.push_back(name);
+      h.types.push_back(type);
+      h.names.push_back(name);
     } else if (word == "end_header") {
       break;
     }
   }
-  if (!vertex_seen || num_vertices < 0) Fail(path, "no vertex element");
+  if (!vertex_seen || h.num_vertices < 0) Fail(path, "no vertex element");
   if (!before_vertex) Fail(path, "the vertex element must come first");
   const auto find = [&](const char* n) {
-    const auto it = std::find(names.begin(), names.end(), n);
-    if (it == names.end()) Fail(path, std::string("no '") + n + "' property");
-    return static_cast<int>(it - names.begin());
+    const auto it = std::find(h.names.begin(), h.names.end(), n);
+    if (it == h.names.end()) Fail(path, std::string("no '") + n + "' property");
+    return static_cast<int>(it - h.names.begin());
   };
-  const int ix = find("x"), iy = find("y"), iz = find("z");
-  // The header's count, checked against what the file holds before it is
-  // allocated: an ASCII value takes at least two bytes ("0 "), a binary
-  // vertex its stride.
+  h.x = find("x");
+  h.y = find("y");
+  h.z = find("z");
+  return h;
+}
+
+// The header's count against what the file holds, before it is allocated:
+// an ASCII value takes at least two bytes ("0 "), a binary vertex its stride.
+void CheckPlyVertexCount(const std::string& path, const PlyVertexHeader& h, std::istream& in) {
   size_t min_vertex_bytes = 0;
-  for (const std::string& t : types) min_vertex_bytes += format == PlyFormat::kAscii ? 2 : PlyTypeSize(t);
+  for (const std::string& t : h.types) min_vertex_bytes += h.format == PlyFormat::kAscii ? 2 : PlyTypeSize(t);
   const std::streampos data_start = in.tellg();
   in.seekg(0, std::ios::end);
   const long long remaining = static_cast<long long>(in.tellg() - data_start);
   in.seekg(data_start);
-  if (data_start < 0 || num_vertices > remaining / static_cast<long long>(std::max<size_t>(min_vertex_bytes, 1)) + 1) {
-    Fail(path, "the header declares " + std::to_string(num_vertices) + " vertices; the file holds at most " +
-                   std::to_string(remaining / static_cast<long long>(std::max<size_t>(min_vertex_bytes, 1)) + 1));
+  const long long most = remaining / static_cast<long long>(std::max<size_t>(min_vertex_bytes, 1)) + 1;
+  if (data_start < 0 || h.num_vertices > most) {
+    Fail(path, "the header declares " + std::to_string(h.num_vertices) + " vertices; the file holds at most " +
+                   std::to_string(most));
   }
-  Eigen::Matrix3Xd points(3, num_vertices);
-  if (format == PlyFormat::kAscii) {
-    std::vector<double> row(names.size());
-    for (long long v = 0; v < num_vertices; ++v) {
+}
+
+Eigen::Matrix3Xd ReadPlyVertexData(const std::string& path, const PlyVertexHeader& h, std::istream& in) {
+  Eigen::Matrix3Xd points(3, h.num_vertices);
+  if (h.format == PlyFormat::kAscii) {
+    std::vector<double> row(h.names.size());
+    for (long long v = 0; v < h.num_vertices; ++v) {
       for (double& value : row) {
         if (!(in >> value)) Fail(path, "truncated at vertex " + std::to_string(v));
       }
-      points.col(v) << row[ix], row[iy], row[iz];
+      points.col(v) << row[h.x], row[h.y], row[h.z];
     }
-  } else {
-    size_t stride = 0;
-    std::vector<size_t> offsets;
-    for (const std::string& t : types) {
-      offsets.push_back(stride);
-      stride += PlyTypeSize(t);
-    }
-    std::vector<char> data(stride * static_cast<size_t>(num_vertices));
-    if (!in.read(data.data(), static_cast<std::streamsize>(data.size()))) Fail(path, "truncated vertex data");
-    const bool swap = format == PlyFormat::kBinaryBig;
-    for (long long v = 0; v < num_vertices; ++v) {
-      const char* base = data.data() + v * stride;
-      points.col(v) << ReadBinaryValue(base + offsets[ix], types[ix], swap),
-          ReadBinaryValue(base + offsets[iy], types[iy], swap), ReadBinaryValue(base + offsets[iz], types[iz], swap);
-    }
+    return points;
   }
-  for (long long v = 0; v < num_vertices; ++v) {
+  size_t stride = 0;
+  std::vector<size_t> offsets;
+  for (const std::string& t : h.types) {
+    offsets.push_back(stride);
+    stride += PlyTypeSize(t);
+  }
+  std::vector<char> data(stride * static_cast<size_t>(h.num_vertices));
+  if (!in.read(data.data(), static_cast<std::streamsize>(data.size()))) Fail(path, "truncated vertex data");
+  const bool swap = h.format == PlyFormat::kBinaryBig;
+  for (long long v = 0; v < h.num_vertices; ++v) {
+    const char* base = data.data() + v * stride;
+    points.col(v) << ReadBinaryValue(base + offsets[h.x], h.types[h.x], swap),
+        ReadBinaryValue(base + offsets[h.y], h.types[h.y], swap),
+        ReadBinaryValue(base + offsets[h.z], h.types[h.z], swap);
+  }
+  return points;
+}
+
+}  // namespace
+
+Eigen::Matrix3Xd ReadPlyVertices(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) Fail(path, "cannot be opened (missing?)");
+  const PlyVertexHeader header = ReadPlyVertexHeader(path, in);
+  CheckPlyVertexCount(path, header, in);
+  const Eigen::Matrix3Xd points = ReadPlyVertexData(path, header, in);
+  for (Eigen::Index v = 0; v < points.cols(); ++v) {
     if (!points.col(v).allFinite()) Fail(path, "vertex " + std::to_string(v) + " is not finite");
   }
   return points;
