@@ -11,6 +11,10 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 runs="${1:-}"
 shift || true
+if ! command -v clang++ > /dev/null || [ ! -e "$(clang++ -print-file-name=libclang_rt.fuzzer-x86_64.a 2>/dev/null)" ]; then
+  echo "cmake/fuzz.sh needs clang and libFuzzer: apt-get install clang libclang-rt-14-dev" >&2
+  exit 2
+fi
 generator=()
 [ -f build-fuzz/CMakeCache.txt ] || generator=(-G Ninja)
 CXX=clang++ cmake -S . -B build-fuzz "${generator[@]}" -DCMAKE_BUILD_TYPE=Release -DPOLYFIT_FUZZ=ON \
