@@ -9,17 +9,21 @@ set(POLYFIT_PYTHON_INSTALL_DIR ${CMAKE_INSTALL_LIBDIR}/python3/dist-packages
     CACHE PATH "Where `make install` puts the package polyfit (relative to the prefix)")
 set(POLYFIT_PYTHON OFF)
 
-# The first python3 that imports NumPy and pybind11: a pyenv or virtualenv
-# interpreter first on PATH often has neither, Debian's /usr/bin/python3
-# has them once installed.
+# The first python3 that imports NumPy, preferring one that also has
+# pytest (for the tests): a pyenv or virtualenv interpreter first on PATH
+# often has neither, Debian's /usr/bin/python3 has them once installed.
+# pybind11 itself comes from CMake (pybind11-dev); its Python module
+# (python3-pybind11, only recommended by pybind11-dev) is not needed.
 function(polyfit_find_python_with_numpy out)
   find_program(path_python python3 NO_CACHE)
-  foreach(candidate ${path_python} /usr/bin/python3)
-    execute_process(COMMAND ${candidate} -c "import numpy, pybind11" RESULT_VARIABLE failed OUTPUT_QUIET ERROR_QUIET)
-    if(NOT failed)
-      set(${out} ${candidate} PARENT_SCOPE)
-      return()
-    endif()
+  foreach(imports "numpy, pytest" "numpy")
+    foreach(candidate ${path_python} /usr/bin/python3)
+      execute_process(COMMAND ${candidate} -c "import ${imports}" RESULT_VARIABLE failed OUTPUT_QUIET ERROR_QUIET)
+      if(NOT failed)
+        set(${out} ${candidate} PARENT_SCOPE)
+        return()
+      endif()
+    endforeach()
   endforeach()
   set(${out} "" PARENT_SCOPE)
 endfunction()
@@ -39,7 +43,7 @@ if(POLYFIT_BUILD_PYTHON)
     set(POLYFIT_PYTHON ON)
     message(STATUS "Python package: ${Python3_EXECUTABLE}, pybind11 ${pybind11_VERSION}")
   else()
-    message(STATUS "Python package skipped: no python3 with NumPy and pybind11 (apt-get install python3-dev "
+    message(STATUS "Python package skipped: no python3 with NumPy, or no pybind11 (apt-get install python3-dev "
                    "python3-numpy pybind11-dev)")
   endif()
 endif()

@@ -21,7 +21,10 @@
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
+#include "polyfit/mesh/off_reader.h"
+#include "polyfit/mesh/ply_reader.h"
 #include "polyfit/util/atomic_file.h"
+#include "polyfit/util/file_extension.h"
 
 // Debian's assimp is built with its internal assertions on, and on some
 // malformed files (a truncated OFF) an assertion fails and aborts the
@@ -104,149 +107,33 @@ void WriteMeshFile(const std::string& path, WriteFn&& write) {
   }
 }
 
-// The least bytes a PLY property takes per element: its binary size, or
-// "0 " in ASCII; a list property its count (binary) or "0 ".
-double PlyMinBytes(const std::vector<std::string>& words, bool ascii) {
-  if (ascii) return 2.0;
-  static const std::pair<const char*, int> kSizes[] = {{"char", 1},  {"uchar", 1},   {"int8", 1},   {"uint8", 1},
-                                                       {"short", 2}, {"ushort", 2},  {"int16", 2},  {"uint16", 2},
-                                                       {"int", 4},   {"uint", 4},    {"int32", 4},  {"uint32", 4},
-                                                       {"float", 4}, {"float32", 4}, {"double", 8}, {"float64", 8}};
-  const std::string& type = words.size() > 2 && words[1] == "list" ? words[2] : words.size() > 1 ? words[1] : "";
-  for (const auto& [name, size] : kSizes) {
-    if (type == name) return size;
-  }
-  return 1.0;
-}
-
 std::string CountText(double count) {
   char text[64];
   std::snprintf(text, sizeof(text), "%.0f", count);
   return text;
 }
 
-// An ASCII OFF's vertex and face lines, after the counts, checked line by
-// line before assimp reads them: its OFF reader read past its buffers on a
-// face line of no corners and on vertex lines holding colours under a
-// plain OFF header (found by tests/fuzz/mesh_off_fuzzer). Vertex lines
-// need three finite numbers (more, colours, are allowed); face lines a
-// corner count of at least one and that many indices of existing
-// vertices.
-void CheckOffBody(const std::string& path, std::istream* in, long long num_vertices, long long num_faces) {
-  std::string line;
-  long long vertices = 0, faces = 0;
-  int number = 0;
-  const auto bad = [&](const std::string& what) {
-    Fail(path, "malformed: after the counts, line " + std::to_string(number) + ": " + what);
-  };
-  while ((vertices < num_vertices || faces < num_faces) && std::getline(*in, line)) {
-    ++number;
-    const size_t hash = line.find('#');
-    if (hash != std::string::npos) line.resize(hash);
-    std::istringstream tokens(line);
-    std::vector<double> values;
-    for (std::string token; tokens >> token;) {
-      char* end = nullptr;
-      const double value = std::strtod(token.c_str(), &end);
-      if (*end != '\0') bad("'" + token + "' is not a number");
-      values.push_back(value);
-    }
-    if (values.empty()) continue;
-    if (vertices < num_vertices) {
-      if (values.size() < 3) bad("a vertex needs three coordinates");
-      for (double v : values) {
-        if (!std::isfinite(v)) bad("a non-finite value");
-      }
-      ++vertices;
-      continue;
-    }
-    const double corners = values[0];
-    if (!(corners >= 1.0) || corners != std::floor(corners) || corners + 1.0 > values.size()) {
-      bad("a face needs a corner count of at least 1 and that many indices");
-    }
-    for (size_t k = 1; k <= static_cast<size_t>(corners); ++k) {
-      if (!(values[k] >= 0.0 && values[k] < static_cast<double>(num_vertices)) || values[k] != std::floor(values[k])) {
-        bad("a face index out of range");
-      }
-    }
-    ++faces;
-  }
-  if (vertices < num_vertices || faces < num_faces) {
-    Fail(path, "truncated: " + std::to_string(vertices) + " of " + std::to_string(num_vertices) + " vertices and " +
-                   std::to_string(faces) + " of " + std::to_string(num_faces) + " faces");
-  }
-}
-
-// Counts declared in a header (OFF, PLY, binary STL) checked against the
-// file's size before assimp allocates for them: assimp 5.2 allocates what
-// a header declares, so 10 million vertices declared in a 200-byte file
-// would take gigabytes (found by tests/fuzz/mesh_*_fuzzer).
-void CheckDeclaredSizes(const std::string& path) {
+// A binary STL's facet count checked against the file's size before assimp
+// allocates for it: assimp 5.2 allocates what a header declares, so 2^28
+// facets declared in a 200-byte file would take gigabytes (found by
+// tests/fuzz/mesh_stl_fuzzer). OFF and PLY are read by our own readers,
+// which check their counts themselves.
+void CheckStlFacetCount(const std::string& path) {
+  if (LowercaseExtension(path) != ".stl") return;
   std::ifstream in(path, std::ios::binary);
   in.seekg(0, std::ios::end);
   const double size = static_cast<double>(in.tellg());
   in.seekg(0);
-  std::string first;
-  in >> first;
-  const auto too_many = [&](double needed, const std::string& what) {
-    if (needed > size) {
-      Fail(path, "the header declares " + what + ", more than its " + CountText(size) + " bytes can hold");
-    }
-  };
-  if (first == "ply") {
-    in.seekg(0);
-    std::string line;
-    bool ascii = true;
-    double needed = 0.0, element_count = 0.0, element_bytes = 0.0;
-    bool ended = false;
-    for (int lines = 0; std::getline(in, line) && lines < 10000; ++lines) {
-      std::istringstream tokens(line);
-      std::vector<std::string> words;
-      for (std::string w; tokens >> w;) words.push_back(w);
-      if (words.empty()) continue;
-      if (words[0] == "format" && words.size() > 1) ascii = words[1] == "ascii";
-      if (words[0] == "element" || words[0] == "end_header") {
-        needed += element_count * element_bytes;
-        element_count = words.size() > 2 && words[0] == "element" ? std::strtod(words[2].c_str(), nullptr) : 0.0;
-        element_bytes = 0.0;
-        if (!(element_count >= 0.0)) element_count = 0.0;
-      }
-      if (words[0] == "property") element_bytes += PlyMinBytes(words, ascii);
-      if (words[0] == "end_header") {
-        ended = true;
-        break;
-      }
-    }
-    // assimp 5.2 looped for seconds on a header without its end.
-    if (!ended) Fail(path, "a PLY header without 'end_header'");
-    too_many(needed, "elements");
-  } else if (first.size() >= 3 && first.compare(first.size() - 3, 3, "OFF") == 0 && first[0] != 'n' &&
-             first[0] != '4') {
-    // The counts: the first line after the header that is not blank or a
-    // comment.
-    std::string line;
-    std::getline(in, line);
-    while (std::getline(in, line)) {
-      line.resize(std::min(line.size(), line.find('#')));
-      if (line.find_first_not_of(" \t\r") != std::string::npos) break;
-    }
-    std::istringstream counts(line);
-    double vertices = 0.0, faces = 0.0;
-    if (counts >> vertices >> faces && vertices >= 0.0 && faces >= 0.0) {
-      // "0 0 0\n" per vertex, "0\n" per face at the least.
-      // Counts as text without converting them to an integer type first:
-      // a header may declare 1e24 (found by tests/fuzz/mesh_stl_fuzzer).
-      too_many(6.0 * vertices + 2.0 * faces, CountText(vertices) + " vertices and " + CountText(faces) + " faces");
-      CheckOffBody(path, &in, static_cast<long long>(vertices), static_cast<long long>(faces));
-    }
-  } else if (first.rfind("solid", 0) != 0 && size >= 84.0) {
-    // A binary STL: 80 bytes of header, a facet count, 50 bytes a facet.
-    std::uint32_t facets = 0;
-    in.seekg(80);
-    in.read(reinterpret_cast<char*>(&facets), sizeof(facets));
-    std::string extension = std::filesystem::path(path).extension().string();
-    for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    if (in && extension == ".stl") too_many(84.0 + 50.0 * facets, std::to_string(facets) + " facets");
+  char solid[5] = {};
+  in.read(solid, 5);
+  if (std::string(solid, 5) == "solid" || size < 84.0) return;  // ASCII STL
+  // 80 bytes of header, a facet count, 50 bytes a facet.
+  std::uint32_t facets = 0;
+  in.seekg(80);
+  in.read(reinterpret_cast<char*>(&facets), sizeof(facets));
+  if (in && 84.0 + 50.0 * facets > size) {
+    Fail(path, "the header declares " + std::to_string(facets) + " facets, more than its " + CountText(size) +
+                   " bytes can hold");
   }
 }
 
@@ -265,11 +152,43 @@ void CheckMeshFile(const std::string& path) {
     if (!probe) Fail(path, "cannot be opened for reading");
     if (probe.peek() == std::ifstream::traits_type::eof()) Fail(path, "is empty");
   }
-  CheckDeclaredSizes(path);
+  CheckStlFacetCount(path);
 }
 
-// Welded triangles of every mesh of a scene (PreTransformVertices: in one
-// frame), texture coordinates per corner when any mesh has them.
+// The meshes of an assimp scene (PreTransformVertices: in one frame) as
+// soups; assimp has already triangulated polygons and dropped points and
+// lines.
+std::vector<PolygonSoup> SoupsOfScene(const std::string& path, const aiScene* scene) {
+  std::vector<PolygonSoup> soups(scene->mNumMeshes);
+  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
+    const aiMesh* mesh = scene->mMeshes[m];
+    PolygonSoup& soup = soups[m];
+    soup.positions.reserve(mesh->mNumVertices);
+    for (unsigned v = 0; v < mesh->mNumVertices; ++v) {
+      const aiVector3D& a = mesh->mVertices[v];
+      soup.positions.emplace_back(a.x, a.y, a.z);
+    }
+    const bool has_uv = mesh->HasTextureCoords(0);
+    for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
+      const aiFace& face = mesh->mFaces[f];
+      if (face.mNumIndices != 3) continue;
+      for (int c = 0; c < 3; ++c) {
+        if (face.mIndices[c] >= mesh->mNumVertices) {
+          Fail(path, "mesh " + std::to_string(m) + " face " + std::to_string(f) + " refers to a vertex out of range");
+        }
+        if (has_uv) {
+          const aiVector3D& t = mesh->mTextureCoords[0][face.mIndices[c]];
+          soup.corner_texcoords.emplace_back(t.x, t.y);
+        }
+      }
+      soup.triangles.emplace_back(face.mIndices[0], face.mIndices[1], face.mIndices[2]);
+    }
+  }
+  return soups;
+}
+
+// Welded triangles of every soup, texture coordinates per corner when any
+// soup has them.
 struct WeldedTriangles {
   std::vector<Eigen::Vector3d> positions;
   std::vector<Eigen::Vector3i> faces;
@@ -278,61 +197,39 @@ struct WeldedTriangles {
   int dropped_degenerate = 0;
 };
 
-WeldedTriangles WeldScene(const std::string& path, const aiScene* scene) {
+WeldedTriangles WeldSoups(const std::string& path, const std::vector<PolygonSoup>& soups) {
   WeldedTriangles w;
-  std::vector<Eigen::Vector3d>& positions = w.positions;
-  std::vector<Eigen::Vector3i>& faces = w.faces;
-  std::vector<Eigen::Vector2d>& texcoords = w.texcoords;
-  bool& any_texcoords = w.any_texcoords;
-  int& dropped_degenerate = w.dropped_degenerate;
-  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
-    any_texcoords |= scene->mMeshes[m]->HasTextureCoords(0);
-  }
+  for (const PolygonSoup& soup : soups) w.any_texcoords |= !soup.corner_texcoords.empty();
   std::unordered_map<PositionKey, int, PositionKeyHash> welded;
-  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
-    const aiMesh* mesh = scene->mMeshes[m];
-    std::vector<int> remap(mesh->mNumVertices);
-    for (unsigned v = 0; v < mesh->mNumVertices; ++v) {
-      const aiVector3D& a = mesh->mVertices[v];
-      const Eigen::Vector3d p(a.x, a.y, a.z);
+  std::vector<int> remap;
+  for (size_t m = 0; m < soups.size(); ++m) {
+    const PolygonSoup& soup = soups[m];
+    remap.resize(soup.positions.size());
+    for (size_t v = 0; v < soup.positions.size(); ++v) {
+      const Eigen::Vector3d& p = soup.positions[v];
       if (!p.allFinite()) {
         Fail(path, "mesh " + std::to_string(m) + " vertex " + std::to_string(v) + " has a non-finite coordinate");
       }
-      auto [it, inserted] = welded.emplace(KeyOf(p), static_cast<int>(positions.size()));
-      if (inserted) positions.push_back(p);
+      auto [it, inserted] = welded.emplace(KeyOf(p), static_cast<int>(w.positions.size()));
+      if (inserted) w.positions.push_back(p);
       remap[v] = it->second;
     }
-    const bool has_uv = mesh->HasTextureCoords(0);
-    for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
-      const aiFace& face = mesh->mFaces[f];
-      if (face.mNumIndices != 3) continue;
-      int idx[3];
-      for (int c = 0; c < 3; ++c) {
-        if (face.mIndices[c] >= mesh->mNumVertices) {
-          Fail(path, "mesh " + std::to_string(m) + " face " + std::to_string(f) + " refers to a vertex out of range");
-        }
-        idx[c] = remap[face.mIndices[c]];
-      }
+    for (size_t f = 0; f < soup.triangles.size(); ++f) {
+      const Eigen::Vector3i idx(remap[soup.triangles[f][0]], remap[soup.triangles[f][1]], remap[soup.triangles[f][2]]);
       if (idx[0] == idx[1] || idx[1] == idx[2] || idx[0] == idx[2]) {
-        ++dropped_degenerate;
+        ++w.dropped_degenerate;
         continue;
       }
-      faces.emplace_back(idx[0], idx[1], idx[2]);
-      if (any_texcoords) {
-        for (int c = 0; c < 3; ++c) {
-          if (has_uv) {
-            const aiVector3D& t = mesh->mTextureCoords[0][face.mIndices[c]];
-            texcoords.emplace_back(t.x, t.y);
-          } else {
-            texcoords.emplace_back(0.0, 0.0);
-          }
-        }
+      w.faces.push_back(idx);
+      for (int c = 0; c < 3 && w.any_texcoords; ++c) {
+        w.texcoords.push_back(soup.corner_texcoords.empty() ? Eigen::Vector2d::Zero()
+                                                            : soup.corner_texcoords[3 * f + c]);
       }
     }
   }
-  if (faces.empty()) {
-    Fail(path,
-         dropped_degenerate > 0 ? "every triangle is degenerate" : "holds no triangles (a point cloud or lines only?)");
+  if (w.faces.empty()) {
+    Fail(path, w.dropped_degenerate > 0 ? "every triangle is degenerate"
+                                        : "holds no triangles (a point cloud or lines only?)");
   }
   return w;
 }
@@ -369,8 +266,11 @@ TriangleMesh CompactMesh(const std::string& path, const WeldedTriangles& w) {
 
 }  // namespace
 
-TriangleMesh ReadTriangleMesh(const std::string& path, MeshReadSummary* summary) {
-  CheckMeshFile(path);
+namespace {
+
+// Every mesh of a file in a format we do not read ourselves; errors assimp
+// logged without failing go to *messages.
+std::vector<PolygonSoup> ReadWithAssimp(const std::string& path, std::string* messages) {
   InstallErrorCollector();
   assimp_errors.clear();
   Assimp::Importer importer;
@@ -391,18 +291,30 @@ TriangleMesh ReadTriangleMesh(const std::string& path, MeshReadSummary* summary)
     }
     Fail(path, "unreadable: " + reason);
   }
-
-  const std::string errors = Trimmed(assimp_errors);
-  if (errors.find("out of range") != std::string::npos || errors.find("nvalid") != std::string::npos) {
-    Fail(path, "malformed: " + errors);
+  *messages = Trimmed(assimp_errors);
+  if (messages->find("out of range") != std::string::npos || messages->find("nvalid") != std::string::npos) {
+    Fail(path, "malformed: " + *messages);
   }
-  const WeldedTriangles welded = WeldScene(path, scene);
+  return SoupsOfScene(path, scene);
+}
+
+}  // namespace
+
+TriangleMesh ReadTriangleMesh(const std::string& path, MeshReadSummary* summary) {
+  CheckMeshFile(path);
+  std::string messages;
+  const std::vector<PolygonSoup> soups = LooksLikePly(path)   ? std::vector<PolygonSoup>{ReadPly(path)}
+                                         : LooksLikeOff(path) ? std::vector<PolygonSoup>{ReadOff(path)}
+                                                              : ReadWithAssimp(path, &messages);
+  const WeldedTriangles welded = WeldSoups(path, soups);
   const TriangleMesh out = CompactMesh(path, welded);
   if (summary != nullptr) {
     summary->num_dropped_degenerate_faces = welded.dropped_degenerate;
     summary->num_dropped_unreferenced_vertices = static_cast<int>(welded.positions.size()) - out.num_vertices();
-    summary->num_meshes = static_cast<int>(scene->mNumMeshes);
-    summary->loader_messages = errors;
+    summary->num_meshes = static_cast<int>(soups.size());
+    summary->num_skipped_points_and_lines = 0;
+    for (const PolygonSoup& soup : soups) summary->num_skipped_points_and_lines += soup.num_points_and_lines;
+    summary->loader_messages = messages;
   }
   return out;
 }

@@ -1,5 +1,5 @@
-// Reading meshes through assimp (OBJ, PLY, OFF, STL, glTF/GLB and whatever
-// else assimp reads) and writing PLY and OBJ.
+// Reading meshes (OFF and PLY with our own readers, OBJ, STL, glTF/GLB and
+// whatever else assimp reads through assimp) and writing PLY and OBJ.
 #ifndef POLYFIT_MESH_MESH_IO_H_
 #define POLYFIT_MESH_MESH_IO_H_
 
@@ -28,12 +28,16 @@ struct MeshReadSummary {
   int num_dropped_unreferenced_vertices = 0;
   // Meshes in the file (all are concatenated).
   int num_meshes = 0;
+  // OFF and PLY faces of one or two corners (points, lines), skipped.
+  int num_skipped_points_and_lines = 0;
   // Errors assimp logged without failing (it repairs some input).
   std::string loader_messages;
 };
 
 // Reads every triangle of every mesh in the file (polygons are
-// triangulated, node transforms applied, points and lines ignored) and welds
+// triangulated, node transforms applied, points and lines ignored; the
+// format is told by the content for OFF and PLY, see off_reader.h and
+// ply_reader.h, and by assimp for the rest) and welds
 // vertices with identical positions, so texture seams do not cut the
 // surface; texture coordinates, where present, are kept per corner. Throws
 // MeshIoError when the file is missing or unreadable, holds no triangles,

@@ -42,8 +42,8 @@ TEST_F(MeshIoTest, PlyRoundTripKeepsGeometryAndTopology) {
   const TriangleMesh back = ReadTriangleMesh(Path("s.ply"));
   ASSERT_EQ(back.num_vertices(), sphere.num_vertices());
   ASSERT_EQ(back.num_faces(), sphere.num_faces());
-  // assimp may reorder vertices: compare the faces' corner positions
-  // (floats on disk).
+  // Compare the faces' corner positions (floats on disk): the order of
+  // vertices is the reader's.
   double max_error = 0.0;
   for (int f = 0; f < sphere.num_faces(); ++f) {
     for (int c = 0; c < 3; ++c) {
@@ -163,13 +163,13 @@ TEST_F(MeshIoTest, IndexOutOfRangeIsNamed) {
 }
 
 TEST_F(MeshIoTest, TruncatedFileIsNamedNotACrash) {
-  // Debian's assimp aborts on this one unless its assertion is intercepted.
+  // Debian's assimp aborted on this one; our OFF reader says it is short.
   const std::string error = ReadError(Write("cut.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n"));
   EXPECT_NE(error.find("cut.off"), std::string::npos) << error;
 }
 
 TEST_F(MeshIoTest, ImpossibleDeclaredSizesAreRefusedBeforeAllocating) {
-  // Found by tests/fuzz: assimp allocates what a header declares.
+  // Found by tests/fuzz: assimp allocated what a header declares.
   for (const auto& [name, text] : std::vector<std::pair<std::string, std::string>>{
            {"huge.off", "OFF\n10000000 1 0\n0 0 0\n"},
            {"huge.ply",
@@ -181,18 +181,19 @@ TEST_F(MeshIoTest, ImpossibleDeclaredSizesAreRefusedBeforeAllocating) {
   }
 }
 
-TEST_F(MeshIoTest, MalformedOffAndPlyAreRefusedBeforeAssimpReadsThem) {
-  // Found by tests/fuzz: assimp read past its buffers on a face of no
-  // corners and looped on a PLY header without its end.
+TEST_F(MeshIoTest, MalformedOffAndPlyAreRefusedWithWhere) {
+  // Found by tests/fuzz when assimp read these: it read past its buffers on
+  // a face of no corners and looped on a PLY header without its end. Our
+  // own readers name the line.
   struct Case {
     const char *name, *text, *expected;
   };
   for (const Case& c : {Case{"no_corners.off", "OFF\n# a comment\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n0\n",
-                             "line 5: a face needs a corner count"},
+                             "line 8: a face needs a corner count"},
                         Case{"short.off", "OFF\n3 1 0\n0 0 0\n1 0\n0 1 0\n3 0 1 2\n", "a vertex needs three"},
                         Case{"cut.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n", "truncated: 2 of 3 vertices"},
                         Case{"open.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n0 0 0\n",
-                             "without 'end_header'"}}) {
+                             "line 5: unknown keyword '0' (a header ends with 'end_header')"}}) {
     const std::string error = ReadError(Write(c.name, c.text));
     EXPECT_NE(error.find(std::string(c.name) + ": "), std::string::npos) << error;
     EXPECT_NE(error.find(c.expected), std::string::npos) << error;

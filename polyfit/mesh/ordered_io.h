@@ -21,7 +21,8 @@ TriangleMesh ReadObjTemplate(const std::string& path);
 
 // Per-vertex ground truth or point clouds: the x, y, z of a PLY's vertex
 // element (ASCII or binary little/big endian; float or double; other
-// properties skipped), in file order. 3 by N. Throws std::runtime_error
+// properties skipped; faces, if any, checked and dropped), in file order.
+// 3 by N. Read by ReadPly. Throws std::runtime_error
 // naming the file.
 Eigen::Matrix3Xd ReadPlyVertices(const std::string& path);
 

@@ -16,6 +16,7 @@
 
 #include "polyfit/mesh/mesh_io.h"
 #include "polyfit/util/atomic_file.h"
+#include "polyfit/util/file_extension.h"
 #include "polyfit/util/json_number.h"
 #include "polyfit/util/parallel_for.h"
 
@@ -26,8 +27,7 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 bool IsMeshFile(const fs::path& path) {
-  std::string ext = path.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  const std::string ext = LowercaseExtension(path);
   static const std::set<std::string> kExtensions = {".obj", ".ply", ".off", ".stl", ".gltf", ".glb"};
   return kExtensions.count(ext) > 0;
 }
