@@ -12,7 +12,7 @@ namespace polyfit {
 struct PolygonSoup {
   // #P positions, in file order.
   std::vector<Eigen::Vector3d> positions;
-  // Triangles indexing positions: polygons fan-triangulated.
+  // Triangles indexing positions, oriented as their polygons.
   std::vector<Eigen::Vector3i> triangles;
   // Texture coordinates per triangle corner (3 per triangle), or empty.
   std::vector<Eigen::Vector2d> corner_texcoords;
@@ -20,25 +20,17 @@ struct PolygonSoup {
   int num_points_and_lines = 0;
 };
 
-// Appends the polygon `corners` (indices into soup->positions) as a fan of
-// triangles around its first corner, with `texcoords` (one per corner) when
-// not null. A fan is exact for convex polygons, which is what OFF and PLY
-// writers emit (quads, the odd pentagon); points and lines are counted.
-inline void AppendPolygon(const std::vector<int>& corners, const std::vector<Eigen::Vector2d>* texcoords,
-                          PolygonSoup* soup) {
-  if (corners.size() < 3) {
-    ++soup->num_points_and_lines;
-    return;
-  }
-  for (size_t k = 1; k + 1 < corners.size(); ++k) {
-    soup->triangles.emplace_back(corners[0], corners[k], corners[k + 1]);
-    if (texcoords != nullptr) {
-      soup->corner_texcoords.push_back((*texcoords)[0]);
-      soup->corner_texcoords.push_back((*texcoords)[k]);
-      soup->corner_texcoords.push_back((*texcoords)[k + 1]);
-    }
-  }
-}
+// Appends the polygon `corners` (indices into soup->positions, which must
+// be in range) as triangles, with `texcoords` (one per corner) when not
+// null. A convex polygon becomes a fan around its first corner; a concave
+// one (the letters of CGAL's mpi.off) is ear-clipped in the plane of its
+// Newell normal, so no triangle covers what is outside it. Polygons of more
+// than kMaxEarClippedCorners corners, and those with no ear left (self-
+// intersecting), are fanned. Points and lines are counted.
+void AppendPolygon(const std::vector<int>& corners, const std::vector<Eigen::Vector2d>* texcoords, PolygonSoup* soup);
+
+// Ear clipping is quadratic to cubic in the corner count.
+constexpr int kMaxEarClippedCorners = 512;
 
 }  // namespace polyfit
 
