@@ -21,6 +21,7 @@
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
+#include "polyfit/mesh/obj_reader.h"
 #include "polyfit/mesh/off_reader.h"
 #include "polyfit/mesh/ply_reader.h"
 #include "polyfit/util/atomic_file.h"
@@ -303,9 +304,10 @@ std::vector<PolygonSoup> ReadWithAssimp(const std::string& path, std::string* me
 TriangleMesh ReadTriangleMesh(const std::string& path, MeshReadSummary* summary) {
   CheckMeshFile(path);
   std::string messages;
-  const std::vector<PolygonSoup> soups = LooksLikePly(path)   ? std::vector<PolygonSoup>{ReadPly(path)}
-                                         : LooksLikeOff(path) ? std::vector<PolygonSoup>{ReadOff(path)}
-                                                              : ReadWithAssimp(path, &messages);
+  const std::vector<PolygonSoup> soups = LooksLikePly(path)                   ? std::vector<PolygonSoup>{ReadPly(path)}
+                                         : LooksLikeOff(path)                 ? std::vector<PolygonSoup>{ReadOff(path)}
+                                         : LowercaseExtension(path) == ".obj" ? std::vector<PolygonSoup>{ReadObj(path)}
+                                                                              : ReadWithAssimp(path, &messages);
   const WeldedTriangles welded = WeldSoups(path, soups);
   const TriangleMesh out = CompactMesh(path, welded);
   if (summary != nullptr) {

@@ -1,4 +1,4 @@
-// Reading meshes (OFF and PLY with our own readers, OBJ, STL, glTF/GLB and
+// Reading meshes (OFF, PLY and OBJ with our own readers; STL, glTF/GLB and
 // whatever else assimp reads through assimp) and writing PLY and OBJ.
 #ifndef POLYFIT_MESH_MESH_IO_H_
 #define POLYFIT_MESH_MESH_IO_H_
@@ -28,7 +28,7 @@ struct MeshReadSummary {
   int num_dropped_unreferenced_vertices = 0;
   // Meshes in the file (all are concatenated).
   int num_meshes = 0;
-  // OFF and PLY faces of one or two corners (points, lines), skipped.
+  // OFF, PLY and OBJ faces of one or two corners (points, lines), skipped.
   int num_skipped_points_and_lines = 0;
   // Errors assimp logged without failing (it repairs some input).
   std::string loader_messages;
@@ -36,8 +36,9 @@ struct MeshReadSummary {
 
 // Reads every triangle of every mesh in the file (polygons are
 // triangulated, node transforms applied, points and lines ignored; the
-// format is told by the content for OFF and PLY, see off_reader.h and
-// ply_reader.h, and by assimp for the rest) and welds
+// format is told by the extension or content for OFF and PLY, by the
+// extension for OBJ, see off_reader.h, ply_reader.h and obj_reader.h, and
+// by assimp for the rest) and welds
 // vertices with identical positions, so texture seams do not cut the
 // surface; texture coordinates, where present, are kept per corner. Throws
 // MeshIoError when the file is missing or unreadable, holds no triangles,

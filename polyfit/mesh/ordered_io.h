@@ -13,10 +13,10 @@
 
 namespace polyfit {
 
-// v, vt and f lines (f a, a/b, a/b/c, a//c; negative indices count from the
-// end); other lines are ignored. Throws std::runtime_error naming the file
-// and line on anything malformed: a bad number, an index out of range, a
-// face with fewer than three corners, no faces.
+// An OBJ's vertices and faces as ReadObj (obj_reader.h) reads them, in
+// file order, polygons triangulated. Throws std::runtime_error (MeshIoError)
+// naming the file and line on anything malformed, and when there are no
+// faces.
 TriangleMesh ReadObjTemplate(const std::string& path);
 
 // Per-vertex ground truth or point clouds: the x, y, z of a PLY's vertex

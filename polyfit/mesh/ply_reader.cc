@@ -305,7 +305,8 @@ struct PlyVertices {
 PlyVertices ReadVertices(const std::string& path, const PlyElement& element, PlyData* data) {
   const int x = element.Find("x"), y = element.Find("y"), z = element.Find("z");
   if (x < 0 || y < 0 || z < 0) Fail(path, "the vertex element lacks an x, y or z property");
-  const auto [u, v] = FindTexcoordProperties(element);
+  const std::pair<int, int> texcoord_properties = FindTexcoordProperties(element);
+  const int u = texcoord_properties.first, v = texcoord_properties.second;  // captured: no structured binding
   PlyVertices out;
   out.positions.resize(static_cast<size_t>(element.count));
   if (u >= 0) out.texcoords.resize(out.positions.size());
@@ -433,7 +434,9 @@ PolygonSoup ReadPly(const std::string& path) {
     } else if (element.name == "face" && !faces_read) {
       faces = ReadFaces(path, element, &data);
       faces_read = true;
-    } else {
+    } else if (!element.properties.empty()) {
+      // An element without properties takes no bytes, whatever its count
+      // (found by tests/fuzz: a count of 1e100 looped).
       for (double i = 0.0; i < element.count; ++i) {
         data.Enter(element, i);
         ReadInstance(

@@ -168,6 +168,16 @@ TEST_F(PlyReaderTest, AHugeBinaryListCountIsTruncationNotAnAllocation) {
   EXPECT_NE(Error("big.ply", ply).find("truncated: in face 0 of 1"), std::string::npos) << Error("big.ply", ply);
 }
 
+TEST_F(PlyReaderTest, AnElementWithoutPropertiesTakesNoTime) {
+  // Found by tests/fuzz: 1e100 instances of nothing were read one by one.
+  const PolygonSoup soup = ReadPly(Write("empty_element.ply",
+                                         "ply\nformat ascii 1.0\nelement nothing 1" + std::string(100, '0') +
+                                             "\nelement vertex 1\nproperty float x\nproperty float y\n"
+                                             "property float z\nend_header\n1 2 3\n"));
+  ASSERT_EQ(soup.positions.size(), 1u);
+  EXPECT_EQ(soup.positions[0], Eigen::Vector3d(1, 2, 3));
+}
+
 TEST_F(PlyReaderTest, AssimpSegvInputIsACleanError) {
   // tests/fuzz found this header crashing assimp's PLY reader (a SEGV).
   const std::string error =
