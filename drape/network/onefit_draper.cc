@@ -20,6 +20,7 @@ OneFitDraper::OneFitDraper(const OneFitModel& model, const DrapeSolver& solver, 
   const Eigen::MatrixXd features =
       model.patch_normalizer.Apply(PatchFeatures(solver.model(), rest_, model.jet_order, weights, skeleton));
   garment_half_ = model.network.GarmentHalf(model.weights.data(), features);
+  joint_weights_ = PatchJointWeights(solver.model(), weights, skeleton.num_joints());
 }
 
 std::vector<double> OneFitDraper::Predict(const JointTransforms& before_previous, const JointTransforms& previous,
@@ -27,7 +28,7 @@ std::vector<double> OneFitDraper::Predict(const JointTransforms& before_previous
   const Eigen::VectorXd body =
       model_.body_normalizer.Apply(BodyFeatures(skeleton_, before_previous, previous, now, fps, shape));
   Eigen::MatrixXd outputs;
-  model_.network.ForwardWithGarmentHalf(model_.weights.data(), garment_half_, body, &outputs);
+  model_.network.ForwardWithGarmentHalf(model_.weights.data(), garment_half_, body, &joint_weights_, &outputs);
   return PatchParametersFromOutputs(rest_, frames_, outputs, model_.network.num_coefficients());
 }
 

@@ -33,6 +33,7 @@ class OneFitDraper {
   std::vector<double> rest_;
   std::vector<Eigen::Matrix3d> frames_;
   Eigen::MatrixXd garment_half_;
+  Eigen::MatrixXd joint_weights_;  // #joints by #patches, for the local pose
 };
 
 }  // namespace polyfit

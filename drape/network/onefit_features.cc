@@ -60,6 +60,44 @@ int PatchFeatureSize(int jet_order, int num_joints) {
 
 int BodyFeatureSize(int num_joints) { return 3 * 6 * num_joints + 2 * 3 + 2 * 3 + 5; }
 
+Eigen::MatrixXd PatchJointWeights(const PolyFitModel& model, const SkinWeights& weights, int num_joints) {
+  const int num_patches = model.num_patches();
+  if (weights.num_vertices() != model.num_vertices()) {
+    throw std::invalid_argument("PatchJointWeights: skinning weights for another garment");
+  }
+  Eigen::MatrixXd patch_weights = Eigen::MatrixXd::Zero(num_joints, num_patches);
+  Eigen::VectorXd members = Eigen::VectorXd::Zero(num_patches);
+  for (int v = 0; v < model.num_vertices(); ++v) {
+    for (int k : model.memberships(v)) {
+      const int p = model.membership_patch[k];
+      for (int i = weights.offsets[v]; i < weights.offsets[v + 1]; ++i) {
+        if (weights.joint[i] < 0 || weights.joint[i] >= num_joints) {
+          throw std::invalid_argument("PatchJointWeights: a skinning weight names a joint the rig lacks");
+        }
+        patch_weights(weights.joint[i], p) += weights.value[i];
+      }
+      members[p] += 1.0;
+    }
+  }
+  for (int p = 0; p < num_patches; ++p) {
+    if (members[p] > 0.0) patch_weights.col(p) /= members[p];
+  }
+  return patch_weights;
+}
+
+Eigen::MatrixXd LocalPoseFeatures(const Eigen::VectorXd& body_features, const Eigen::MatrixXd& joint_weights) {
+  const int n = static_cast<int>(joint_weights.rows());
+  if (body_features.size() != BodyFeatureSize(n)) {
+    throw std::invalid_argument("LocalPoseFeatures: body features of another rig");
+  }
+  // Per joint its three 6D blocks: rotations at t, then the two changes.
+  Eigen::Matrix<double, kLocalPoseSize, Eigen::Dynamic> blocks(kLocalPoseSize, n);
+  for (int j = 0; j < n; ++j) {
+    for (int b = 0; b < 3; ++b) blocks.block<6, 1>(6 * b, j) = body_features.segment<6>(6 * (b * n + j));
+  }
+  return blocks * joint_weights;
+}
+
 Eigen::MatrixXd PatchFeatures(const PolyFitModel& model, const std::vector<double>& rest_parameters, int jet_order,
                               const SkinWeights& weights, const Skeleton& skeleton) {
   const int num_patches = model.num_patches();
@@ -74,18 +112,7 @@ Eigen::MatrixXd PatchFeatures(const PolyFitModel& model, const std::vector<doubl
     throw std::invalid_argument("PatchFeatures: skinning weights for another garment");
   }
   const int num_joints = skeleton.num_joints();
-  // Members' mean skinning weights per patch.
-  Eigen::MatrixXd patch_weights = Eigen::MatrixXd::Zero(num_joints, num_patches);
-  Eigen::VectorXd members = Eigen::VectorXd::Zero(num_patches);
-  for (int v = 0; v < model.num_vertices(); ++v) {
-    for (int k : model.memberships(v)) {
-      const int p = model.membership_patch[k];
-      for (int i = weights.offsets[v]; i < weights.offsets[v + 1]; ++i) {
-        patch_weights(weights.joint[i], p) += weights.value[i];
-      }
-      members[p] += 1.0;
-    }
-  }
+  const Eigen::MatrixXd patch_weights = PatchJointWeights(model, weights, num_joints);
   const int size = num_coefficients + 1 + 6 + kEncodedSize + num_joints + kEncodedSize;
   Eigen::MatrixXd features(size, num_patches);
   for (int p = 0; p < num_patches; ++p) {
@@ -99,8 +126,7 @@ Eigen::MatrixXd PatchFeatures(const PolyFitModel& model, const std::vector<doubl
     const Eigen::Vector3d centre(rest[num_coefficients + 1], rest[num_coefficients + 2], rest[num_coefficients + 3]);
     Encode(centre, out + k);
     k += kEncodedSize;
-    const Eigen::VectorXd w =
-        members[p] > 0.0 ? Eigen::VectorXd(patch_weights.col(p) / members[p]) : Eigen::VectorXd::Zero(num_joints);
+    const Eigen::VectorXd w = patch_weights.col(p);
     for (int j = 0; j < num_joints; ++j) out[k++] = w[j];
     Eigen::Vector3d offset = Eigen::Vector3d::Zero();
     for (int j = 0; j < num_joints; ++j) offset += w[j] * (centre - skeleton.rest_heads.col(j));

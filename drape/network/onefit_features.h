@@ -33,6 +33,17 @@
 
 namespace polyfit {
 
+// Per patch and frame, optionally (OneFitNetworkOptions::local_pose): the
+// normalised body features of the joints the patch follows, weighted by
+// its members' mean skinning weights w_kj,
+//   x_k = sum_j w_kj [r_j(t); r_j(t) - r_j(t-1); r_j(t-1) - r_j(t-2)]
+// (18 values: the 6D local rotations as BodyFeatures has them). A sleeve's
+// patch then reads its shoulder and elbow directly, rather than through a
+// body embedding in which every joint is mixed with every other: an
+// unseen combination of joint angles (a dance's arms over a walk's legs)
+// leaves each patch's own inputs within what training covered.
+inline constexpr int kLocalPoseSize = 18;
+
 // Frequencies of the positional encoding.
 inline constexpr int kPositionalFrequencies = 4;
 
@@ -45,6 +56,14 @@ int BodyFeatureSize(int num_joints);
 // and memberships; weights: the garment's skinning weights.
 Eigen::MatrixXd PatchFeatures(const PolyFitModel& model, const std::vector<double>& rest_parameters, int jet_order,
                               const SkinWeights& weights, const Skeleton& skeleton);
+
+// #joints by #patches: each patch's members' mean skinning weight per
+// joint (a column sums to 1 where the garment's weights do).
+Eigen::MatrixXd PatchJointWeights(const PolyFitModel& model, const SkinWeights& weights, int num_joints);
+
+// kLocalPoseSize by #patches: x_k above. body_features: one frame's,
+// normalised (BodyFeatureSize(#joints)); joint_weights: PatchJointWeights.
+Eigen::MatrixXd LocalPoseFeatures(const Eigen::VectorXd& body_features, const Eigen::MatrixXd& joint_weights);
 
 // A frame's pose: the rest-to-posed transform of every joint.
 using JointTransforms = std::vector<Eigen::Isometry3d>;

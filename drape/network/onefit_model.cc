@@ -106,6 +106,7 @@ void SaveOneFitModel(const std::string& path, const OneFitModel& model) {
   w.Put<std::uint32_t>(static_cast<std::uint32_t>(model.num_joints));
   w.Put<std::int32_t>(model.network.warp_order());
   w.Put<std::int32_t>(model.aligned_frames ? 1 : 0);
+  w.Put<std::int32_t>(model.network.local_pose() ? 1 : 0);
   PutMlp(model.network.patch_encoder(), &w);
   PutMlp(model.network.body_encoder(), &w);
   PutMlp(model.network.decoder(), &w);
@@ -179,7 +180,9 @@ OneFitModel LoadOneFitModel(const std::string& path) {
   model.num_joints = static_cast<int>(r.Get<std::uint32_t>("the header"));
   const int warp_order = version >= 2 ? r.Get<std::int32_t>("the header") : -1;
   const int aligned = version >= 3 ? r.Get<std::int32_t>("the header") : 0;
+  const int local_pose = version >= 4 ? r.Get<std::int32_t>("the header") : 0;
   if (aligned != 0 && aligned != 1) r.Fail("frame alignment flag out of range");
+  if (local_pose != 0 && local_pose != 1) r.Fail("local pose flag out of range");
   model.aligned_frames = aligned == 1;
   if (model.jet_order < 1 || model.jet_order > kMaxJetOrder) r.Fail("jet order out of range");
   if (model.num_joints < 1 || model.num_joints > static_cast<int>(kMaxWidth)) r.Fail("joint count out of range");
@@ -192,6 +195,9 @@ OneFitModel LoadOneFitModel(const std::string& path) {
                                   NumJetCoefficients(model.jet_order), warp_order);
   } catch (const std::invalid_argument& e) {
     r.Fail(e.what());
+  }
+  if (model.network.local_pose() != (local_pose == 1)) {
+    r.Fail("the header's local pose flag disagrees with the decoder's input size");
   }
   model.patch_normalizer = GetNormalizer(&r, model.network.patch_encoder().input_size(), "the patch normaliser");
   model.body_normalizer = GetNormalizer(&r, model.network.body_encoder().input_size(), "the body normaliser");

@@ -15,8 +15,9 @@
 namespace polyfit {
 
 // Version 2 adds the warp head's order, version 3 whether the patch frames
-// were aligned; earlier files still load.
-inline constexpr int kOneFitModelVersion = 3;
+// were aligned, version 4 whether the decoder reads the local pose; earlier
+// files still load.
+inline constexpr int kOneFitModelVersion = 4;
 
 class OneFitModelError : public Error {
  public:

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "drape/network/onefit_features.h"
 #include "polyfit/jet/jet_basis.h"
 
 namespace polyfit {
@@ -34,10 +35,11 @@ OneFitNetwork::OneFitNetwork(int patch_features, int body_features, int num_coef
                              const OneFitNetworkOptions& options)
     : patch_encoder_(Sizes(patch_features, options.patch_hidden, options.patch_embedding)),
       body_encoder_(Sizes(body_features, options.body_hidden, options.body_embedding)),
-      decoder_(Sizes(options.patch_embedding + options.body_embedding, options.decoder_hidden,
-                     num_coefficients + 4 + 2 * NumJetCoefficients(options.warp_order))),
+      decoder_(Sizes(options.patch_embedding + options.body_embedding + (options.local_pose ? kLocalPoseSize : 0),
+                     options.decoder_hidden, num_coefficients + 4 + 2 * NumJetCoefficients(options.warp_order))),
       num_coefficients_(num_coefficients),
-      warp_order_(options.warp_order) {
+      warp_order_(options.warp_order),
+      local_size_(options.local_pose ? kLocalPoseSize : 0) {
   if (const std::string problem = options.Validate(); !problem.empty()) {
     throw std::invalid_argument("OneFitNetworkOptions: " + problem);
   }
@@ -49,7 +51,8 @@ OneFitNetwork::OneFitNetwork(Mlp patch_encoder, Mlp body_encoder, Mlp decoder, i
       body_encoder_(std::move(body_encoder)),
       decoder_(std::move(decoder)),
       num_coefficients_(num_coefficients),
-      warp_order_(warp_order) {
+      warp_order_(warp_order),
+      local_size_(decoder_.input_size() - patch_encoder_.output_size() - body_encoder_.output_size()) {
   Check();
 }
 
@@ -59,16 +62,31 @@ void OneFitNetwork::Initialize(std::uint64_t seed, double output_scale, double* 
   decoder_.Initialize(seed + 2, output_scale, weights + decoder_offset());
 }
 
+namespace {
+
+// x_k of every patch (kLocalPoseSize by #patches), checked.
+Eigen::MatrixXd LocalPose(const Eigen::VectorXd& body_features, const Eigen::MatrixXd* joint_weights,
+                          Eigen::Index num_patches) {
+  if (joint_weights == nullptr || joint_weights->cols() != num_patches) {
+    throw std::invalid_argument("OneFitNetwork: a network with the local pose needs the patches' joint weights");
+  }
+  return LocalPoseFeatures(body_features, *joint_weights);
+}
+
+}  // namespace
+
 void OneFitNetwork::Forward(const double* weights, const Eigen::MatrixXd& patch_features,
-                            const Eigen::VectorXd& body_features, Eigen::MatrixXd* outputs, Cache* cache) const {
+                            const Eigen::VectorXd& body_features, const Eigen::MatrixXd* joint_weights,
+                            Eigen::MatrixXd* outputs, Cache* cache) const {
   const Eigen::Index num_patches = patch_features.cols();
   Eigen::MatrixXd z_t, z_b;
   patch_encoder_.Forward(weights, patch_features, &z_t, cache != nullptr ? &cache->patch : nullptr);
   body_encoder_.Forward(weights + body_encoder_offset(), body_features, &z_b,
                         cache != nullptr ? &cache->body : nullptr);
-  Eigen::MatrixXd joint(z_t.rows() + z_b.rows(), num_patches);
+  Eigen::MatrixXd joint(decoder_.input_size(), num_patches);
   joint.topRows(z_t.rows()) = z_t;
-  joint.bottomRows(z_b.rows()) = z_b.col(0).replicate(1, num_patches);
+  joint.middleRows(z_t.rows(), z_b.rows()) = z_b.col(0).replicate(1, num_patches);
+  if (local_size_ > 0) joint.bottomRows(local_size_) = LocalPose(body_features, joint_weights, num_patches);
   decoder_.Forward(weights + decoder_offset(), joint, outputs, cache != nullptr ? &cache->decoder : nullptr);
   if (cache != nullptr) cache->num_patches = static_cast<int>(num_patches);
 }
@@ -79,7 +97,8 @@ void OneFitNetwork::Backward(const double* weights, const Cache& cache, const Ei
   decoder_.Backward(weights + decoder_offset(), cache.decoder, d_outputs, gradient + decoder_offset(), &d_joint);
   const int e_t = patch_encoder_.output_size();
   const Eigen::MatrixXd d_z_t = d_joint.topRows(e_t);
-  const Eigen::MatrixXd d_z_b = d_joint.bottomRows(d_joint.rows() - e_t).rowwise().sum();
+  // The local pose is an input: its rows carry no gradient to the weights.
+  const Eigen::MatrixXd d_z_b = d_joint.middleRows(e_t, body_encoder_.output_size()).rowwise().sum();
   patch_encoder_.Backward(weights, cache.patch, d_z_t, gradient);
   body_encoder_.Backward(weights + body_encoder_offset(), cache.body, d_z_b, gradient + body_encoder_offset());
 }
@@ -97,27 +116,29 @@ Eigen::MatrixXd OneFitNetwork::GarmentHalf(const double* weights, const Eigen::M
 }
 
 void OneFitNetwork::ForwardWithGarmentHalf(const double* weights, const Eigen::MatrixXd& garment_half,
-                                           const Eigen::VectorXd& body_features, Eigen::MatrixXd* outputs) const {
+                                           const Eigen::VectorXd& body_features, const Eigen::MatrixXd* joint_weights,
+                                           Eigen::MatrixXd* outputs) const {
   Eigen::MatrixXd z_b;
   body_encoder_.Forward(weights + body_encoder_offset(), body_features, &z_b);
   const double* d = weights + decoder_offset();
   const int width = decoder_.sizes()[1], e_t = patch_encoder_.output_size();
   const Eigen::Map<const Eigen::MatrixXd> w(d + decoder_.weight_offset(0), width, decoder_.input_size());
   Eigen::MatrixXd a = garment_half;
-  a.colwise() += w.rightCols(z_b.rows()) * z_b.col(0);
+  a.colwise() += w.middleCols(e_t, z_b.rows()) * z_b.col(0);
+  if (local_size_ > 0) a.noalias() += w.rightCols(local_size_) * LocalPose(body_features, joint_weights, a.cols());
   if (decoder_.num_layers() == 1) {
     *outputs = std::move(a);
     return;
   }
   // The rest of the decoder: its layers 1.. as an MLP of their own.
   const Eigen::MatrixXd h = (a.array() > 0.0).select(a, decoder_.leaky_slope() * a);
-  static_cast<void>(e_t);
   decoder_tail_.Forward(d + decoder_.weight_offset(1), h, outputs);
 }
 
 void OneFitNetwork::Check() {
   if (warp_order_ < -1 || warp_order_ > kMaxJetOrder) throw std::invalid_argument("OneFitNetwork: bad warp order");
-  if (decoder_.input_size() != patch_encoder_.output_size() + body_encoder_.output_size() ||
+  if ((local_size_ != 0 && local_size_ != kLocalPoseSize) ||
+      decoder_.input_size() != patch_encoder_.output_size() + body_encoder_.output_size() + local_size_ ||
       decoder_.output_size() != num_coefficients_ + 4 + 2 * NumJetCoefficients(warp_order_)) {
     throw std::invalid_argument("OneFitNetwork: the encoders' embeddings and the decoder's sizes do not chain");
   }

@@ -2,7 +2,11 @@
 //
 //   Z_T = E_T(patch features)        per patch, once per garment
 //   Z_B = E_B(body features)         per frame, shared by all patches
-//   y_k = D(concat(Z_T,k, Z_B))      per patch: (d alpha, d s, d T)
+//   y_k = D(concat(Z_T,k, Z_B[, x_k]))  per patch: (d alpha, d s, d T)
+//
+// where x_k, with local_pose, is the patch's skinning-weighted share of the
+// body features (LocalPoseFeatures, onefit_features.h): an input, not
+// learnt, so that each patch also sees its own joints directly.
 //
 // E_T, E_B and D are MLPs (mlp.h) with skip connections; their weights are
 // one flat vector [E_T | E_B | D]. The output of patch k turns its rest
@@ -43,6 +47,9 @@ struct OneFitNetworkOptions {
   double initial_output_scale = 1e-3;
   // The warp head's polynomial order (-1: none).
   int warp_order = -1;
+  // The decoder also reads each patch's local pose x_k (kLocalPoseSize
+  // values); Forward then needs the patches' joint weights.
+  bool local_pose = false;
   std::uint64_t seed = 1;
 
   std::string Validate() const;
@@ -54,7 +61,8 @@ class OneFitNetwork {
   // num_coefficients: the jets' (NumJetCoefficients(order)).
   OneFitNetwork(int patch_features, int body_features, int num_coefficients, const OneFitNetworkOptions& options);
   // From its three MLPs (a saved model); throws std::invalid_argument when
-  // their sizes do not chain.
+  // their sizes do not chain. The decoder's input tells whether it reads
+  // the local pose.
   OneFitNetwork(Mlp patch_encoder, Mlp body_encoder, Mlp decoder, int num_coefficients, int warp_order = -1);
 
   int num_parameters() const {
@@ -64,6 +72,7 @@ class OneFitNetwork {
   int num_outputs() const { return decoder_.output_size(); }
   int num_coefficients() const { return num_coefficients_; }
   int warp_order() const { return warp_order_; }
+  bool local_pose() const { return local_size_ > 0; }
   const Mlp& patch_encoder() const { return patch_encoder_; }
   const Mlp& body_encoder() const { return body_encoder_; }
   const Mlp& decoder() const { return decoder_; }
@@ -78,16 +87,19 @@ class OneFitNetwork {
     int num_patches = 0;
   };
   // patch_features: #patch features by #patches; body_features: one frame.
-  // outputs: num_outputs() by #patches.
+  // joint_weights: #joints by #patches (PatchJointWeights), needed with the
+  // local pose, else ignored. outputs: num_outputs() by #patches.
   void Forward(const double* weights, const Eigen::MatrixXd& patch_features, const Eigen::VectorXd& body_features,
-               Eigen::MatrixXd* outputs, Cache* cache = nullptr) const;
+               const Eigen::MatrixXd* joint_weights, Eigen::MatrixXd* outputs, Cache* cache = nullptr) const;
   // Inference with the garment's half precomputed (once per garment): the
   // decoder's first layer splits as W [z_T; z_B] + b = (W_T z_T + b) + W_B z_B,
-  // so per frame only W_B z_B is new. GarmentHalf: first-layer width by
-  // #patches; ForwardWithGarmentHalf gives Forward's outputs.
+  // so per frame only W_B z_B (and W_x x_k) is new. GarmentHalf:
+  // first-layer width by #patches; ForwardWithGarmentHalf gives Forward's
+  // outputs.
   Eigen::MatrixXd GarmentHalf(const double* weights, const Eigen::MatrixXd& patch_features) const;
   void ForwardWithGarmentHalf(const double* weights, const Eigen::MatrixXd& garment_half,
-                              const Eigen::VectorXd& body_features, Eigen::MatrixXd* outputs) const;
+                              const Eigen::VectorXd& body_features, const Eigen::MatrixXd* joint_weights,
+                              Eigen::MatrixXd* outputs) const;
   // Adds dL/dweights to gradient given dL/doutputs.
   void Backward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_outputs, double* gradient) const;
 
@@ -98,6 +110,7 @@ class OneFitNetwork {
   Mlp decoder_tail_;  // the decoder's layers after the first
   int num_coefficients_ = 0;
   int warp_order_ = -1;
+  int local_size_ = 0;  // 0 or kLocalPoseSize
 };
 
 // The output bounds b_c above (part of the model's meaning: changing them

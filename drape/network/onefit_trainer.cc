@@ -84,6 +84,7 @@ struct OneFitTrainer::GarmentData {
   std::vector<double> rest;                           // patch parameters at rest
   std::vector<Eigen::Matrix3d> frames;                // R_0 per patch
   Eigen::MatrixXd raw_features, features;             // per patch: raw, normalised
+  Eigen::MatrixXd joint_weights;                      // #joints by #patches
 };
 
 OneFitTrainer::OneFitTrainer(const SkinnedBody& body, std::vector<OneFitTrainingGarment> garments,
@@ -115,6 +116,7 @@ OneFitTrainer::OneFitTrainer(const SkinnedBody& body, std::vector<OneFitTraining
     for (const JetPatch& patch : solver.model().patches) data->frames.push_back(patch.frame.rotation);
     data->raw_features =
         PatchFeatures(solver.model(), data->rest, options_.drape.patching.jet_order, g.weights, body_.skeleton);
+    data->joint_weights = PatchJointWeights(solver.model(), g.weights, body_.skeleton.num_joints());
     Eigen::MatrixXd joined(data->raw_features.rows(), all_patch_features.cols() + data->raw_features.cols());
     if (all_patch_features.size() > 0) joined.leftCols(all_patch_features.cols()) = all_patch_features;
     joined.rightCols(data->raw_features.cols()) = data->raw_features;
@@ -189,7 +191,7 @@ void OneFitTrainer::StartFrom(const OneFitModel& model) {
 std::vector<double> OneFitTrainer::Predict(const double* weights, int garment, int clip, int frame) {
   const GarmentData& g = *garments_.at(garment);
   Eigen::MatrixXd outputs;
-  network_.Forward(weights, g.features, NormalizedBodyFeatures(clip, frame), &outputs);
+  network_.Forward(weights, g.features, NormalizedBodyFeatures(clip, frame), &g.joint_weights, &outputs);
   return PatchParametersFromOutputs(g.rest, g.frames, outputs, network_.num_coefficients());
 }
 
@@ -209,7 +211,7 @@ double OneFitTrainer::SampleLoss(const double* weights, const OneFitSample& samp
   solver.Pose(pose(sample.frame), epoch_);
   Eigen::MatrixXd outputs;
   OneFitNetwork::Cache cache;
-  network_.Forward(weights, g.features, NormalizedBodyFeatures(sample.clip, sample.frame), &outputs,
+  network_.Forward(weights, g.features, NormalizedBodyFeatures(sample.clip, sample.frame), &g.joint_weights, &outputs,
                    gradient != nullptr ? &cache : nullptr);
   const std::vector<double> params = PatchParametersFromOutputs(g.rest, g.frames, outputs, network_.num_coefficients());
   std::vector<double> d_params;

@@ -74,16 +74,18 @@ TEST_F(OneFitTrainerTest, ANewNetworkPredictsAboutTheRestPatches) {
   EXPECT_GT(moved, 0.0);
 }
 
-TEST_F(OneFitTrainerTest, TheLossGradientMatchesCentralDifferences) {
-  std::vector<double> weights = trainer_->InitialWeights();
+// The trainer's loss gradient against central differences along random
+// directions, at weights moved away from the start's symmetries.
+void ExpectGradientMatchesCentralDifferences(OneFitTrainer* trainer, int trials) {
+  std::vector<double> weights = trainer->InitialWeights();
   std::mt19937_64 rng(4);
   std::normal_distribution<double> normal(0.0, 0.05);
-  for (double& w : weights) w += normal(rng);  // away from the start's symmetries
+  for (double& w : weights) w += normal(rng);
   const std::vector<OneFitSample> samples = {{0, 0, 2}, {0, 0, 5}};
-  std::vector<double> gradient(trainer_->num_parameters());
-  const double loss = trainer_->Loss(weights.data(), samples, gradient.data());
+  std::vector<double> gradient(trainer->num_parameters());
+  const double loss = trainer->Loss(weights.data(), samples, gradient.data());
   EXPECT_TRUE(std::isfinite(loss));
-  for (int trial = 0; trial < 3; ++trial) {
+  for (int trial = 0; trial < trials; ++trial) {
     std::vector<double> direction(weights.size()), plus = weights, minus = weights;
     double slope = 0.0;
     const double h = 1e-6;
@@ -94,9 +96,13 @@ TEST_F(OneFitTrainerTest, TheLossGradientMatchesCentralDifferences) {
       slope += gradient[i] * direction[i];
     }
     const double numeric =
-        (trainer_->Loss(plus.data(), samples, nullptr) - trainer_->Loss(minus.data(), samples, nullptr)) / (2.0 * h);
+        (trainer->Loss(plus.data(), samples, nullptr) - trainer->Loss(minus.data(), samples, nullptr)) / (2.0 * h);
     EXPECT_NEAR(numeric, slope, 1e-4 * std::abs(slope) + 1e-8) << "trial " << trial;
   }
+}
+
+TEST_F(OneFitTrainerTest, TheLossGradientMatchesCentralDifferences) {
+  ExpectGradientMatchesCentralDifferences(trainer_.get(), 3);
 }
 
 TEST_F(OneFitTrainerTest, TrainingLowersTheLossDeterministically) {
@@ -313,6 +319,80 @@ TEST_F(OneFitTrainerTest, AResumedAdamRunWithItsMomentsEndsWhereAStraightRunEnds
   EXPECT_EQ(resumed, straight);
 }
 
+// The draper (garment half precomputed, as inference runs) predicts what
+// training sees, at frame 3 of `clip`.
+void ExpectDraperPredictsAsTraining(const SkinnedBody& body, const OneFitTrainerOptions& options,
+                                    const OneFitTrainingClip& clip, const OneFitModel& model, OneFitTrainer& trainer,
+                                    const std::vector<double>& weights) {
+  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
+  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
+  DrapeSolver solver(body, shirt.mesh, shirt.weights, options.drape);
+  const OneFitDraper draper(model, solver, shirt.weights, body.skeleton);
+  const std::vector<double> a = draper.Predict(clip.poses[1], clip.poses[2], clip.poses[3], clip.fps, clip.shape);
+  const std::vector<double> b = trainer.Predict(weights.data(), 0, 0, 3);
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) EXPECT_NEAR(a[i], b[i], 1e-12) << i;
+}
+
+// Bob, with joint 1 (the shirt's) also swaying about its head: its local
+// rotation changes, so that the local pose carries something.
+OneFitTrainingClip Sway(const SkinnedBody& body, int frames) {
+  OneFitTrainingClip clip = Bob(body, frames);
+  const Eigen::Vector3d head = body.skeleton.rest_heads.col(1);
+  for (int t = 0; t < frames; ++t) {
+    const Eigen::Isometry3d turn = Eigen::Translation3d(head) *
+                                   Eigen::AngleAxisd(0.1 * std::sin(0.9 * t), Eigen::Vector3d::UnitX()) *
+                                   Eigen::Translation3d(-head);
+    clip.poses[t][1] = clip.poses[t][0] * turn;
+  }
+  return clip;
+}
+
+TEST_F(OneFitTrainerTest, TheLocalPoseHasTheRightGradientRoundTripsAndDrapesAsTraining) {
+  options_.network.local_pose = true;
+  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
+  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
+  OneFitTrainer trainer(body_, {shirt}, {Sway(body_, 8)}, options_);
+  ExpectGradientMatchesCentralDifferences(&trainer, 2);
+  std::vector<double> weights = trainer.InitialWeights();
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> normal(0.0, 0.05);
+  for (double& w : weights) w += normal(rng);
+  const std::string path = ::testing::TempDir() + "/onefit_local_pose.pfonefit";
+  SaveOneFitModel(path, trainer.MakeModel(weights));
+  const OneFitModel loaded = LoadOneFitModel(path);
+  EXPECT_TRUE(loaded.network.local_pose());
+  EXPECT_EQ(loaded.network.decoder().input_size(), 8 + 8 + kLocalPoseSize);
+  ExpectDraperPredictsAsTraining(body_, options_, Sway(body_, 8), loaded, trainer, weights);
+  // The local pose moves the prediction: joint 1's sway is in x_k.
+  const std::vector<double> a = trainer.Predict(weights.data(), 0, 0, 2), b = trainer.Predict(weights.data(), 0, 0, 4);
+  double change = 0.0;
+  for (size_t i = 0; i < a.size(); ++i) change = std::max(change, std::abs(a[i] - b[i]));
+  EXPECT_GT(change, 1e-6);
+}
+
+TEST(LocalPoseFeaturesTest, WeightsEachJointsThreeRotationBlocks) {
+  const int joints = 3;
+  Eigen::VectorXd body(BodyFeatureSize(joints));
+  for (Eigen::Index i = 0; i < body.size(); ++i) body[i] = 0.5 * static_cast<double>(i);
+  Eigen::MatrixXd weights(joints, 2);
+  weights << 1.0, 0.0,  //
+      0.0, 0.25,        //
+      0.0, 0.75;
+  const Eigen::MatrixXd x = LocalPoseFeatures(body, weights);
+  ASSERT_EQ(x.rows(), kLocalPoseSize);
+  ASSERT_EQ(x.cols(), 2);
+  for (int b = 0; b < 3; ++b) {
+    for (int c = 0; c < 6; ++c) {
+      // Joint j's block b value c sits at 6 (b #joints + j) + c.
+      const auto at = [&](int j) { return body[6 * (b * joints + j) + c]; };
+      EXPECT_DOUBLE_EQ(x(6 * b + c, 0), at(0));
+      EXPECT_DOUBLE_EQ(x(6 * b + c, 1), 0.25 * at(1) + 0.75 * at(2));
+    }
+  }
+  EXPECT_THROW(LocalPoseFeatures(body.head(10), weights), std::invalid_argument);
+}
+
 TEST_F(OneFitTrainerTest, AModelFileRoundTripsAndTheDraperPredictsAsTraining) {
   std::vector<double> weights = trainer_->InitialWeights();
   std::mt19937_64 rng(2);
@@ -327,16 +407,7 @@ TEST_F(OneFitTrainerTest, AModelFileRoundTripsAndTheDraperPredictsAsTraining) {
   EXPECT_EQ(loaded.network.decoder().sizes(), model.network.decoder().sizes());
   EXPECT_EQ(loaded.body_normalizer.inv_std, model.body_normalizer.inv_std);
 
-  // The draper (garment half precomputed) predicts what training sees.
-  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
-  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
-  DrapeSolver solver(body_, shirt.mesh, shirt.weights, options_.drape);
-  const OneFitDraper draper(loaded, solver, shirt.weights, body_.skeleton);
-  const OneFitTrainingClip clip = Bob(body_, 8);
-  const std::vector<double> a = draper.Predict(clip.poses[1], clip.poses[2], clip.poses[3], clip.fps, clip.shape);
-  const std::vector<double> b = trainer_->Predict(weights.data(), 0, 0, 3);
-  ASSERT_EQ(a.size(), b.size());
-  for (size_t i = 0; i < a.size(); ++i) EXPECT_NEAR(a[i], b[i], 1e-12) << i;
+  ExpectDraperPredictsAsTraining(body_, options_, Bob(body_, 8), loaded, *trainer_, weights);
 
   // Damaged files are named, never half-read.
   std::ifstream in(path, std::ios::binary);
@@ -357,8 +428,8 @@ TEST_F(OneFitTrainerTest, AModelFileRoundTripsAndTheDraperPredictsAsTraining) {
   wrong_version[8] = 9;
   expect_error(wrong_version, "version 9");
   std::string huge = bytes;
-  huge[28] = '\xff';  // the patch encoder's layer count
-  huge[29] = '\xff';
+  huge[32] = '\xff';  // the patch encoder's layer count
+  huge[33] = '\xff';
   expect_error(huge, "layer sizes");
   EXPECT_THROW(LoadOneFitModel(path + ".absent"), OneFitModelError);
 }
@@ -383,7 +454,7 @@ TEST(FeatureNormalizerTest, FloorsTheSpreadClampsAndIgnoresConstants) {
 }
 
 // A version-1 file (before the warp head) loads as a model without one.
-TEST(OneFitModelTest, OlderVersionsStillLoadAndTheAlignmentRoundTrips) {
+TEST(OneFitModelTest, OlderVersionsStillLoadAndTheFlagsRoundTrip) {
   const int order = 2, joints = 3;
   OneFitNetworkOptions options;
   options.patch_hidden = {4};
@@ -403,7 +474,7 @@ TEST(OneFitModelTest, OlderVersionsStillLoadAndTheAlignmentRoundTrips) {
   model.weights.resize(model.network.num_parameters());
   model.network.Initialize(3, 1.0, model.weights.data());
   model.aligned_frames = true;
-  const std::string path = ::testing::TempDir() + "/onefit_v3.pfonefit";
+  const std::string path = ::testing::TempDir() + "/onefit_v4.pfonefit";
   SaveOneFitModel(path, model);
   EXPECT_TRUE(LoadOneFitModel(path).aligned_frames);
   std::string bytes;
@@ -411,18 +482,31 @@ TEST(OneFitModelTest, OlderVersionsStillLoadAndTheAlignmentRoundTrips) {
     std::ifstream in(path, std::ios::binary);
     bytes.assign(std::istreambuf_iterator<char>(in), {});
   }
-  ASSERT_EQ(bytes[8], 3);  // the version
+  ASSERT_EQ(bytes[8], 4);  // the version
+  // Version 3: no local pose flag (no local pose).
+  std::string v3 = bytes;
+  v3[8] = 3;
+  v3.erase(28, 4);
+  const std::string path3 = ::testing::TempDir() + "/onefit_v3_old.pfonefit";
+  std::ofstream(path3, std::ios::binary) << v3;
+  EXPECT_TRUE(LoadOneFitModel(path3).aligned_frames);
+  EXPECT_FALSE(LoadOneFitModel(path3).network.local_pose());
+  // A flag that disagrees with the decoder is refused.
+  std::string lying = bytes;
+  lying[28] = 1;
+  std::ofstream(path3, std::ios::binary) << lying;
+  EXPECT_THROW(LoadOneFitModel(path3), OneFitModelError);
   // Version 2: no alignment flag (PCA's frames).
   std::string v2 = bytes;
   v2[8] = 2;
-  v2.erase(24, 4);
+  v2.erase(24, 8);
   const std::string path2 = ::testing::TempDir() + "/onefit_v2.pfonefit";
   std::ofstream(path2, std::ios::binary) << v2;
   EXPECT_FALSE(LoadOneFitModel(path2).aligned_frames);
   // Version 1: no warp order either.
   std::string v1 = bytes;
   v1[8] = 1;
-  v1.erase(20, 8);
+  v1.erase(20, 12);
   const std::string path1 = ::testing::TempDir() + "/onefit_v1.pfonefit";
   std::ofstream(path1, std::ios::binary) << v1;
   const OneFitModel loaded = LoadOneFitModel(path1);

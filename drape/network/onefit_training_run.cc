@@ -112,13 +112,14 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
     throw Error(ErrorKind::kInvalidArgument, "onefit train: " + problem);
   }
   const SkinnedBody body = LoadDrapeBody(options.body_dir, options.shape);
-  // Fine-tuning keeps the model's architecture, its warp head and frame
-  // alignment included.
+  // Fine-tuning keeps the model's architecture, its warp head, local pose
+  // and frame alignment included.
   OneFitModel init;
   OneFitTrainerOptions trainer_options = options.trainer;
   if (!options.init_model_path.empty()) {
     init = LoadOneFitModel(options.init_model_path);
     trainer_options.network.warp_order = init.network.warp_order();
+    trainer_options.network.local_pose = init.network.local_pose();
     trainer_options.drape.patching.align_frames = init.aligned_frames;
   }
   OneFitTrainer trainer(body, LoadGarments(options, body), LoadClips(options, body), trainer_options);

@@ -218,6 +218,8 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
       ->add_option("--warp-order", t.network.warp_order,
                    "order of each patch's predicted in-plane warp (its vertices' slides); -1: none")
       ->capture_default_str();
+  train->add_flag("--local-pose", t.network.local_pose,
+                  "each patch also reads its own joints' pose, skinning-weighted (recorded in the model)");
   train->add_flag("--align-frames", t.drape.patching.align_frames,
                   "patch frames turned to the body's up axis (recorded in the model)");
   train->add_flag("--resume", o.resume, "continue from the model file and its progress, if they exist");
