@@ -24,6 +24,7 @@
 #include "polyfit/mesh/obj_reader.h"
 #include "polyfit/mesh/off_reader.h"
 #include "polyfit/mesh/ply_reader.h"
+#include "polyfit/mesh/text_reading.h"
 #include "polyfit/util/atomic_file.h"
 #include "polyfit/util/file_extension.h"
 
@@ -95,8 +96,6 @@ std::string Trimmed(std::string s) {
   return s;
 }
 
-[[noreturn]] void Fail(const std::string& path, const std::string& reason) { throw MeshIoError(path + ": " + reason); }
-
 template <typename WriteFn>
 void WriteMeshFile(const std::string& path, WriteFn&& write) {
   try {
@@ -106,12 +105,6 @@ void WriteMeshFile(const std::string& path, WriteFn&& write) {
   } catch (const std::exception& e) {
     throw MeshIoError(e.what());
   }
-}
-
-std::string CountText(double count) {
-  char text[64];
-  std::snprintf(text, sizeof(text), "%.0f", count);
-  return text;
 }
 
 // A binary STL's facet count checked against the file's size before assimp
@@ -133,8 +126,8 @@ void CheckStlFacetCount(const std::string& path) {
   in.seekg(80);
   in.read(reinterpret_cast<char*>(&facets), sizeof(facets));
   if (in && 84.0 + 50.0 * facets > size) {
-    Fail(path, "the header declares " + std::to_string(facets) + " facets, more than its " + CountText(size) +
-                   " bytes can hold");
+    FailMeshRead(path, "the header declares " + std::to_string(facets) + " facets, more than its " + CountText(size) +
+                           " bytes can hold");
   }
 }
 
@@ -146,12 +139,12 @@ namespace {
 void CheckMeshFile(const std::string& path) {
   namespace fs = std::filesystem;
   std::error_code ec;
-  if (!fs::exists(path, ec)) Fail(path, "no such file");
-  if (fs::is_directory(path, ec)) Fail(path, "is a directory, not a mesh file");
+  if (!fs::exists(path, ec)) FailMeshRead(path, "no such file");
+  if (fs::is_directory(path, ec)) FailMeshRead(path, "is a directory, not a mesh file");
   {
     std::ifstream probe(path, std::ios::binary);
-    if (!probe) Fail(path, "cannot be opened for reading");
-    if (probe.peek() == std::ifstream::traits_type::eof()) Fail(path, "is empty");
+    if (!probe) FailMeshRead(path, "cannot be opened for reading");
+    if (probe.peek() == std::ifstream::traits_type::eof()) FailMeshRead(path, "is empty");
   }
   CheckStlFacetCount(path);
 }
@@ -175,7 +168,8 @@ std::vector<PolygonSoup> SoupsOfScene(const std::string& path, const aiScene* sc
       if (face.mNumIndices != 3) continue;
       for (int c = 0; c < 3; ++c) {
         if (face.mIndices[c] >= mesh->mNumVertices) {
-          Fail(path, "mesh " + std::to_string(m) + " face " + std::to_string(f) + " refers to a vertex out of range");
+          FailMeshRead(path,
+                       "mesh " + std::to_string(m) + " face " + std::to_string(f) + " refers to a vertex out of range");
         }
         if (has_uv) {
           const aiVector3D& t = mesh->mTextureCoords[0][face.mIndices[c]];
@@ -209,7 +203,8 @@ WeldedTriangles WeldSoups(const std::string& path, const std::vector<PolygonSoup
     for (size_t v = 0; v < soup.positions.size(); ++v) {
       const Eigen::Vector3d& p = soup.positions[v];
       if (!p.allFinite()) {
-        Fail(path, "mesh " + std::to_string(m) + " vertex " + std::to_string(v) + " has a non-finite coordinate");
+        FailMeshRead(path,
+                     "mesh " + std::to_string(m) + " vertex " + std::to_string(v) + " has a non-finite coordinate");
       }
       auto [it, inserted] = welded.emplace(KeyOf(p), static_cast<int>(w.positions.size()));
       if (inserted) w.positions.push_back(p);
@@ -229,8 +224,8 @@ WeldedTriangles WeldSoups(const std::string& path, const std::vector<PolygonSoup
     }
   }
   if (w.faces.empty()) {
-    Fail(path, w.dropped_degenerate > 0 ? "every triangle is degenerate"
-                                        : "holds no triangles (a point cloud or lines only?)");
+    FailMeshRead(path, w.dropped_degenerate > 0 ? "every triangle is degenerate"
+                                                : "holds no triangles (a point cloud or lines only?)");
   }
   return w;
 }
@@ -261,7 +256,7 @@ TriangleMesh CompactMesh(const std::string& path, const WeldedTriangles& w) {
     for (size_t i = 0; i < w.texcoords.size(); ++i) out.corner_texcoords.col(i) = w.texcoords[i];
   }
   const std::string problem = out.Validate();
-  if (!problem.empty()) Fail(path, problem);
+  if (!problem.empty()) FailMeshRead(path, problem);
   return out;
 }
 
@@ -281,20 +276,20 @@ std::vector<PolygonSoup> ReadWithAssimp(const std::string& path, std::string* me
     scene = importer.ReadFile(path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_SortByPType |
                                         aiProcess_PreTransformVertices);
   } catch (const std::exception& e) {
-    Fail(path, std::string("malformed: ") + e.what());
+    FailMeshRead(path, std::string("malformed: ") + e.what());
   }
   if (scene == nullptr) {
     std::string reason = importer.GetErrorString();
     if (reason.empty()) reason = "assimp could not read it";
     // assimp's words when every primitive was a point or a line.
     if (reason.find("No output meshes") != std::string::npos || reason.find("no faces") != std::string::npos) {
-      Fail(path, "holds no triangles (a point cloud or lines only?): " + reason);
+      FailMeshRead(path, "holds no triangles (a point cloud or lines only?): " + reason);
     }
-    Fail(path, "unreadable: " + reason);
+    FailMeshRead(path, "unreadable: " + reason);
   }
   *messages = Trimmed(assimp_errors);
   if (messages->find("out of range") != std::string::npos || messages->find("nvalid") != std::string::npos) {
-    Fail(path, "malformed: " + *messages);
+    FailMeshRead(path, "malformed: " + *messages);
   }
   return SoupsOfScene(path, scene);
 }

@@ -7,23 +7,11 @@
 #include <vector>
 
 #include "polyfit/mesh/mesh_io.h"
+#include "polyfit/mesh/text_reading.h"
 #include "polyfit/util/parse_number.h"
 
 namespace polyfit {
 namespace {
-
-bool IsSpace(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
-
-void SplitWords(std::string_view line, std::vector<std::string_view>* words) {
-  words->clear();
-  for (size_t i = 0; i < line.size();) {
-    while (i < line.size() && IsSpace(line[i])) ++i;
-    size_t j = i;
-    while (j < line.size() && !IsSpace(line[j])) ++j;
-    if (j > i) words->push_back(line.substr(i, j - i));
-    i = j;
-  }
-}
 
 // One OBJ index (1-based, or negative from the end) as a 0-based one in
 // [0, count); -1 when it is not.
@@ -109,9 +97,7 @@ class ObjParser {
 }  // namespace
 
 PolygonSoup ReadObj(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw MeshIoError(path + ": cannot be opened (missing?)");
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string text = ReadWholeFile(path);
   ObjParser parser(path);
   int number = 0;
   for (size_t begin = 0; begin < text.size();) {

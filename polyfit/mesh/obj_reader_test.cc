@@ -6,27 +6,14 @@
 #include <gtest/gtest.h>
 
 #include "polyfit/mesh/mesh_io.h"
-#include "polyfit/util/scoped_temp_dir.h"
+#include "polyfit/mesh/mesh_reader_test_fixture.h"
 
 namespace polyfit {
 namespace {
 
-class ObjReaderTest : public ::testing::Test {
+class ObjReaderTest : public MeshReaderTest {
  protected:
-  std::string Write(const std::string& name, const std::string& text) const {
-    const std::string path = (temp_.path() / name).string();
-    std::ofstream(path, std::ios::binary) << text;
-    return path;
-  }
-  std::string Error(const std::string& text) const {
-    try {
-      ReadObj(Write("bad.obj", text));
-    } catch (const MeshIoError& e) {
-      return e.what();
-    }
-    return "(no error)";
-  }
-  ScopedTempDir temp_{"polyfit_obj_reader"};
+  std::string Error(const std::string& text) const { return ErrorOf(ReadObj, "bad.obj", text); }
 };
 
 TEST_F(ObjReaderTest, FacesOfEveryCornerFormWithMaterialsAndGroupsSkipped) {

@@ -10,19 +10,12 @@
 #include <vector>
 
 #include "polyfit/mesh/mesh_io.h"
+#include "polyfit/mesh/text_reading.h"
 #include "polyfit/util/file_extension.h"
 #include "polyfit/util/parse_number.h"
 
 namespace polyfit {
 namespace {
-
-[[noreturn]] void Fail(const std::string& path, const std::string& reason) { throw MeshIoError(path + ": " + reason); }
-
-std::string CountText(double count) {
-  char text[64];
-  std::snprintf(text, sizeof(text), "%.0f", count);
-  return text;
-}
 
 // What an OFF keyword's prefixes declare about each vertex line.
 struct OffVariant {
@@ -60,17 +53,10 @@ class OffLines {
     while (words->empty() && next_ < text_.size()) {
       size_t end = text_.find('\n', next_);
       if (end == std::string::npos) end = text_.size();
-      std::string_view line(text_.data() + next_, end - next_);
+      const std::string_view line(text_.data() + next_, end - next_);
       next_ = end + 1;
       ++line_number_;
-      line = line.substr(0, line.find('#'));
-      for (size_t i = 0; i < line.size();) {
-        while (i < line.size() && IsSpace(line[i])) ++i;
-        size_t j = i;
-        while (j < line.size() && !IsSpace(line[j])) ++j;
-        if (j > i) words->push_back(line.substr(i, j - i));
-        i = j;
-      }
+      SplitWords(line.substr(0, line.find('#')), words);
     }
     return !words->empty();
   }
@@ -89,13 +75,11 @@ class OffLines {
   }
 
   [[noreturn]] void Malformed(const std::string& what) const {
-    Fail(path_, "malformed: line " + std::to_string(line_number_) + ": " + what);
+    FailMeshRead(path_, "malformed: line " + std::to_string(line_number_) + ": " + what);
   }
   size_t size() const { return text_.size(); }
 
  private:
-  static bool IsSpace(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
-
   const std::string& path_;
   const std::string text_;
   size_t next_ = 0;
@@ -103,24 +87,18 @@ class OffLines {
   std::vector<std::string_view> words_;
 };
 
-std::string ReadWholeFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) Fail(path, "cannot be opened for reading");
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-}
-
 // The keyword line, and the counts on it or on the next line.
 void ReadHeader(const std::string& path, OffLines* lines, OffVariant* variant, double* num_vertices,
                 double* num_faces) {
   std::vector<std::string_view> words;
   bool other_dimension = false;
-  if (!lines->NextWords(&words)) Fail(path, "holds no OFF header");
+  if (!lines->NextWords(&words)) FailMeshRead(path, "holds no OFF header");
   // The keyword is optional (Geomview's definition): without it, the first
   // line holds the counts.
   const bool keyword = ParseKeyword(words[0], variant, &other_dimension);
-  if (other_dimension) Fail(path, "'" + std::string(words[0]) + "': only three-dimensional OFF is read");
+  if (other_dimension) FailMeshRead(path, "'" + std::string(words[0]) + "': only three-dimensional OFF is read");
   if (keyword && words.size() > 1 && words[1] == "BINARY") {
-    Fail(path, "binary OFF is not read; convert it to ASCII OFF or PLY");
+    FailMeshRead(path, "binary OFF is not read; convert it to ASCII OFF or PLY");
   }
   std::vector<double> counts;
   for (size_t i = keyword ? 1 : 0; i < words.size(); ++i) {
@@ -128,7 +106,7 @@ void ReadHeader(const std::string& path, OffLines* lines, OffVariant* variant, d
     if (!ParseNumber(words[i], &value)) lines->Malformed("'" + std::string(words[i]) + "' is not a count");
     counts.push_back(value);
   }
-  if (counts.empty() && !lines->NextNumbers(&counts)) Fail(path, "truncated: no vertex and face counts");
+  if (counts.empty() && !lines->NextNumbers(&counts)) FailMeshRead(path, "truncated: no vertex and face counts");
   if (counts.size() < 2 || counts.size() > 3) lines->Malformed("expected the counts '#vertices #faces [#edges]'");
   for (double c : counts) {
     if (!(c >= 0.0) || c != std::floor(c)) lines->Malformed("a count must be a whole number, at least 0");
@@ -138,14 +116,15 @@ void ReadHeader(const std::string& path, OffLines* lines, OffVariant* variant, d
   // "0 0 0\n" a vertex and "0\n" a face at the least: counts are checked
   // against the file before anything is allocated for them.
   if (6.0 * counts[0] + 2.0 * counts[1] > static_cast<double>(lines->size())) {
-    Fail(path, "the header declares " + CountText(counts[0]) + " vertices and " + CountText(counts[1]) +
-                   " faces, more than its " + CountText(static_cast<double>(lines->size())) + " bytes can hold");
+    FailMeshRead(path, "the header declares " + CountText(counts[0]) + " vertices and " + CountText(counts[1]) +
+                           " faces, more than its " + CountText(static_cast<double>(lines->size())) +
+                           " bytes can hold");
   }
 }
 
 [[noreturn]] void Truncated(const std::string& path, int vertices, int num_vertices, int faces, int num_faces) {
-  Fail(path, "truncated: " + std::to_string(vertices) + " of " + std::to_string(num_vertices) + " vertices and " +
-                 std::to_string(faces) + " of " + std::to_string(num_faces) + " faces");
+  FailMeshRead(path, "truncated: " + std::to_string(vertices) + " of " + std::to_string(num_vertices) +
+                         " vertices and " + std::to_string(faces) + " of " + std::to_string(num_faces) + " faces");
 }
 
 }  // namespace

@@ -6,34 +6,21 @@
 #include <gtest/gtest.h>
 
 #include "polyfit/mesh/mesh_io.h"
-#include "polyfit/util/scoped_temp_dir.h"
+#include "polyfit/mesh/mesh_reader_test_fixture.h"
 
 namespace polyfit {
 namespace {
 
-class OffReaderTest : public ::testing::Test {
+class OffReaderTest : public MeshReaderTest {
  protected:
-  std::string Write(const std::string& name, const std::string& text) const {
-    const std::string path = (temp_.path() / name).string();
-    std::ofstream(path, std::ios::binary) << text;
-    return path;
-  }
-  // The message ReadOff throws for `text` written as `name`.
-  std::string Error(const std::string& name, const std::string& text) const {
-    try {
-      ReadOff(Write(name, text));
-    } catch (const MeshIoError& e) {
-      return e.what();
-    }
-    return "(no error)";
-  }
-  ScopedTempDir temp_{"polyfit_off_reader"};
+  std::string Error(const std::string& name, const std::string& text) const { return ErrorOf(ReadOff, name, text); }
 };
 
 TEST_F(OffReaderTest, CountsOnTheKeywordLineCommentsAndCrlf) {
   const PolygonSoup soup =
-      ReadOff(Write("q.off", "OFF 4 1 0 # counts here\r\n\r\n# a comment\r\n0 0 0\r\n2 0 0\r\n2 1 0\r\n0 1.5e0 0\r\n"
-                             "4 0 1 2 3\r\n"));
+      ReadOff(Write("q.off",
+                    "OFF 4 1 0 # counts here\r\n\r\n# a comment\r\n0 0 0\r\n2 0 0\r\n2 1 0\r\n0 1.5e0 0\r\n"
+                    "4 0 1 2 3\r\n"));
   ASSERT_EQ(soup.positions.size(), 4u);
   EXPECT_EQ(soup.positions[3], Eigen::Vector3d(0, 1.5, 0));
   ASSERT_EQ(soup.triangles.size(), 2u);  // a fan around corner 0
@@ -99,8 +86,9 @@ TEST_F(OffReaderTest, ErrorsNameTheFileAndTheLine) {
 TEST_F(OffReaderTest, AssimpBusErrorInputIsACleanError) {
   // tests/fuzz found this input crashing assimp's OFF reader (a bus error);
   // without a keyword, "2 5" are the counts and the file is short of them.
-  const std::string error =
-      Error("fuzz.off", "2 5\n3 3 1 5\n3 0 4 5 255\x02" "0 1  0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n");
+  const std::string error = Error("fuzz.off",
+                                  "2 5\n3 3 1 5\n3 0 4 5 255\x02"
+                                  "0 1  0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n");
   EXPECT_NE(error.find("fuzz.off: malformed: line 3"), std::string::npos) << error;
 }
 

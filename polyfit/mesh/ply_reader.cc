@@ -13,19 +13,12 @@
 #include <vector>
 
 #include "polyfit/mesh/mesh_io.h"
+#include "polyfit/mesh/text_reading.h"
 #include "polyfit/util/file_extension.h"
 #include "polyfit/util/parse_number.h"
 
 namespace polyfit {
 namespace {
-
-[[noreturn]] void Fail(const std::string& path, const std::string& reason) { throw MeshIoError(path + ": " + reason); }
-
-std::string CountText(double count) {
-  char text[64];
-  std::snprintf(text, sizeof(text), "%.0f", count);
-  return text;
-}
 
 std::string NumberText(double value) {
   char text[64];
@@ -93,22 +86,10 @@ struct PlyHeader {
   size_t data_begin = 0;  // the byte after end_header's line
 };
 
-std::vector<std::string_view> Words(std::string_view line) {
-  std::vector<std::string_view> words;
-  for (size_t i = 0; i < line.size();) {
-    while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
-    size_t j = i;
-    while (j < line.size() && line[j] != ' ' && line[j] != '\t' && line[j] != '\r') ++j;
-    if (j > i) words.push_back(line.substr(i, j - i));
-    i = j;
-  }
-  return words;
-}
-
 void ParseHeaderLine(const std::string& path, int number, const std::vector<std::string_view>& words,
                      PlyHeader* header) {
   const auto bad = [&](const std::string& what) {
-    Fail(path, "malformed header: line " + std::to_string(number) + ": " + what);
+    FailMeshRead(path, "malformed header: line " + std::to_string(number) + ": " + what);
   };
   const std::string_view key = words[0];
   if (key == "format") {
@@ -154,13 +135,14 @@ PlyHeader ReadHeader(const std::string& path, const std::string& bytes) {
   PlyHeader header;
   size_t begin = 0;
   bool format_seen = false;
+  std::vector<std::string_view> words;
   for (int number = 1;; ++number) {
     const size_t end = bytes.find('\n', begin);
-    if (end == std::string::npos) Fail(path, "a PLY header without 'end_header'");
-    const std::vector<std::string_view> words = Words(std::string_view(bytes).substr(begin, end - begin));
+    if (end == std::string::npos) FailMeshRead(path, "a PLY header without 'end_header'");
+    SplitWords(std::string_view(bytes).substr(begin, end - begin), &words);
     begin = end + 1;
     if (number == 1) {
-      if (words.size() != 1 || words[0] != "ply") Fail(path, "not a PLY file (no 'ply' line)");
+      if (words.size() != 1 || words[0] != "ply") FailMeshRead(path, "not a PLY file (no 'ply' line)");
       continue;
     }
     if (words.empty()) continue;
@@ -168,7 +150,7 @@ PlyHeader ReadHeader(const std::string& path, const std::string& bytes) {
     format_seen |= words[0] == "format";
     ParseHeaderLine(path, number, words, &header);
   }
-  if (!format_seen) Fail(path, "malformed header: no format line");
+  if (!format_seen) FailMeshRead(path, "malformed header: no format line");
   header.data_begin = begin;
   return header;
 }
@@ -201,10 +183,11 @@ class PlyData {
   bool ascii() const { return format_ == PlyFormat::kAscii; }
 
   [[noreturn]] void Malformed(const std::string& what) const {
-    Fail(path_, "malformed: " + element_->name + " " + CountText(index_) + ": " + what);
+    FailMeshRead(path_, "malformed: " + element_->name + " " + CountText(index_) + ": " + what);
   }
   [[noreturn]] void Truncated() const {
-    Fail(path_, "truncated: in " + element_->name + " " + CountText(index_) + " of " + CountText(element_->count));
+    FailMeshRead(path_,
+                 "truncated: in " + element_->name + " " + CountText(index_) + " of " + CountText(element_->count));
   }
 
  private:
@@ -264,8 +247,9 @@ void CheckCount(const std::string& path, const PlyElement& element, const PlyDat
   }
   // An ASCII file's last value may lack its separator.
   if (element.count * least > static_cast<double>(data.remaining()) + (data.ascii() ? 1.0 : 0.0)) {
-    Fail(path, "the header declares " + CountText(element.count) + " " + element.name + " elements, more than its " +
-                   CountText(static_cast<double>(data.remaining())) + " bytes of data can hold");
+    FailMeshRead(path, "the header declares " + CountText(element.count) + " " + element.name +
+                           " elements, more than its " + CountText(static_cast<double>(data.remaining())) +
+                           " bytes of data can hold");
   }
 }
 
@@ -304,7 +288,7 @@ struct PlyVertices {
 
 PlyVertices ReadVertices(const std::string& path, const PlyElement& element, PlyData* data) {
   const int x = element.Find("x"), y = element.Find("y"), z = element.Find("z");
-  if (x < 0 || y < 0 || z < 0) Fail(path, "the vertex element lacks an x, y or z property");
+  if (x < 0 || y < 0 || z < 0) FailMeshRead(path, "the vertex element lacks an x, y or z property");
   const std::pair<int, int> texcoord_properties = FindTexcoordProperties(element);
   const int u = texcoord_properties.first, v = texcoord_properties.second;  // captured: no structured binding
   PlyVertices out;
@@ -339,7 +323,8 @@ struct PlyFaces {
 PlyFaces ReadFaces(const std::string& path, const PlyElement& element, PlyData* data) {
   int indices = element.Find("vertex_indices");
   if (indices < 0) indices = element.Find("vertex_index");
-  if (indices < 0 || !element.properties[indices].is_list) Fail(path, "the face element has no 'vertex_indices' list");
+  if (indices < 0 || !element.properties[indices].is_list)
+    FailMeshRead(path, "the face element has no 'vertex_indices' list");
   const int texcoord = element.Find("texcoord");
   PlyFaces out;
   std::vector<double> list;
@@ -388,8 +373,8 @@ PolygonSoup Assemble(const std::string& path, PlyVertices vertices, const PlyFac
     uv.clear();
     for (size_t k = 0; k < corners.size(); ++k) {
       if (corners[k] >= static_cast<int>(soup.positions.size())) {
-        Fail(path, "malformed: face " + std::to_string(f) + ": vertex index " + std::to_string(corners[k]) +
-                       " out of range (" + std::to_string(soup.positions.size()) + " vertices)");
+        FailMeshRead(path, "malformed: face " + std::to_string(f) + ": vertex index " + std::to_string(corners[k]) +
+                               " out of range (" + std::to_string(soup.positions.size()) + " vertices)");
       }
       if (faces.textured[f]) {
         uv.push_back(faces.texcoords[faces.starts[f] + k]);
@@ -400,12 +385,6 @@ PolygonSoup Assemble(const std::string& path, PlyVertices vertices, const PlyFac
     AppendPolygon(corners, face_uv || vertex_uv ? &uv : nullptr, &soup);
   }
   return soup;
-}
-
-std::string ReadWholeFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) Fail(path, "cannot be opened for reading");
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
 }  // namespace
@@ -445,7 +424,7 @@ PolygonSoup ReadPly(const std::string& path) {
     }
     if (vertices_read && faces_read) break;  // what follows is not read
   }
-  if (!vertices_read) Fail(path, "no vertex element");
+  if (!vertices_read) FailMeshRead(path, "no vertex element");
   return Assemble(path, std::move(vertices), faces);
 }
 

@@ -9,27 +9,14 @@
 #include <gtest/gtest.h>
 
 #include "polyfit/mesh/mesh_io.h"
-#include "polyfit/util/scoped_temp_dir.h"
+#include "polyfit/mesh/mesh_reader_test_fixture.h"
 
 namespace polyfit {
 namespace {
 
-class PlyReaderTest : public ::testing::Test {
+class PlyReaderTest : public MeshReaderTest {
  protected:
-  std::string Write(const std::string& name, const std::string& text) const {
-    const std::string path = (temp_.path() / name).string();
-    std::ofstream(path, std::ios::binary) << text;
-    return path;
-  }
-  std::string Error(const std::string& name, const std::string& text) const {
-    try {
-      ReadPly(Write(name, text));
-    } catch (const MeshIoError& e) {
-      return e.what();
-    }
-    return "(no error)";
-  }
-  ScopedTempDir temp_{"polyfit_ply_reader"};
+  std::string Error(const std::string& name, const std::string& text) const { return ErrorOf(ReadPly, name, text); }
 };
 
 // Appends `value` as the bytes of T, big-endian when `big`.
@@ -170,8 +157,8 @@ TEST_F(PlyReaderTest, AHugeBinaryListCountIsTruncationNotAnAllocation) {
 
 TEST_F(PlyReaderTest, AnElementWithoutPropertiesTakesNoTime) {
   // Found by tests/fuzz: 1e100 instances of nothing were read one by one.
-  const PolygonSoup soup = ReadPly(Write("empty_element.ply",
-                                         "ply\nformat ascii 1.0\nelement nothing 1" + std::string(100, '0') +
+  const PolygonSoup soup =
+      ReadPly(Write("empty_element.ply", "ply\nformat ascii 1.0\nelement nothing 1" + std::string(100, '0') +
                                              "\nelement vertex 1\nproperty float x\nproperty float y\n"
                                              "property float z\nend_header\n1 2 3\n"));
   ASSERT_EQ(soup.positions.size(), 1u);
@@ -180,9 +167,10 @@ TEST_F(PlyReaderTest, AnElementWithoutPropertiesTakesNoTime) {
 
 TEST_F(PlyReaderTest, AssimpSegvInputIsACleanError) {
   // tests/fuzz found this header crashing assimp's PLY reader (a SEGV).
-  const std::string error =
-      Error("fuzz.ply", "ply\nformat ascii 1.0\ncomment seed\nelement vertex 4\nproperty float x\n"
-                        "property float y\nproperty f" + std::string(200, '\xa6') + "\n");
+  const std::string error = Error("fuzz.ply",
+                                  "ply\nformat ascii 1.0\ncomment seed\nelement vertex 4\nproperty float x\n"
+                                  "property float y\nproperty f" +
+                                      std::string(200, '\xa6') + "\n");
   EXPECT_NE(error.find("fuzz.ply: "), std::string::npos) << error;
 }
 
