@@ -94,6 +94,7 @@ OneFitTrainer::OneFitTrainer(const SkinnedBody& body, std::vector<OneFitTraining
     throw std::invalid_argument("OneFitTrainerOptions: " + problem);
   }
   if (garments.empty() || clips_.empty()) throw std::invalid_argument("OneFitTrainer: no garment or no clip");
+  num_training_clips_ = static_cast<int>(clips_.size());
   for (const OneFitTrainingClip& clip : clips_) {
     if (clip.poses.empty()) throw std::invalid_argument("OneFitTrainer: clip '" + clip.name + "' has no frame");
   }
@@ -195,7 +196,8 @@ std::vector<double> OneFitTrainer::Predict(const double* weights, int garment, i
   return PatchParametersFromOutputs(g.rest, g.frames, outputs, network_.num_coefficients());
 }
 
-double OneFitTrainer::SampleLoss(const double* weights, const OneFitSample& sample, int thread, double* gradient) {
+double OneFitTrainer::SampleLoss(const double* weights, const OneFitSample& sample, int thread, double* gradient,
+                                 double epoch) {
   GarmentData& g = *garments_[sample.garment];
   DrapeSolver& solver = *g.solvers[thread];
   const OneFitTrainingClip& clip = clips_[sample.clip];
@@ -208,7 +210,7 @@ double OneFitTrainer::SampleLoss(const double* weights, const OneFitSample& samp
     history[back - 1] = solver.PositionsAt(Predict(weights, sample.garment, sample.clip, f), pose(f));
   }
   solver.SetHistory(history[0], history[1]);
-  solver.Pose(pose(sample.frame), epoch_);
+  solver.Pose(pose(sample.frame), epoch);
   Eigen::MatrixXd outputs;
   OneFitNetwork::Cache cache;
   network_.Forward(weights, g.features, NormalizedBodyFeatures(sample.clip, sample.frame), &g.joint_weights, &outputs,
@@ -247,7 +249,7 @@ double OneFitTrainer::Loss(const double* weights, const std::vector<OneFitSample
       [&](int, int t) {
         for (size_t k = t; k < mine.size(); k += threads) {
           energies[mine[k]] =
-              SampleLoss(weights, samples[mine[k]], t, gradient != nullptr ? gradients[t].data() : nullptr);
+              SampleLoss(weights, samples[mine[k]], t, gradient != nullptr ? gradients[t].data() : nullptr, epoch_);
         }
       },
       1);
@@ -319,8 +321,16 @@ OneFitBatchSummary OneFitTrainer::AdamBatch(const std::vector<OneFitSample>& bat
   return record;
 }
 
+void OneFitTrainer::SetValidationClip(OneFitTrainingClip clip) {
+  if (clip.poses.empty())
+    throw std::invalid_argument("OneFitTrainer: validation clip '" + clip.name + "' has no frame");
+  clips_.resize(num_training_clips_);  // a second call replaces the first
+  clips_.push_back(std::move(clip));
+  validation_clip_ = num_training_clips_;
+}
+
 void OneFitTrainer::ValidationDrape(const double* weights, int garment, int clip, int frames, double* inside_percent,
-                                    double* edge_strain_percent) {
+                                    double* edge_strain_percent, double* loss) {
   DrapeSolver& solver = *garments_.at(garment)->solvers.front();
   const OneFitTrainingClip& c = clips_.at(clip);
   const ClothRest rest = PrepareClothRest(solver.rest_garment());
@@ -335,6 +345,12 @@ void OneFitTrainer::ValidationDrape(const double* weights, int garment, int clip
   }
   *inside_percent = inside;
   *edge_strain_percent = strain;
+  if (loss != nullptr) {
+    double sum = 0.0;
+    for (int f = 0; f < count; ++f)
+      sum += SampleLoss(weights, {garment, clip, f}, 0, nullptr, options_.kext_final_epoch);
+    *loss = sum / count;
+  }
 }
 
 OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights, int first_batch, const BatchCallback& on_batch,
@@ -353,7 +369,7 @@ OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights, int fir
   for (int b = 0; b < options_.num_batches; ++b) {
     for (OneFitSample& s : batch) {
       s.garment = std::uniform_int_distribution<int>(0, static_cast<int>(garments_.size()) - 1)(rng);
-      s.clip = std::uniform_int_distribution<int>(0, static_cast<int>(clips_.size()) - 1)(rng);
+      s.clip = std::uniform_int_distribution<int>(0, num_training_clips_ - 1)(rng);
       s.frame = std::uniform_int_distribution<int>(0, static_cast<int>(clips_[s.clip].poses.size()) - 1)(rng);
     }
     if (b < first_batch) continue;
@@ -363,9 +379,10 @@ OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights, int fir
     summary.batches.push_back(record);
     if (options_.validation_every > 0 && (b + 1) % options_.validation_every == 0 &&
         options_.distribution.process == 0) {
-      ValidationDrape(weights->data(), 0, 0, options_.validation_frames,
-                      &summary.batches.back().validation_inside_percent,
-                      &summary.batches.back().validation_edge_strain_percent);
+      OneFitBatchSummary& record_back = summary.batches.back();
+      ValidationDrape(weights->data(), 0, validation_clip_, options_.validation_frames,
+                      &record_back.validation_inside_percent, &record_back.validation_edge_strain_percent,
+                      &record_back.validation_loss);
     }
     summary.batches.back().time_s = Seconds(start);
     const bool finite = std::all_of(weights->begin(), weights->end(), [](double w) { return std::isfinite(w); });

@@ -104,6 +104,10 @@ struct OneFitBatchSummary {
   // first frames of the first clip, epsilon_c and epsilon_e (%).
   double validation_inside_percent = std::numeric_limits<double>::quiet_NaN();
   double validation_edge_strain_percent = std::numeric_limits<double>::quiet_NaN();
+  // With it, the mean loss (J) over the validation frames, at k_ext's final
+  // epoch so that batches compare (the training loss's allowance changes
+  // with the epoch).
+  double validation_loss = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct OneFitTrainingSummary {
@@ -160,10 +164,17 @@ class OneFitTrainer {
   OneFitTrainingSummary Train(std::vector<double>* weights, int first_batch = 0,
                               const BatchCallback& on_batch = nullptr, OneFitAdamState* adam = nullptr);
 
+  // A clip the validation drape runs on instead of the first training
+  // clip, never trained on (nor read by the feature normalisers): a motion
+  // held out, so that validation measures what training does to unseen
+  // motion. The batches drawn stay those without it.
+  void SetValidationClip(OneFitTrainingClip clip);
+
   // epsilon_c and epsilon_e (%) of the network's drape of a garment through
-  // a clip's first `frames` frames.
+  // a clip's first `frames` frames and, when `loss` is not null, the mean
+  // loss over those frames at k_ext's final epoch.
   void ValidationDrape(const double* weights, int garment, int clip, int frames, double* inside_percent,
-                       double* edge_strain_percent);
+                       double* edge_strain_percent, double* loss = nullptr);
 
   // The patch parameters the network predicts for a garment at a clip's
   // frame (the network alone, as DrapeSolver lays them out).
@@ -176,7 +187,7 @@ class OneFitTrainer {
   OneFitBatchSummary AdamBatch(const std::vector<OneFitSample>& batch, int index, AdamState* state,
                                std::vector<double>* weights);
   Eigen::VectorXd NormalizedBodyFeatures(int clip, int frame) const;
-  double SampleLoss(const double* weights, const OneFitSample& sample, int thread, double* gradient);
+  double SampleLoss(const double* weights, const OneFitSample& sample, int thread, double* gradient, double epoch);
 
   SkinnedBody body_;
   std::vector<OneFitTrainingClip> clips_;
@@ -184,7 +195,9 @@ class OneFitTrainer {
   std::vector<std::unique_ptr<GarmentData>> garments_;
   FeatureNormalizer patch_normalizer_, body_normalizer_;
   OneFitNetwork network_;
-  double epoch_ = 0.0;  // k_ext's, of the current batch
+  double epoch_ = 0.0;          // k_ext's, of the current batch
+  int num_training_clips_ = 0;  // clips_ beyond these are for validation only
+  int validation_clip_ = 0;
 };
 
 }  // namespace polyfit

@@ -371,6 +371,36 @@ TEST_F(OneFitTrainerTest, TheLocalPoseHasTheRightGradientRoundTripsAndDrapesAsTr
   EXPECT_GT(change, 1e-6);
 }
 
+TEST_F(OneFitTrainerTest, AValidationClipIsValidatedButNeverTrainedOn) {
+  options_.validation_every = 2;
+  options_.validation_frames = 3;
+  options_.num_batches = 4;
+  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
+  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
+  OneFitTrainer plain(body_, {shirt}, {Bob(body_, 8)}, options_);
+  OneFitTrainer held_out(body_, {shirt}, {Bob(body_, 8)}, options_);
+  held_out.SetValidationClip(Sway(body_, 6));
+  std::vector<double> a = plain.InitialWeights(), b = held_out.InitialWeights();
+  const OneFitTrainingSummary sa = plain.Train(&a), sb = held_out.Train(&b);
+  // The same batches and steps: the validation clip is never drawn.
+  EXPECT_EQ(a, b);
+  ASSERT_EQ(sb.batches.size(), 4u);
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(sa.batches[i].final_loss, sb.batches[i].final_loss);
+  // What is validated is the held-out clip (index 1), with its loss.
+  const OneFitBatchSummary& last = sb.batches.back();
+  double inside = 0.0, strain = 0.0, loss = 0.0;
+  held_out.ValidationDrape(b.data(), 0, 1, 3, &inside, &strain, &loss);
+  EXPECT_EQ(last.validation_inside_percent, inside);
+  EXPECT_EQ(last.validation_edge_strain_percent, strain);
+  EXPECT_EQ(last.validation_loss, loss);
+  EXPECT_GT(loss, 0.0);
+  EXPECT_TRUE(std::isnan(sb.batches[0].validation_loss));  // not a validation batch
+  // The swaying clip is validated, not the training one.
+  double bob_inside = 0.0, bob_strain = 0.0, bob_loss = 0.0;
+  held_out.ValidationDrape(b.data(), 0, 0, 3, &bob_inside, &bob_strain, &bob_loss);
+  EXPECT_NE(bob_loss, loss);
+}
+
 TEST(LocalPoseFeaturesTest, WeightsEachJointsThreeRotationBlocks) {
   const int joints = 3;
   Eigen::VectorXd body(BodyFeatureSize(joints));

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include "drape/motion/mirror_pose.h"
@@ -29,9 +30,28 @@ std::vector<OneFitTrainingGarment> LoadGarments(const OneFitTrainingRunOptions& 
   return garments;
 }
 
+// One clip retargeted onto the body, played at `speed`.
+OneFitTrainingClip LoadClip(const std::string& path, double speed, const OneFitTrainingRunOptions& options,
+                            const SkinnedBody& body) {
+  const double fps = options.trainer.drape.physics.fps;
+  const auto retargeter = LoadRetargetedClip(path, options.bvh_units_to_metres, fps / speed, body.skeleton);
+  OneFitTrainingClip clip;
+  clip.name = std::filesystem::path(path).stem().string();
+  if (speed != 1.0) {
+    std::ostringstream name;
+    name << clip.name << "@" << speed << "x";
+    clip.name = name.str();
+  }
+  clip.fps = fps;
+  clip.shape = options.shape;
+  const int frames = options.max_frames_per_clip > 0 ? std::min(options.max_frames_per_clip, retargeter->num_frames())
+                                                     : retargeter->num_frames();
+  for (int f = 0; f < frames; ++f) clip.poses.push_back(retargeter->Pose(f));
+  return clip;
+}
+
 std::vector<OneFitTrainingClip> LoadClips(const OneFitTrainingRunOptions& options, const SkinnedBody& body) {
   std::vector<OneFitTrainingClip> clips;
-  const double fps = options.trainer.drape.physics.fps;
   std::vector<int> mirror_map;
   if (options.mirror) {
     try {
@@ -42,21 +62,9 @@ std::vector<OneFitTrainingClip> LoadClips(const OneFitTrainingRunOptions& option
   }
   for (const std::string& path : options.motion_paths) {
     for (const double speed : options.speeds) {
-      const auto retargeter = LoadRetargetedClip(path, options.bvh_units_to_metres, fps / speed, body.skeleton);
-      OneFitTrainingClip clip;
-      clip.name = std::filesystem::path(path).stem().string();
-      if (speed != 1.0) {
-        std::ostringstream name;
-        name << clip.name << "@" << speed << "x";
-        clip.name = name.str();
-      }
-      clip.fps = fps;
-      clip.shape = options.shape;
-      const int frames = options.max_frames_per_clip > 0
-                             ? std::min(options.max_frames_per_clip, retargeter->num_frames())
-                             : retargeter->num_frames();
-      for (int f = 0; f < frames; ++f) clip.poses.push_back(retargeter->Pose(f));
-      clips.push_back(std::move(clip));  // the validation drape reads the first clip as recorded
+      // Without a validation motion the validation drape reads the first
+      // clip as recorded.
+      clips.push_back(LoadClip(path, speed, options, body));
       if (options.mirror) {
         OneFitTrainingClip mirrored = clips.back();
         mirrored.name += "~mirrored";
@@ -79,6 +87,23 @@ std::vector<OneFitTrainingClip> LoadClips(const OneFitTrainingRunOptions& option
     }
   }
   return clips;
+}
+
+// The lowest validation loss (the last column) of a progress file's rows;
+// infinity when none has one.
+double BestValidationLoss(const std::string& csv) {
+  double best = std::numeric_limits<double>::infinity();
+  std::istringstream rows(csv);
+  std::string row;
+  std::getline(rows, row);  // the header: earlier runs' files had no loss column
+  if (row.find("validation_loss_J") == std::string::npos) return best;
+  while (std::getline(rows, row)) {
+    const size_t comma = row.rfind(',');
+    if (comma == std::string::npos || comma + 1 >= row.size()) continue;
+    const double loss = std::strtod(row.c_str() + comma + 1, nullptr);
+    if (std::isfinite(loss) && loss > 0.0) best = std::min(best, loss);
+  }
+  return best;
 }
 
 // Batches already done (the progress file's rows), for a resumed run.
@@ -123,6 +148,9 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
     trainer_options.drape.patching.align_frames = init.aligned_frames;
   }
   OneFitTrainer trainer(body, LoadGarments(options, body), LoadClips(options, body), trainer_options);
+  if (!options.validation_motion_path.empty()) {
+    trainer.SetValidationClip(LoadClip(options.validation_motion_path, 1.0, options, body));
+  }
   std::vector<double> weights = trainer.InitialWeights();
   if (!options.init_model_path.empty()) {
     try {
@@ -162,7 +190,9 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
   if (csv.empty())
     csv =
         "batch,initial_loss_J,final_loss_J,iterations,time_s,validation_inside_percent,validation_edge_strain_"
-        "percent\n";
+        "percent,validation_loss_J\n";
+  const std::string best_path = options.model_path + ".best";
+  double best_loss = BestValidationLoss(csv);
   // Shared over processes, every one holds the same weights: the first
   // writes them.
   const bool writer = options.trainer.distribution.process == 0;
@@ -175,9 +205,15 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
     row << batch.batch << ',' << batch.initial_loss << ',' << batch.final_loss << ',' << batch.iterations << ','
         << batch.time_s << ',';
     if (std::isfinite(batch.validation_inside_percent)) {
-      row << batch.validation_inside_percent << ',' << batch.validation_edge_strain_percent;
+      row << batch.validation_inside_percent << ',' << batch.validation_edge_strain_percent << ','
+          << batch.validation_loss;
     } else {
-      row << ',';
+      row << ",,";
+    }
+    // The model that generalises best to the held-out motion so far.
+    if (!options.validation_motion_path.empty() && batch.validation_loss < best_loss) {
+      best_loss = batch.validation_loss;
+      SaveOneFitModel(best_path, trainer.MakeModel(w));
     }
     row << '\n';
     csv += row.str();

@@ -4,6 +4,9 @@
 //   MODEL        the model file (docs/onefit-model-format.md), atomically
 //   MODEL.csv    batch, initial_loss_J, final_loss_J, iterations, time_s,
 //                validation epsilon_c and epsilon_e (%, every few batches)
+//                and the validation loss (J)
+//   MODEL.best   with a validation motion: the model at the lowest
+//                validation loss so far (early stopping without stopping)
 // Every input is checked before anything is written.
 #ifndef POLYFIT_DRAPE_NETWORK_ONEFIT_TRAINING_RUN_H_
 #define POLYFIT_DRAPE_NETWORK_ONEFIT_TRAINING_RUN_H_
@@ -37,6 +40,10 @@ struct OneFitTrainingRunOptions {
   // perturbed smoothly by up to this many degrees per axis
   // (drape/motion/perturb_pose.h; seeded by trainer.seed); 0: none.
   double perturb_degrees = 0.0;
+  // A motion held out of training for the validation drape (empty: the
+  // first training clip's first frames are validated): its loss picks
+  // MODEL.best.
+  std::string validation_motion_path;
   std::string model_path;
   bool resume = false;
   // Fine-tuning: start from this model's network, normalisers and weights

@@ -226,6 +226,10 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
   train->add_option("--init", o.init_model_path, "fine-tune: start from this model (network, normalisers, weights)");
   train->add_option("--validate-every", t.validation_every, "a validation drape every N batches (0: none)")
       ->capture_default_str();
+  train->add_option("--validate-frames", t.validation_frames, "frames of each validation drape")->capture_default_str();
+  train->add_option("--validation-motion", o.validation_motion_path,
+                    "BVH clip held out of training for the validation drape; the model at its lowest loss is "
+                    "written to MODEL.best");
   train->add_option("--optimizer", f->optimizer, "adam, or lbfgs (a ceres::GradientProblem per batch)")
       ->capture_default_str();
   train->add_option("--learning-rate", t.learning_rate, "Adam's step size")->capture_default_str();
@@ -243,8 +247,8 @@ int RunTrainOn(TrainFlags& f, bool quiet) {
         std::printf("batch %4d  loss %.5g -> %.5g J  %2d it  %7.1f s", b.batch, b.initial_loss, b.final_loss,
                     b.iterations, b.time_s);
         if (std::isfinite(b.validation_inside_percent)) {
-          std::printf("  validation epsilon_c %.2f%% epsilon_e %.2f%%", b.validation_inside_percent,
-                      b.validation_edge_strain_percent);
+          std::printf("  validation epsilon_c %.2f%% epsilon_e %.2f%% loss %.5g J", b.validation_inside_percent,
+                      b.validation_edge_strain_percent, b.validation_loss);
         }
         std::printf("\n");
         std::fflush(stdout);
