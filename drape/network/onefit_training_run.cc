@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <memory>
 #include <sstream>
 
 #include "drape/motion/mirror_pose.h"
@@ -132,13 +133,13 @@ std::string OneFitTrainingRunOptions::Validate() const {
   return {};
 }
 
-OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options, const OneFitProgress& progress) {
-  if (const std::string problem = options.Validate(); !problem.empty()) {
-    throw Error(ErrorKind::kInvalidArgument, "onefit train: " + problem);
-  }
-  const SkinnedBody body = LoadDrapeBody(options.body_dir, options.shape);
-  // Fine-tuning keeps the model's architecture, its warp head, local pose
-  // and frame alignment included.
+namespace {
+
+// The trainer, its validation clip, and the weights to start from: new
+// ones, or a model's when fine-tuning (which keeps the model's
+// architecture: its warp head, local pose and frame alignment).
+std::unique_ptr<OneFitTrainer> MakeTrainer(const OneFitTrainingRunOptions& options, const SkinnedBody& body,
+                                           std::vector<double>* weights) {
   OneFitModel init;
   OneFitTrainerOptions trainer_options = options.trainer;
   if (!options.init_model_path.empty()) {
@@ -147,81 +148,110 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
     trainer_options.network.local_pose = init.network.local_pose();
     trainer_options.drape.patching.align_frames = init.aligned_frames;
   }
-  OneFitTrainer trainer(body, LoadGarments(options, body), LoadClips(options, body), trainer_options);
+  auto trainer =
+      std::make_unique<OneFitTrainer>(body, LoadGarments(options, body), LoadClips(options, body), trainer_options);
   if (!options.validation_motion_path.empty()) {
-    trainer.SetValidationClip(LoadClip(options.validation_motion_path, 1.0, options, body));
+    trainer->SetValidationClip(LoadClip(options.validation_motion_path, 1.0, options, body));
   }
-  std::vector<double> weights = trainer.InitialWeights();
+  *weights = trainer->InitialWeights();
   if (!options.init_model_path.empty()) {
     try {
-      trainer.StartFrom(init);
+      trainer->StartFrom(init);
     } catch (const std::invalid_argument& e) {
       throw Error(ErrorKind::kInput, options.init_model_path + ": " + e.what());
     }
-    weights = init.weights;
+    *weights = init.weights;
   }
-  const std::string csv_path = options.model_path + ".csv";
+  return trainer;
+}
+
+// Where a resumed run starts: the checkpoint's weights (into *weights), the
+// batches done, the progress file so far and Adam's moments.
+struct ResumePoint {
   int first_batch = 0;
   std::string csv;
+  OneFitAdamState adam;
+};
+
+ResumePoint Resume(const OneFitTrainingRunOptions& options, std::vector<double>* weights) {
+  ResumePoint point;
+  const std::string csv_path = options.model_path + ".csv";
   if (options.resume && std::filesystem::exists(options.model_path)) {
     const OneFitModel saved = LoadOneFitModel(options.model_path);
-    if (saved.weights.size() != weights.size()) {
+    if (saved.weights.size() != weights->size()) {
       throw Error(ErrorKind::kInput, options.model_path + ": a model of another layout; cannot resume from it");
     }
-    weights = saved.weights;
-    first_batch = BatchesDone(csv_path);
+    *weights = saved.weights;
+    point.first_batch = BatchesDone(csv_path);
     std::ifstream in(csv_path);
     std::stringstream text;
     text << in.rdbuf();
-    csv = text.str();
+    point.csv = text.str();
   }
   // Adam's moments: from the checkpoint when resuming (a run killed before
   // they were first written restarts them).
   const std::string adam_path = options.model_path + ".adam";
-  OneFitAdamState adam;
-  if (first_batch > 0 && std::filesystem::exists(adam_path)) {
-    adam = LoadOneFitAdamState(adam_path, weights.size());
+  if (point.first_batch > 0 && std::filesystem::exists(adam_path)) {
+    point.adam = LoadOneFitAdamState(adam_path, weights->size());
     // Written before the model: a kill between the two leaves it a batch
     // ahead, and then it is not this checkpoint's.
-    if (adam.steps != static_cast<long long>(first_batch) * options.trainer.iterations_per_batch) {
-      adam = OneFitAdamState{};
+    if (point.adam.steps != static_cast<long long>(point.first_batch) * options.trainer.iterations_per_batch) {
+      point.adam = OneFitAdamState{};
     }
   }
-  if (csv.empty())
-    csv =
+  if (point.csv.empty()) {
+    point.csv =
         "batch,initial_loss_J,final_loss_J,iterations,time_s,validation_inside_percent,validation_edge_strain_"
         "percent,validation_loss_J\n";
-  const std::string best_path = options.model_path + ".best";
-  double best_loss = BestValidationLoss(csv);
+  }
+  return point;
+}
+
+std::string ProgressRow(const OneFitBatchSummary& batch) {
+  std::ostringstream row;
+  row.precision(8);
+  row << batch.batch << ',' << batch.initial_loss << ',' << batch.final_loss << ',' << batch.iterations << ','
+      << batch.time_s << ',';
+  if (std::isfinite(batch.validation_inside_percent)) {
+    row << batch.validation_inside_percent << ',' << batch.validation_edge_strain_percent << ','
+        << batch.validation_loss;
+  } else {
+    row << ",,";
+  }
+  row << '\n';
+  return row.str();
+}
+
+}  // namespace
+
+OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options, const OneFitProgress& progress) {
+  if (const std::string problem = options.Validate(); !problem.empty()) {
+    throw Error(ErrorKind::kInvalidArgument, "onefit train: " + problem);
+  }
+  const SkinnedBody body = LoadDrapeBody(options.body_dir, options.shape);
+  std::vector<double> weights;
+  const std::unique_ptr<OneFitTrainer> trainer = MakeTrainer(options, body, &weights);
+  ResumePoint resume = Resume(options, &weights);
+  double best_loss = BestValidationLoss(resume.csv);
   // Shared over processes, every one holds the same weights: the first
   // writes them.
   const bool writer = options.trainer.distribution.process == 0;
   const auto checkpoint = [&](const OneFitBatchSummary& batch, const std::vector<double>& w) {
     if (!writer) return;
-    if (options.trainer.optimizer == OneFitOptimizer::kAdam) SaveOneFitAdamState(adam_path, adam);
-    SaveOneFitModel(options.model_path, trainer.MakeModel(w));
-    std::ostringstream row;
-    row.precision(8);
-    row << batch.batch << ',' << batch.initial_loss << ',' << batch.final_loss << ',' << batch.iterations << ','
-        << batch.time_s << ',';
-    if (std::isfinite(batch.validation_inside_percent)) {
-      row << batch.validation_inside_percent << ',' << batch.validation_edge_strain_percent << ','
-          << batch.validation_loss;
-    } else {
-      row << ",,";
-    }
+    if (options.trainer.optimizer == OneFitOptimizer::kAdam)
+      SaveOneFitAdamState(options.model_path + ".adam", resume.adam);
+    SaveOneFitModel(options.model_path, trainer->MakeModel(w));
     // The model that generalises best to the held-out motion so far.
     if (!options.validation_motion_path.empty() && batch.validation_loss < best_loss) {
       best_loss = batch.validation_loss;
-      SaveOneFitModel(best_path, trainer.MakeModel(w));
+      SaveOneFitModel(options.model_path + ".best", trainer->MakeModel(w));
     }
-    row << '\n';
-    csv += row.str();
-    WriteFileAtomically(csv_path, [&](std::ostream& out) { out << csv; });
+    resume.csv += ProgressRow(batch);
+    WriteFileAtomically(options.model_path + ".csv", [&](std::ostream& out) { out << resume.csv; });
     if (progress) progress(batch);
   };
-  OneFitTrainingSummary summary = trainer.Train(&weights, first_batch, checkpoint, &adam);
-  if (first_batch > 0) summary.message += "; resumed at batch " + std::to_string(first_batch);
+  OneFitTrainingSummary summary = trainer->Train(&weights, resume.first_batch, checkpoint, &resume.adam);
+  if (resume.first_batch > 0) summary.message += "; resumed at batch " + std::to_string(resume.first_batch);
   return summary;
 }
 
