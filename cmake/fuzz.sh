@@ -39,8 +39,11 @@ for t in "${targets[@]}"; do
   dict=()
   [ -f "tests/fuzz/dict/$t.dict" ] && dict=(-dict="tests/fuzz/dict/$t.dict")
   log=build-fuzz/findings/$t.log
+  # Real clips as further seeds, read where they are (as the CTest does).
+  shared=()
+  [ "$t" = bvh_fuzzer ] && [ -d ../shared/data/drape/motion ] && shared=(../shared/data/drape/motion)
   if build-fuzz/bin/$t -runs="$runs" -timeout=1 -rss_limit_mb=2048 -malloc_limit_mb=512 -print_final_stats=1 \
-      -artifact_prefix="$findings/" "${dict[@]}" "$new" "tests/fuzz/corpus/$t" > "$log" 2>&1; then
+      -artifact_prefix="$findings/" "${dict[@]}" "$new" "tests/fuzz/corpus/$t" "${shared[@]}" > "$log" 2>&1; then
     result=clean
   else
     result="FINDING in $findings (see $log)"

@@ -119,10 +119,14 @@ def bvh_seeds(target):
     for t in range(3):
         motion += "0.1 %g 0 %g 0 0 %g 0 0 0 0 %g 0 0 0\n" % (17 + t * 0.1, 5 * t, -10 * t, 20 * t)
     put(target, "three_joints.bvh", hierarchy + motion)
-    put(target, "no_frames.bvh", hierarchy + "MOTION\nFrames: 0\nFrame Time: 0.04\n")
-    put(target, "short_frame.bvh", hierarchy + "MOTION\nFrames: 2\nFrame Time: 0.04\n0 0 0\n")
+    # The degenerate motions need no rig: one joint, rotations only, in the
+    # order X Y Z.
+    bone = ("HIERARCHY\nROOT bone\n{\n OFFSET 0 0 0\n CHANNELS 3 Xrotation Yrotation Zrotation\n"
+            " End Site\n {\n  OFFSET 0 2 0\n }\n}\n")
+    put(target, "no_frames.bvh", bone + "MOTION\nFrames: 0\nFrame Time: 0.04\n")
+    put(target, "short_frame.bvh", bone + "MOTION\nFrames: 2\nFrame Time: 0.04\n0 0\n")
     # The first finding (UBSan): a frame count beyond int.
-    put(target, "regression_frame_count_overflow.bvh", hierarchy + "MOTION\nFrames: 42147483647\nFrame Time: 0.03\n0 0 0\n")
+    put(target, "regression_frame_count_overflow.bvh", bone + "MOTION\nFrames: 42147483647\nFrame Time: 0.03\n0 0 0\n")
 
 
 def mhclo_seeds(target):
