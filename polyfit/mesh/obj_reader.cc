@@ -1,8 +1,6 @@
 #include "polyfit/mesh/obj_reader.h"
 
 #include <cmath>
-#include <fstream>
-#include <iterator>
 #include <string_view>
 #include <vector>
 

@@ -1,11 +1,7 @@
 #include "polyfit/mesh/off_reader.h"
 
-#include <cctype>
 #include <cmath>
-#include <cstdio>
-#include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <string_view>
 #include <vector>
 
@@ -18,9 +14,10 @@ namespace polyfit {
 namespace {
 
 // What an OFF keyword's prefixes declare about each vertex line.
+// (A colour, C, sits between the normal and the texture coordinates, which
+// are read as the line's last two numbers: it needs no flag.)
 struct OffVariant {
   bool texcoords = false;  // ST
-  bool colours = false;    // C
   bool normals = false;    // N
 };
 
@@ -35,7 +32,7 @@ bool ParseKeyword(std::string_view word, OffVariant* variant, bool* other_dimens
     return true;
   };
   variant->texcoords = take("ST");
-  variant->colours = take("C");
+  take("C");
   variant->normals = take("N");
   *other_dimension = take("4");
   *other_dimension |= take("n");

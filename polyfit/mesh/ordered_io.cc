@@ -1,11 +1,5 @@
 #include "polyfit/mesh/ordered_io.h"
 
-#include <algorithm>
-#include <cmath>
-#include <cstdint>
-#include <cstring>
-#include <fstream>
-#include <sstream>
 #include <stdexcept>
 #include <vector>
 
@@ -40,9 +34,7 @@ TriangleMesh ReadObjTemplate(const std::string& path) {
 }
 
 Eigen::Matrix3Xd ReadPlyVertices(const std::string& path) {
-  std::ifstream probe(path, std::ios::binary);
-  if (!probe) Fail(path, "cannot be opened (missing?)");
-  const PolygonSoup soup = ReadPly(path);
+  const PolygonSoup soup = ReadPly(path);  // names a missing file
   Eigen::Matrix3Xd points(3, static_cast<Eigen::Index>(soup.positions.size()));
   for (size_t v = 0; v < soup.positions.size(); ++v) {
     if (!soup.positions[v].allFinite()) Fail(path, "vertex " + std::to_string(v) + " is not finite");
