@@ -4,6 +4,13 @@
 
 namespace polyfit {
 
+void PatchLikeModel(const OneFitModel& model, DrapeSolverOptions* options) {
+  options->slide.warp_order = model.network.warp_order();
+  options->patching.align_frames = model.aligned_frames;
+  options->patching.patch_area = model.patch_area;
+  options->patching.max_fit_error = model.max_fit_error;
+}
+
 OneFitDraper::OneFitDraper(const OneFitModel& model, const DrapeSolver& solver, const SkinWeights& weights,
                            const Skeleton& skeleton)
     : model_(model), skeleton_(skeleton), rest_(solver.RestPatchParameters()) {

@@ -15,6 +15,11 @@
 
 namespace polyfit {
 
+// Sets what in `options` must agree with `model` for its predictions to fit
+// the garment's patches: the parameter layout (warp order) and the patching
+// (frame alignment, patch area, fit error) it was trained on.
+void PatchLikeModel(const OneFitModel& model, DrapeSolverOptions* options);
+
 class OneFitDraper {
  public:
   // solver: the garment's drape (its patches); throws OneFitModelError

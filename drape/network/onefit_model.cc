@@ -84,6 +84,8 @@ std::string OneFitModel::Validate() const {
       body_normalizer.mean.size() != network.body_encoder().input_size()) {
     return "the normalisers do not fit the network";
   }
+  if (!(patch_area > 0.0) || !std::isfinite(patch_area)) return "patch area not positive";
+  if (!(max_fit_error > 0.0) || !std::isfinite(max_fit_error)) return "patch fit error not positive";
   if (static_cast<int>(weights.size()) != network.num_parameters()) return "the weights do not fit the network";
   for (double w : weights) {
     if (!std::isfinite(w)) return "non-finite weights";
@@ -107,6 +109,8 @@ void SaveOneFitModel(const std::string& path, const OneFitModel& model) {
   w.Put<std::int32_t>(model.network.warp_order());
   w.Put<std::int32_t>(model.aligned_frames ? 1 : 0);
   w.Put<std::int32_t>(model.network.local_pose() ? 1 : 0);
+  w.Put<double>(model.patch_area);
+  w.Put<double>(model.max_fit_error);
   PutMlp(model.network.patch_encoder(), &w);
   PutMlp(model.network.body_encoder(), &w);
   PutMlp(model.network.decoder(), &w);
@@ -181,6 +185,10 @@ OneFitModel LoadOneFitModel(const std::string& path) {
   const int warp_order = version >= 2 ? r.Get<std::int32_t>("the header") : -1;
   const int aligned = version >= 3 ? r.Get<std::int32_t>("the header") : 0;
   const int local_pose = version >= 4 ? r.Get<std::int32_t>("the header") : 0;
+  if (version >= 5) {
+    model.patch_area = r.Get<double>("the header");
+    model.max_fit_error = r.Get<double>("the header");
+  }
   if (aligned != 0 && aligned != 1) r.Fail("frame alignment flag out of range");
   if (local_pose != 0 && local_pose != 1) r.Fail("local pose flag out of range");
   model.aligned_frames = aligned == 1;

@@ -15,9 +15,9 @@
 namespace polyfit {
 
 // Version 2 adds the warp head's order, version 3 whether the patch frames
-// were aligned, version 4 whether the decoder reads the local pose; earlier
-// files still load.
-inline constexpr int kOneFitModelVersion = 4;
+// were aligned, version 4 whether the decoder reads the local pose, version
+// 5 the patching's area and fit error; earlier files still load.
+inline constexpr int kOneFitModelVersion = 5;
 
 class OneFitModelError : public Error {
  public:
@@ -30,6 +30,12 @@ struct OneFitModel {
   // Trained on patches with aligned frames (GarmentPatchOptions::
   // align_frames): a garment is patched the same way to be draped.
   bool aligned_frames = false;
+  // The patching it was trained on (GarmentPatchOptions::patch_area and
+  // max_fit_error; before version 5, the defaults of then): a garment is
+  // patched alike to be draped, so that its patches are the size the
+  // network learnt to move.
+  double patch_area = 0.04;
+  double max_fit_error = 8e-3;
   OneFitNetwork network;
   FeatureNormalizer patch_normalizer, body_normalizer;
   std::vector<double> weights;

@@ -164,6 +164,8 @@ OneFitModel OneFitTrainer::MakeModel(const std::vector<double>& weights) const {
   model.jet_order = options_.drape.patching.jet_order;
   model.num_joints = body_.skeleton.num_joints();
   model.aligned_frames = options_.drape.patching.align_frames;
+  model.patch_area = options_.drape.patching.patch_area;
+  model.max_fit_error = options_.drape.patching.max_fit_error;
   model.network = network_;
   model.patch_normalizer = patch_normalizer_;
   model.body_normalizer = body_normalizer_;
@@ -174,10 +176,11 @@ OneFitModel OneFitTrainer::MakeModel(const std::vector<double>& weights) const {
 void OneFitTrainer::StartFrom(const OneFitModel& model) {
   if (model.jet_order != options_.drape.patching.jet_order || model.num_joints != body_.skeleton.num_joints() ||
       model.network.warp_order() != options_.network.warp_order ||
-      model.aligned_frames != options_.drape.patching.align_frames) {
+      model.aligned_frames != options_.drape.patching.align_frames ||
+      model.patch_area != options_.drape.patching.patch_area ||
+      model.max_fit_error != options_.drape.patching.max_fit_error) {
     throw std::invalid_argument(
-        "OneFitTrainer::StartFrom: the model's jet order, warp order, frame alignment or rig differs from the "
-        "training's");
+        "OneFitTrainer::StartFrom: the model's jet order, warp order, patching or rig differs from the training's");
   }
   if (model.patch_normalizer.mean.size() != patch_normalizer_.mean.size() ||
       model.body_normalizer.mean.size() != body_normalizer_.mean.size()) {

@@ -436,6 +436,7 @@ TEST_F(OneFitTrainerTest, AModelFileRoundTripsAndTheDraperPredictsAsTraining) {
   EXPECT_EQ(loaded.weights, model.weights);
   EXPECT_EQ(loaded.network.decoder().sizes(), model.network.decoder().sizes());
   EXPECT_EQ(loaded.body_normalizer.inv_std, model.body_normalizer.inv_std);
+  EXPECT_EQ(loaded.patch_area, options_.drape.patching.patch_area);
 
   ExpectDraperPredictsAsTraining(body_, options_, Bob(body_, 8), loaded, *trainer_, weights);
 
@@ -458,8 +459,8 @@ TEST_F(OneFitTrainerTest, AModelFileRoundTripsAndTheDraperPredictsAsTraining) {
   wrong_version[8] = 9;
   expect_error(wrong_version, "version 9");
   std::string huge = bytes;
-  huge[32] = '\xff';  // the patch encoder's layer count
-  huge[33] = '\xff';
+  huge[48] = '\xff';  // the patch encoder's layer count
+  huge[49] = '\xff';
   expect_error(huge, "layer sizes");
   EXPECT_THROW(LoadOneFitModel(path + ".absent"), OneFitModelError);
 }
@@ -504,17 +505,35 @@ TEST(OneFitModelTest, OlderVersionsStillLoadAndTheFlagsRoundTrip) {
   model.weights.resize(model.network.num_parameters());
   model.network.Initialize(3, 1.0, model.weights.data());
   model.aligned_frames = true;
-  const std::string path = ::testing::TempDir() + "/onefit_v4.pfonefit";
+  model.patch_area = 0.008;
+  model.max_fit_error = 0.005;
+  const std::string path = ::testing::TempDir() + "/onefit_v5.pfonefit";
   SaveOneFitModel(path, model);
   EXPECT_TRUE(LoadOneFitModel(path).aligned_frames);
+  EXPECT_EQ(LoadOneFitModel(path).patch_area, 0.008);
+  EXPECT_EQ(LoadOneFitModel(path).max_fit_error, 0.005);
   std::string bytes;
   {
     std::ifstream in(path, std::ios::binary);
     bytes.assign(std::istreambuf_iterator<char>(in), {});
   }
-  ASSERT_EQ(bytes[8], 4);  // the version
+  ASSERT_EQ(bytes[8], 5);  // the version
+  // Version 4: no patching (the defaults of then: 0.04 m^2, 8 mm).
+  std::string v4 = bytes;
+  v4[8] = 4;
+  v4.erase(32, 16);
+  const std::string path4 = ::testing::TempDir() + "/onefit_v4_old.pfonefit";
+  std::ofstream(path4, std::ios::binary) << v4;
+  EXPECT_EQ(LoadOneFitModel(path4).patch_area, 0.04);
+  EXPECT_EQ(LoadOneFitModel(path4).max_fit_error, 8e-3);
+  EXPECT_TRUE(LoadOneFitModel(path4).aligned_frames);
+  // A patch area that is not positive is refused.
+  std::string zero_area = bytes;
+  std::fill(zero_area.begin() + 32, zero_area.begin() + 40, '\0');
+  std::ofstream(path4, std::ios::binary) << zero_area;
+  EXPECT_THROW(LoadOneFitModel(path4), OneFitModelError);
   // Version 3: no local pose flag (no local pose).
-  std::string v3 = bytes;
+  std::string v3 = v4;
   v3[8] = 3;
   v3.erase(28, 4);
   const std::string path3 = ::testing::TempDir() + "/onefit_v3_old.pfonefit";
@@ -527,14 +546,14 @@ TEST(OneFitModelTest, OlderVersionsStillLoadAndTheFlagsRoundTrip) {
   std::ofstream(path3, std::ios::binary) << lying;
   EXPECT_THROW(LoadOneFitModel(path3), OneFitModelError);
   // Version 2: no alignment flag (PCA's frames).
-  std::string v2 = bytes;
+  std::string v2 = v4;
   v2[8] = 2;
   v2.erase(24, 8);
   const std::string path2 = ::testing::TempDir() + "/onefit_v2.pfonefit";
   std::ofstream(path2, std::ios::binary) << v2;
   EXPECT_FALSE(LoadOneFitModel(path2).aligned_frames);
   // Version 1: no warp order either.
-  std::string v1 = bytes;
+  std::string v1 = v4;
   v1[8] = 1;
   v1.erase(20, 12);
   const std::string path1 = ::testing::TempDir() + "/onefit_v1.pfonefit";

@@ -147,6 +147,8 @@ std::unique_ptr<OneFitTrainer> MakeTrainer(const OneFitTrainingRunOptions& optio
     trainer_options.network.warp_order = init.network.warp_order();
     trainer_options.network.local_pose = init.network.local_pose();
     trainer_options.drape.patching.align_frames = init.aligned_frames;
+    trainer_options.drape.patching.patch_area = init.patch_area;
+    trainer_options.drape.patching.max_fit_error = init.max_fit_error;
   }
   auto trainer =
       std::make_unique<OneFitTrainer>(body, LoadGarments(options, body), LoadClips(options, body), trainer_options);

@@ -375,8 +375,7 @@ DrapeSimulationSummary RunDrapeSimulation(const DrapeSimulationOptions& options)
   if (!options.model_path.empty()) {
     model = LoadOneFitModel(options.model_path);
     // The solver lays out the patch parameters as the network predicts them.
-    solver_options.solver.slide.warp_order = model.network.warp_order();
-    solver_options.solver.patching.align_frames = model.aligned_frames;
+    PatchLikeModel(model, &solver_options.solver);
     if (model.network.warp_order() >= 0 && !options.solver.slide.enabled) {
       throw DrapeInputError("onefit: " + options.model_path + " predicts slides (a warp head); slides cannot be off",
                             ErrorKind::kInvalidArgument);

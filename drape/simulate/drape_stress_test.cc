@@ -72,8 +72,7 @@ TEST_F(DrapeStressTest, LimbsThroughTheBody) {
   if (!fs::exists(model_path)) GTEST_SKIP() << "no shipped model at " << model_path;
   const OneFitModel model = LoadOneFitModel(model_path.string());
   DrapeSolverOptions network_options;
-  network_options.slide.warp_order = model.network.warp_order();
-  network_options.patching.align_frames = model.aligned_frames;
+  PatchLikeModel(model, &network_options);
   DrapeSolver network_solver(walk_.body, walk_.garment, walk_.weights, network_options);
   const OneFitDraper draper(model, network_solver, walk_.weights, walk_.body.skeleton);
   for (size_t f = 2; f < poses.size(); ++f) {
