@@ -77,9 +77,11 @@ std::string OneFitTrainingSummary::BriefReport() const {
   return report;
 }
 
-// Per garment: one drape (the loss) per thread, and what the network reads.
+// Per garment (and body): one drape (the loss) per thread, and what the
+// network reads.
 struct OneFitTrainer::GarmentData {
   std::string name;
+  int body = 0;
   std::vector<std::unique_ptr<DrapeSolver>> solvers;  // per thread
   std::vector<double> rest;                           // patch parameters at rest
   std::vector<Eigen::Matrix3d> frames;                // R_0 per patch
@@ -87,61 +89,102 @@ struct OneFitTrainer::GarmentData {
   Eigen::MatrixXd joint_weights;                      // #joints by #patches
 };
 
+namespace {
+
+std::vector<OneFitTrainingBody> OneBody(const SkinnedBody& body, std::vector<OneFitTrainingGarment> garments,
+                                        std::vector<OneFitTrainingClip> clips) {
+  std::vector<OneFitTrainingBody> bodies(1);
+  bodies[0].body = body;
+  bodies[0].garments = std::move(garments);
+  bodies[0].clips = std::move(clips);
+  return bodies;
+}
+
+// Columns joined left to right.
+void AppendColumns(const Eigen::MatrixXd& columns, Eigen::MatrixXd* all) {
+  Eigen::MatrixXd joined(columns.rows(), all->cols() + columns.cols());
+  if (all->size() > 0) joined.leftCols(all->cols()) = *all;
+  joined.rightCols(columns.cols()) = columns;
+  *all = std::move(joined);
+}
+
+}  // namespace
+
 OneFitTrainer::OneFitTrainer(const SkinnedBody& body, std::vector<OneFitTrainingGarment> garments,
                              std::vector<OneFitTrainingClip> clips, const OneFitTrainerOptions& options)
-    : body_(body), clips_(std::move(clips)), options_(options) {
+    : OneFitTrainer(OneBody(body, std::move(garments), std::move(clips)), options) {}
+
+OneFitTrainer::OneFitTrainer(std::vector<OneFitTrainingBody> bodies, const OneFitTrainerOptions& options)
+    : options_(options) {
   if (const std::string problem = options.Validate(); !problem.empty()) {
     throw std::invalid_argument("OneFitTrainerOptions: " + problem);
   }
-  if (garments.empty() || clips_.empty()) throw std::invalid_argument("OneFitTrainer: no garment or no clip");
-  num_training_clips_ = static_cast<int>(clips_.size());
-  for (const OneFitTrainingClip& clip : clips_) {
-    if (clip.poses.empty()) throw std::invalid_argument("OneFitTrainer: clip '" + clip.name + "' has no frame");
-  }
+  if (bodies.empty()) throw std::invalid_argument("OneFitTrainer: no body");
   DrapeSolverOptions drape = options.drape;
   drape.num_threads = 1;                                // samples run side by side instead
   drape.slide.warp_order = options.network.warp_order;  // the loss reads the warp head's slides
-  Eigen::MatrixXd all_patch_features;
-  for (const OneFitTrainingGarment& g : garments) {
-    auto data = std::make_unique<GarmentData>();
-    data->name = g.name;
-    try {
-      for (int t = 0; t < options.num_threads; ++t) {
-        data->solvers.push_back(std::make_unique<DrapeSolver>(body_, g.mesh, g.weights, drape));
-      }
-    } catch (const std::invalid_argument& e) {
-      throw std::invalid_argument("OneFitTrainer: garment '" + g.name + "': " + e.what());
+  Eigen::MatrixXd all_patch_features, body_samples;
+  for (int b = 0; b < static_cast<int>(bodies.size()); ++b) {
+    OneFitTrainingBody& body = bodies[b];
+    if (body.garments.empty() || body.clips.empty())
+      throw std::invalid_argument("OneFitTrainer: no garment or no clip");
+    if (body.body.skeleton.num_joints() != bodies[0].body.skeleton.num_joints()) {
+      throw std::invalid_argument("OneFitTrainer: the bodies' rigs differ");
     }
-    const DrapeSolver& solver = *data->solvers.front();
-    data->rest = solver.RestPatchParameters();
-    for (const JetPatch& patch : solver.model().patches) data->frames.push_back(patch.frame.rotation);
-    data->raw_features =
-        PatchFeatures(solver.model(), data->rest, options_.drape.patching.jet_order, g.weights, body_.skeleton);
-    data->joint_weights = PatchJointWeights(solver.model(), g.weights, body_.skeleton.num_joints());
-    Eigen::MatrixXd joined(data->raw_features.rows(), all_patch_features.cols() + data->raw_features.cols());
-    if (all_patch_features.size() > 0) joined.leftCols(all_patch_features.cols()) = all_patch_features;
-    joined.rightCols(data->raw_features.cols()) = data->raw_features;
-    all_patch_features = std::move(joined);
-    garments_.push_back(std::move(data));
+    skeletons_.push_back(body.body.skeleton);
+    for (const OneFitTrainingGarment& g : body.garments) {
+      AddGarment(body.body, g, b, drape);
+      AppendColumns(garments_.back()->raw_features, &all_patch_features);
+    }
+    body_clips_.emplace_back();
+    for (OneFitTrainingClip& clip : body.clips) {
+      if (clip.poses.empty()) throw std::invalid_argument("OneFitTrainer: clip '" + clip.name + "' has no frame");
+      body_clips_.back().push_back(static_cast<int>(clips_.size()));
+      clips_.push_back(std::move(clip));
+      clip_body_.push_back(b);
+      AppendColumns(ClipBodyFeatures(static_cast<int>(clips_.size()) - 1), &body_samples);
+    }
   }
+  num_training_clips_ = static_cast<int>(clips_.size());
   patch_normalizer_ = FeatureNormalizer::Fit(all_patch_features);
   for (auto& g : garments_) g->features = patch_normalizer_.Apply(g->raw_features);
-  // Body features of every training frame.
-  int frames = 0;
-  for (const OneFitTrainingClip& clip : clips_) frames += static_cast<int>(clip.poses.size());
-  Eigen::MatrixXd body_samples(BodyFeatureSize(body_.skeleton.num_joints()), frames);
-  int column = 0;
-  for (const OneFitTrainingClip& clip : clips_) {
-    for (int t = 0; t < static_cast<int>(clip.poses.size()); ++t) {
-      const auto pose = [&](int f) -> const JointTransforms& { return clip.poses[std::max(f, 0)]; };
-      body_samples.col(column++) =
-          BodyFeatures(body_.skeleton, pose(t - 2), pose(t - 1), pose(t), clip.fps, clip.shape);
-    }
-  }
   body_normalizer_ = FeatureNormalizer::Fit(body_samples);
   const int num_coefficients = NumJetCoefficients(options.drape.patching.jet_order);
   network_ = OneFitNetwork(static_cast<int>(all_patch_features.rows()), static_cast<int>(body_samples.rows()),
                            num_coefficients, options.network);
+}
+
+void OneFitTrainer::AddGarment(const SkinnedBody& body, const OneFitTrainingGarment& g, int body_index,
+                               const DrapeSolverOptions& drape) {
+  auto data = std::make_unique<GarmentData>();
+  data->name = g.name;
+  data->body = body_index;
+  try {
+    for (int t = 0; t < options_.num_threads; ++t) {
+      data->solvers.push_back(std::make_unique<DrapeSolver>(body, g.mesh, g.weights, drape));
+    }
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument("OneFitTrainer: garment '" + g.name + "': " + e.what());
+  }
+  const DrapeSolver& solver = *data->solvers.front();
+  data->rest = solver.RestPatchParameters();
+  for (const JetPatch& patch : solver.model().patches) data->frames.push_back(patch.frame.rotation);
+  data->raw_features =
+      PatchFeatures(solver.model(), data->rest, options_.drape.patching.jet_order, g.weights, body.skeleton);
+  data->joint_weights = PatchJointWeights(solver.model(), g.weights, body.skeleton.num_joints());
+  garments_.push_back(std::move(data));
+}
+
+// The raw body features of every frame of a clip (the normalisers' data).
+Eigen::MatrixXd OneFitTrainer::ClipBodyFeatures(int clip) const {
+  const OneFitTrainingClip& c = clips_[clip];
+  const Skeleton& skeleton = skeletons_[clip_body_[clip]];
+  Eigen::MatrixXd features(BodyFeatureSize(skeleton.num_joints()), c.poses.size());
+  for (int t = 0; t < static_cast<int>(c.poses.size()); ++t) {
+    const auto pose = [&](int f) -> const JointTransforms& { return c.poses[std::max(f, 0)]; };
+    features.col(t) = BodyFeatures(skeleton, pose(t - 2), pose(t - 1), pose(t), c.fps, c.shape);
+  }
+  return features;
 }
 
 OneFitTrainer::~OneFitTrainer() = default;
@@ -156,13 +199,13 @@ Eigen::VectorXd OneFitTrainer::NormalizedBodyFeatures(int clip, int frame) const
   const OneFitTrainingClip& c = clips_[clip];
   const auto pose = [&](int f) -> const JointTransforms& { return c.poses[std::clamp(f, 0, int(c.poses.size()) - 1)]; };
   return body_normalizer_.Apply(
-      BodyFeatures(body_.skeleton, pose(frame - 2), pose(frame - 1), pose(frame), c.fps, c.shape));
+      BodyFeatures(skeletons_[clip_body_[clip]], pose(frame - 2), pose(frame - 1), pose(frame), c.fps, c.shape));
 }
 
 OneFitModel OneFitTrainer::MakeModel(const std::vector<double>& weights) const {
   OneFitModel model;
   model.jet_order = options_.drape.patching.jet_order;
-  model.num_joints = body_.skeleton.num_joints();
+  model.num_joints = skeletons_.front().num_joints();
   model.aligned_frames = options_.drape.patching.align_frames;
   model.patch_area = options_.drape.patching.patch_area;
   model.max_fit_error = options_.drape.patching.max_fit_error;
@@ -174,7 +217,7 @@ OneFitModel OneFitTrainer::MakeModel(const std::vector<double>& weights) const {
 }
 
 void OneFitTrainer::StartFrom(const OneFitModel& model) {
-  if (model.jet_order != options_.drape.patching.jet_order || model.num_joints != body_.skeleton.num_joints() ||
+  if (model.jet_order != options_.drape.patching.jet_order || model.num_joints != skeletons_.front().num_joints() ||
       model.network.warp_order() != options_.network.warp_order ||
       model.aligned_frames != options_.drape.patching.align_frames ||
       model.patch_area != options_.drape.patching.patch_area ||
@@ -194,6 +237,7 @@ void OneFitTrainer::StartFrom(const OneFitModel& model) {
 
 std::vector<double> OneFitTrainer::Predict(const double* weights, int garment, int clip, int frame) {
   const GarmentData& g = *garments_.at(garment);
+  if (g.body != clip_body_.at(clip)) throw std::invalid_argument("OneFitTrainer: a garment and a clip of two bodies");
   Eigen::MatrixXd outputs;
   network_.Forward(weights, g.features, NormalizedBodyFeatures(clip, frame), &g.joint_weights, &outputs);
   return PatchParametersFromOutputs(g.rest, g.frames, outputs, network_.num_coefficients());
@@ -328,7 +372,9 @@ void OneFitTrainer::SetValidationClip(OneFitTrainingClip clip) {
   if (clip.poses.empty())
     throw std::invalid_argument("OneFitTrainer: validation clip '" + clip.name + "' has no frame");
   clips_.resize(num_training_clips_);  // a second call replaces the first
+  clip_body_.resize(num_training_clips_);
   clips_.push_back(std::move(clip));
+  clip_body_.push_back(0);
   validation_clip_ = num_training_clips_;
 }
 
@@ -372,7 +418,8 @@ OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights, int fir
   for (int b = 0; b < options_.num_batches; ++b) {
     for (OneFitSample& s : batch) {
       s.garment = std::uniform_int_distribution<int>(0, static_cast<int>(garments_.size()) - 1)(rng);
-      s.clip = std::uniform_int_distribution<int>(0, num_training_clips_ - 1)(rng);
+      const std::vector<int>& clips = body_clips_[garments_[s.garment]->body];
+      s.clip = clips[std::uniform_int_distribution<int>(0, static_cast<int>(clips.size()) - 1)(rng)];
       s.frame = std::uniform_int_distribution<int>(0, static_cast<int>(clips_[s.clip].poses.size()) - 1)(rng);
     }
     if (b < first_batch) continue;

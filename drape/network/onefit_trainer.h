@@ -43,6 +43,16 @@ struct OneFitTrainingClip {
   BodyShape shape;
 };
 
+// One body shape's share of the training data: the body so shaped, the
+// garments fitted to it and the clips retargeted onto its rig (their
+// `shape` the body's). Samples pair a garment and a clip of the same body,
+// so that a network trained on several learns what the shape does.
+struct OneFitTrainingBody {
+  SkinnedBody body;
+  std::vector<OneFitTrainingGarment> garments;
+  std::vector<OneFitTrainingClip> clips;
+};
+
 enum class OneFitOptimizer {
   kLbfgs,  // each batch a ceres::GradientProblem, L-BFGS (restarting per batch)
   kAdam    // the control: Adam steps, moments kept across batches
@@ -132,6 +142,9 @@ class OneFitTrainer {
   // or a garment the drape cannot patch (naming it).
   OneFitTrainer(const SkinnedBody& body, std::vector<OneFitTrainingGarment> garments,
                 std::vector<OneFitTrainingClip> clips, const OneFitTrainerOptions& options);
+  // Several body shapes (the first is the validation drape's); every body
+  // needs a garment and a clip, and all share one rig's joints.
+  OneFitTrainer(std::vector<OneFitTrainingBody> bodies, const OneFitTrainerOptions& options);
   ~OneFitTrainer();
 
   const OneFitNetwork& network() const { return network_; }
@@ -167,7 +180,8 @@ class OneFitTrainer {
   // A clip the validation drape runs on instead of the first training
   // clip, never trained on (nor read by the feature normalisers): a motion
   // held out, so that validation measures what training does to unseen
-  // motion. The batches drawn stay those without it.
+  // motion. The batches drawn stay those without it. It is the first
+  // body's (retargeted onto its rig).
   void SetValidationClip(OneFitTrainingClip clip);
 
   // epsilon_c and epsilon_e (%) of the network's drape of a garment through
@@ -186,11 +200,17 @@ class OneFitTrainer {
   OneFitBatchSummary LbfgsBatch(const std::vector<OneFitSample>& batch, int index, std::vector<double>* weights);
   OneFitBatchSummary AdamBatch(const std::vector<OneFitSample>& batch, int index, AdamState* state,
                                std::vector<double>* weights);
+  void AddGarment(const SkinnedBody& body, const OneFitTrainingGarment& garment, int body_index,
+                  const DrapeSolverOptions& drape);
+  Eigen::MatrixXd ClipBodyFeatures(int clip) const;
   Eigen::VectorXd NormalizedBodyFeatures(int clip, int frame) const;
   double SampleLoss(const double* weights, const OneFitSample& sample, int thread, double* gradient, double epoch);
 
-  SkinnedBody body_;
+  // Per body: its rig (the features read it) and its training clips.
+  std::vector<Skeleton> skeletons_;
+  std::vector<std::vector<int>> body_clips_;
   std::vector<OneFitTrainingClip> clips_;
+  std::vector<int> clip_body_;  // per clip, its body
   OneFitTrainerOptions options_;
   std::vector<std::unique_ptr<GarmentData>> garments_;
   FeatureNormalizer patch_normalizer_, body_normalizer_;

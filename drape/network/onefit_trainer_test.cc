@@ -120,6 +120,43 @@ TEST_F(OneFitTrainerTest, TrainingLowersTheLossDeterministically) {
   EXPECT_EQ(again, weights);
 }
 
+// Two body shapes: a second, thicker torso (the shirt's rest drape
+// collides more with it) whose clips carry its shape values.
+TEST_F(OneFitTrainerTest, SeveralBodiesPairTheirOwnGarmentsAndClipsAndTheShapeIsRead) {
+  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
+  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
+  std::vector<OneFitTrainingBody> bodies(2);
+  bodies[0] = {body_, {shirt}, {Bob(body_, 8)}};
+  bodies[1] = bodies[0];
+  bodies[1].body.mesh.vertices.row(0) *= 1.04;  // about the spine (x = z = 0)
+  bodies[1].body.mesh.vertices.row(2) *= 1.04;
+  for (OneFitTrainingClip& clip : bodies[1].clips) clip.shape.weight = 0.8;
+  OneFitTrainer trainer(bodies, options_);
+  std::vector<double> weights(trainer.num_parameters(), 0.0);  // the rest patches, skinned
+  EXPECT_THROW(trainer.Predict(weights.data(), 0, 1, 2), std::invalid_argument);
+  EXPECT_EQ(trainer.Predict(weights.data(), 1, 1, 2), trainer.Predict(weights.data(), 0, 0, 2));
+  // Each garment's drape is its own body's: the same shirt costs more
+  // around the thicker torso.
+  const double thin = trainer.Loss(weights.data(), {{0, 0, 3}}, nullptr);
+  const double thick = trainer.Loss(weights.data(), {{1, 1, 3}}, nullptr);
+  EXPECT_GT(thick, 1.5 * thin);
+  EXPECT_NEAR(thin, trainer_->Loss(weights.data(), {{0, 0, 3}}, nullptr), 1e-9 * thin);
+  // The shape's weight value varies over training, so the network reads
+  // it; the values that stay put are ignored.
+  const Eigen::VectorXd& inv_std = trainer.MakeModel(weights).body_normalizer.inv_std;
+  const Eigen::Index shape = inv_std.size() - 5;
+  EXPECT_EQ(inv_std[shape], 0.0);                     // gender
+  EXPECT_NEAR(inv_std[shape + 2], 1.0 / 0.15, 1e-9);  // weight: 0.5 and 0.8, spread 0.15
+  EXPECT_EQ(trainer_->MakeModel(weights).body_normalizer.inv_std[shape + 2], 0.0);
+  // Training draws pairs of one body only (Predict would throw otherwise).
+  weights = trainer.InitialWeights();
+  const OneFitTrainingSummary summary = trainer.Train(&weights);
+  EXPECT_NE(summary.termination_type, TerminationType::kFailure) << summary.BriefReport();
+  // Bodies of another rig are refused.
+  bodies[1].body.skeleton = Skeleton{};
+  EXPECT_THROW(OneFitTrainer(bodies, options_), std::invalid_argument);
+}
+
 TEST_F(OneFitTrainerTest, TheValidationDrapeMeasuresTheNetworksGarment) {
   std::vector<double> weights(trainer_->num_parameters(), 0.0);  // the rest garment, skinned
   double inside = -1.0, strain = -1.0;

@@ -5,6 +5,7 @@
 #include <fstream>
 #include <limits>
 #include <memory>
+#include <random>
 #include <sstream>
 
 #include "drape/motion/mirror_pose.h"
@@ -128,12 +129,42 @@ std::string OneFitTrainingRunOptions::Validate() const {
     if (!(speed >= 0.25 && speed <= 4.0)) return "speeds must be in [0.25, 4]";
   }
   if (!(perturb_degrees >= 0.0 && perturb_degrees <= 45.0)) return "perturb_degrees must be in [0, 45]";
+  if (shape_samples < 0 || shape_samples > 64) return "shape_samples must be in [0, 64]";
+  if (shape_samples > 0 && body_dir.empty()) return "shape_samples needs the MakeHuman body (a body folder)";
   if (std::string p = shape.Validate(); !p.empty()) return "shape: " + p;
   if (std::string p = trainer.Validate(); !p.empty()) return "trainer: " + p;
   return {};
 }
 
 namespace {
+
+// The body shapes trained on: the given one, then shape_samples drawn
+// uniformly in range.
+std::vector<BodyShape> TrainingShapes(const OneFitTrainingRunOptions& options) {
+  std::vector<BodyShape> shapes = {options.shape};
+  std::mt19937_64 rng(options.trainer.seed * 7919 + 17);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int k = 0; k < options.shape_samples; ++k) {
+    BodyShape s;
+    for (double* value : {&s.gender, &s.muscle, &s.weight, &s.height, &s.proportions}) *value = unit(rng);
+    shapes.push_back(s);
+  }
+  return shapes;
+}
+
+// Per shape: the body, the garments fitted to it and the clips on its rig.
+std::vector<OneFitTrainingBody> LoadTrainingBodies(const OneFitTrainingRunOptions& options, const SkinnedBody& body) {
+  std::vector<OneFitTrainingBody> bodies;
+  for (const BodyShape& shape : TrainingShapes(options)) {
+    OneFitTrainingBody b;
+    b.body = bodies.empty() ? body : LoadDrapeBody(options.body_dir, shape);
+    b.garments = LoadGarments(options, b.body);
+    b.clips = LoadClips(options, b.body);
+    for (OneFitTrainingClip& clip : b.clips) clip.shape = shape;
+    bodies.push_back(std::move(b));
+  }
+  return bodies;
+}
 
 // The trainer, its validation clip, and the weights to start from: new
 // ones, or a model's when fine-tuning (which keeps the model's
@@ -150,8 +181,7 @@ std::unique_ptr<OneFitTrainer> MakeTrainer(const OneFitTrainingRunOptions& optio
     trainer_options.drape.patching.patch_area = init.patch_area;
     trainer_options.drape.patching.max_fit_error = init.max_fit_error;
   }
-  auto trainer =
-      std::make_unique<OneFitTrainer>(body, LoadGarments(options, body), LoadClips(options, body), trainer_options);
+  auto trainer = std::make_unique<OneFitTrainer>(LoadTrainingBodies(options, body), trainer_options);
   if (!options.validation_motion_path.empty()) {
     trainer->SetValidationClip(LoadClip(options.validation_motion_path, 1.0, options, body));
   }

@@ -40,6 +40,11 @@ struct OneFitTrainingRunOptions {
   // perturbed smoothly by up to this many degrees per axis
   // (drape/motion/perturb_pose.h; seeded by trainer.seed); 0: none.
   double perturb_degrees = 0.0;
+  // Augmentation: this many further body shapes, each macro value drawn
+  // uniformly in [0, 1] (seeded by trainer.seed), each with the garments
+  // fitted to it and the clips retargeted onto its rig, so that the
+  // network learns what the shape features say (MakeHuman body only).
+  int shape_samples = 0;
   // A motion held out of training for the validation drape (empty: the
   // first training clip's first frames are validated): its loss picks
   // MODEL.best.

@@ -201,6 +201,11 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
                    "augmentation: each clip also played with its joint angles perturbed smoothly by up to this many "
                    "degrees (0: none)")
       ->capture_default_str();
+  train
+      ->add_option("--shape-samples", o.shape_samples,
+                   "augmentation: also train on this many body shapes sampled uniformly in range (seeded; needs "
+                   "--body), each with every garment fitted to it and every clip")
+      ->capture_default_str();
   train->add_option("--batches", t.num_batches, "mini-batches")->capture_default_str();
   train->add_option("--batch-size", t.batch_size, "samples (garment, frame) per batch")->capture_default_str();
   train->add_option("--iterations-per-batch", t.iterations_per_batch, "L-BFGS iterations per batch")
