@@ -284,6 +284,10 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
   };
   OneFitTrainingSummary summary = trainer->Train(&weights, resume.first_batch, checkpoint, &resume.adam);
   if (resume.first_batch > 0) summary.message += "; resumed at batch " + std::to_string(resume.first_batch);
+  if (options.shape_samples > 0) {
+    summary.message += "; body shapes";
+    for (const BodyShape& shape : TrainingShapes(options)) summary.message += " {" + shape.ToString() + "}";
+  }
   return summary;
 }
 
