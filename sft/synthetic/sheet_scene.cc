@@ -103,7 +103,20 @@ std::string SheetSceneOptions::Validate() const {
   if (!(distance > 0.05)) return "distance must be > 0.05 m";
   if (!(wavelength > 0.0)) return "wavelength must be > 0";
   if (supersampling < 1 || supersampling > 8) return "supersampling must be in [1, 8]";
+  if (!(focal_ratio >= 0.5 && focal_ratio <= 2.0)) return "focal_ratio must be in [0.5, 2]";
+  if (!(std::abs(principal_offset_x) <= width / 4.0 && std::abs(principal_offset_y) <= height / 4.0)) {
+    return "the principal point offset must be within a quarter of the image";
+  }
+  if (std::string p = imperfections.Validate(); !p.empty()) return "imperfections: " + p;
   return {};
+}
+
+void SheetSceneOptions::MakeRealLike() {
+  imperfections = FootageImperfections::RealLike();
+  focal_ratio = 1.03;
+  principal_offset_x = 0.025 * width;
+  principal_offset_y = -0.02 * height;
+  noise_sigma = std::max(noise_sigma, 0.01);
 }
 
 SheetSceneOptions SheetSceneOptions::Small(int width, int grid_x, int frame_count) {
@@ -199,7 +212,7 @@ Eigen::Matrix3Xd SheetVerticesAt(const SheetSceneOptions& o, double tau) {
 }
 
 void RenderHard(const TriangleMesh& mesh, const cv::Mat& texture, double fx, double fy, double cx, double cy, int ss,
-                const cv::Mat& background, cv::Mat* color, cv::Mat* coverage) {
+                const cv::Mat& background, cv::Mat* color, cv::Mat* coverage, const std::vector<float>* face_shade) {
   const int width = background.cols, height = background.rows;
   const int sw = width * ss, sh = height * ss;
   // Per sample: depth and colour of the nearest surface.
@@ -246,7 +259,9 @@ void RenderHard(const TriangleMesh& mesh, const cv::Mat& texture, double fx, dou
         const double ax = tx - ix, ay = ty - iy;
         const cv::Vec3f c00 = texture.at<cv::Vec3f>(iy, ix), c01 = texture.at<cv::Vec3f>(iy, ix + 1);
         const cv::Vec3f c10 = texture.at<cv::Vec3f>(iy + 1, ix), c11 = texture.at<cv::Vec3f>(iy + 1, ix + 1);
-        sample_color.at<cv::Vec3f>(y, x) = (1 - ay) * ((1 - ax) * c00 + ax * c01) + ay * ((1 - ax) * c10 + ax * c11);
+        const float shade = face_shade != nullptr ? (*face_shade)[f] : 1.0f;
+        sample_color.at<cv::Vec3f>(y, x) =
+            shade * ((1 - ay) * ((1 - ax) * c00 + ax * c01) + ay * ((1 - ax) * c10 + ax * c11));
       }
     }
   }
@@ -335,9 +350,10 @@ const char* SheetMotionName(SheetMotion motion) {
 }
 
 void WriteSceneJson(const SheetSceneOptions& o, const fs::path& dir, double cx, double cy) {
+  const FootageImperfections& f = o.imperfections;
   nlohmann::json scene = {{"camera",
                            {{"fx", o.focal_length},
-                            {"fy", o.focal_length},
+                            {"fy", o.focal_length * o.focal_ratio},
                             {"cx", cx},
                             {"cy", cy},
                             {"width", o.width},
@@ -357,7 +373,15 @@ void WriteSceneJson(const SheetSceneOptions& o, const fs::path& dir, double cx, 
                             {"wave_amplitude", o.wave_amplitude},
                             {"yaw_amplitude", o.yaw_amplitude},
                             {"sideways_amplitude", o.sideways_amplitude},
-                            {"noise_sigma", o.noise_sigma}}}};
+                            {"noise_sigma", o.noise_sigma},
+                            {"mask_offset", f.mask_offset},
+                            {"mask_ragged", f.mask_ragged},
+                            {"mask_holes", f.mask_holes},
+                            {"gain_drift", f.gain_drift},
+                            {"bias_drift", f.bias_drift},
+                            {"shading", f.shading},
+                            {"blur", f.blur},
+                            {"moving_background", f.moving_background}}}};
   if (o.write_masks) scene["masks"] = "masks/%06d.png";
   WriteFileAtomically((dir / "scene.json").string(), [&](std::ostream& out) { out << scene.dump(2) << '\n'; });
 }
@@ -381,13 +405,24 @@ void GenerateSheetScene(const SheetSceneOptions& o, const std::string& directory
   TriangleMesh sheet = MakeSheetTemplate(o);
   WriteTemplateObj((dir / "template.obj").string(), sheet);
 
-  const double cx = (o.width - 1) / 2.0, cy = (o.height - 1) / 2.0;
+  const double cx = (o.width - 1) / 2.0 + o.principal_offset_x, cy = (o.height - 1) / 2.0 + o.principal_offset_y;
+  const FootageImperfections& imperfect = o.imperfections;
+  cv::Mat backdrop;  // as detailed as the sheet, but out of focus and of lower contrast
+  if (imperfect.moving_background) {
+    cv::GaussianBlur(MakeTexture(std::max(o.width, o.height) + 64, rng), backdrop, cv::Size(0, 0), 1.5);
+    backdrop.convertTo(backdrop, -1, 0.6, 0.15);  // every channel (a MatExpr's scalar reaches the first only)
+  }
+  const bool degrade_mask = imperfect.mask_offset != 0.0 || imperfect.mask_ragged > 0.0 || imperfect.mask_holes > 0;
   std::normal_distribution<float> noise(0.0f, static_cast<float>(o.noise_sigma));
   for (int t = 0; t < o.frame_count; ++t) {
     const double tau = o.frame_count > 1 ? static_cast<double>(t) / (o.frame_count - 1) : 0.0;
     sheet.vertices = SheetVerticesAt(o, tau);
+    const std::vector<float> shade = FaceShading(sheet, imperfect.shading);
     cv::Mat color, coverage;
-    RenderHard(sheet, texture, o.focal_length, o.focal_length, cx, cy, o.supersampling, background, &color, &coverage);
+    RenderHard(sheet, texture, o.focal_length, o.focal_length * o.focal_ratio, cx, cy, o.supersampling,
+               imperfect.moving_background ? MovingBackground(backdrop, o.width, o.height, t) : background, &color,
+               &coverage, &shade);
+    DegradeFrame(imperfect, tau, &color);
     if (o.noise_sigma > 0.0) {
       for (auto it = color.begin<cv::Vec3f>(); it != color.end<cv::Vec3f>(); ++it) {
         for (int ch = 0; ch < 3; ++ch) (*it)[ch] = std::clamp((*it)[ch] + noise(rng), 0.0f, 1.0f);
@@ -396,7 +431,7 @@ void GenerateSheetScene(const SheetSceneOptions& o, const std::string& directory
     WriteRgbPng((dir / Frame("frames/%06d.png", t)).string(), color);
     if (o.write_masks) {
       cv::Mat mask;
-      coverage.convertTo(mask, CV_8U, 255.0);
+      (degrade_mask ? DegradeMask(imperfect, coverage, o.seed * 1000003 + t) : coverage).convertTo(mask, CV_8U, 255.0);
       WritePng((dir / Frame("masks/%06d.png", t)).string(), mask);
     }
     WritePly((dir / Frame("gt/%06d.ply", t)).string(), sheet);

@@ -8,11 +8,13 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
 #include "polyfit/mesh/triangle_mesh.h"
+#include "sft/synthetic/footage_imperfections.h"
 
 namespace polyfit {
 
@@ -34,6 +36,11 @@ struct SheetSceneOptions {
   int height = 240;
   // Horizontal field of view of about 58 degrees at 320 pixels.
   double focal_length = 288.0;
+  // The camera's fy / fx (fx = focal_length) and its principal point's
+  // offset from the image centre (px; x right, y down).
+  double focal_ratio = 1.0;
+  double principal_offset_x = 0.0;
+  double principal_offset_y = 0.0;
   // The sheet (metres) and its grid of template vertices.
   double sheet_width = 0.297;
   double sheet_height = 0.210;
@@ -57,8 +64,14 @@ struct SheetSceneOptions {
   double noise_sigma = 0.0;
   int texture_size = 512;
   std::uint64_t seed = 1;
+  // Real footage's masks, lighting, blur and background (all off).
+  FootageImperfections imperfections;
 
   std::string Validate() const;
+  // This scene as real footage would show it: FootageImperfections::
+  // RealLike(), fy = 1.03 fx, the principal point 2.5% of the width right
+  // and 2% of the height up of the centre, pixel noise of at least 0.01.
+  void MakeRealLike();
   // A smaller scene with the same field of view: width x 3/4 width pixels,
   // grid_x x 2/3 grid_x cells, a texture of about 1.6 texels per pixel
   // (fast tests and benchmarks).
@@ -70,9 +83,11 @@ Eigen::Matrix3Xd SheetVerticesAt(const SheetSceneOptions& options, double tau);
 
 // Renders a textured mesh (corner texture coordinates, OBJ convention) over
 // `background` (CV_32FC3 RGB) with ss x ss samples per pixel: colour and
-// coverage (CV_32F in [0, 1]).
+// coverage (CV_32F in [0, 1]). face_shade: per face, a factor on its
+// colours (none: 1).
 void RenderHard(const TriangleMesh& mesh, const cv::Mat& texture, double fx, double fy, double cx, double cy,
-                int supersampling, const cv::Mat& background, cv::Mat* color, cv::Mat* coverage);
+                int supersampling, const cv::Mat& background, cv::Mat* color, cv::Mat* coverage,
+                const std::vector<float>* face_shade = nullptr);
 
 // Writes the scene into `directory` (created; existing files replaced).
 // Throws std::runtime_error naming a file that cannot be written.

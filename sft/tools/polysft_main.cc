@@ -66,7 +66,8 @@ struct SolveFlags {
 struct GenerateFlags {
   polyfit::SheetSceneOptions options;
   std::string out, motion = "mixed";
-  bool no_masks = false;
+  bool no_masks = false, real_like = false;
+  CLI::App* command = nullptr;
 };
 
 void AddSolveFlags(CLI::App* app, SolveFlags* f) {
@@ -102,15 +103,56 @@ CLI::App* AddGenerateCommand(CLI::App* app, GenerateFlags* f) {
   generate->add_option("--noise", o.noise_sigma, "Pixel noise sigma")->capture_default_str();
   generate->add_option("--seed", o.seed, "Random seed")->capture_default_str();
   generate->add_flag("--no-masks", f->no_masks, "Write no masks");
+  // Real footage's imperfections (sft/synthetic/footage_imperfections.h).
+  polyfit::FootageImperfections& r = o.imperfections;
+  generate->add_option("--fy-ratio", o.focal_ratio, "Camera fy / fx")->capture_default_str();
+  generate->add_option("--principal-offset-x", o.principal_offset_x, "Principal point right of centre (px)");
+  generate->add_option("--principal-offset-y", o.principal_offset_y, "Principal point below centre (px)");
+  generate->add_option("--mask-offset", r.mask_offset, "Masks grown (> 0) or shrunk (< 0) by this many px");
+  generate->add_option("--mask-ragged", r.mask_ragged, "Mask border moved by smooth noise of up to this many px");
+  generate->add_option("--mask-holes", r.mask_holes, "Holes punched into each mask");
+  generate->add_option("--gain-drift", r.gain_drift, "Frame gain 1 + g sin(pi tau): exposure drifting");
+  generate->add_option("--bias-drift", r.bias_drift, "Frame bias b sin(2 pi tau): white level drifting");
+  generate->add_option("--shading", r.shading, "Lambertian shading strength in [0, 1]");
+  generate->add_option("--blur", r.blur, "Gaussian blur sigma (px)");
+  generate->add_flag("--moving-background", r.moving_background, "A textured background sliding across the frames");
+  generate->add_flag("--real-like", f->real_like,
+                     "All of the above at once, as real footage (docs/sft.md); options given explicitly still apply");
+  f->command = generate;
   return generate;
+}
+
+// --real-like: the preset, with the options given on the command line kept.
+void ApplyRealLike(GenerateFlags* f) {
+  const polyfit::SheetSceneOptions given = f->options;
+  f->options.MakeRealLike();
+  polyfit::SheetSceneOptions& o = f->options;
+  const auto keep = [&](const char* name, auto member) {
+    if (f->command->count(name) > 0) o.*member = given.*member;
+  };
+  const auto keep_imperfection = [&](const char* name, auto member) {
+    if (f->command->count(name) > 0) o.imperfections.*member = given.imperfections.*member;
+  };
+  keep("--fy-ratio", &polyfit::SheetSceneOptions::focal_ratio);
+  keep("--principal-offset-x", &polyfit::SheetSceneOptions::principal_offset_x);
+  keep("--principal-offset-y", &polyfit::SheetSceneOptions::principal_offset_y);
+  keep("--noise", &polyfit::SheetSceneOptions::noise_sigma);
+  keep_imperfection("--mask-offset", &polyfit::FootageImperfections::mask_offset);
+  keep_imperfection("--mask-ragged", &polyfit::FootageImperfections::mask_ragged);
+  keep_imperfection("--mask-holes", &polyfit::FootageImperfections::mask_holes);
+  keep_imperfection("--gain-drift", &polyfit::FootageImperfections::gain_drift);
+  keep_imperfection("--bias-drift", &polyfit::FootageImperfections::bias_drift);
+  keep_imperfection("--shading", &polyfit::FootageImperfections::shading);
+  keep_imperfection("--blur", &polyfit::FootageImperfections::blur);
 }
 
 int RunGenerate(GenerateFlags& f) {
   f.options.motion = polyfit::ParseSheetMotion(f.motion);
   f.options.write_masks = !f.no_masks;
+  if (f.real_like) ApplyRealLike(&f);
   polyfit::GenerateSheetScene(f.options, f.out);
-  std::printf("wrote %s (%d frames, %dx%d, %s)\n", f.out.c_str(), f.options.frame_count, f.options.width,
-              f.options.height, f.motion.c_str());
+  std::printf("wrote %s (%d frames, %dx%d, %s%s)\n", f.out.c_str(), f.options.frame_count, f.options.width,
+              f.options.height, f.motion.c_str(), f.options.imperfections.Any() ? ", imperfect footage" : "");
   return polyfit::kExitSuccess;
 }
 
