@@ -46,6 +46,7 @@ void BindSummaries(py::module_& m) {
       .def_readonly("deformation", &PolySftSummary::deformation)
       .def_readonly("terms", &PolySftSummary::terms)
       .def_readonly("warnings", &PolySftSummary::warnings)
+      .def_readonly("silhouette_band_px", &PolySftSummary::silhouette_band_px)
       .def_readonly("total_time_s", &PolySftSummary::total_time_s)
       .def_readonly("mean_time_per_frame_s", &PolySftSummary::mean_time_per_frame_s)
       .def_readonly("mean_e3d", &PolySftSummary::mean_e3d)

@@ -1,5 +1,6 @@
 #include "sft/solver/frame_costs.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <ceres/jet.h>
@@ -145,9 +146,13 @@ bool RenderCost::Compute(const double* theta, double* residuals, double* jacobia
           const cv::Vec3f rendered = render_.color.at<cv::Vec3f>(y, x), observed = data_.image.at<cv::Vec3f>(y, x);
           for (int ch = 0; ch < 3; ++ch) r[ch] = data_.photometric_weight * (rendered[ch] - observed[ch]);
           double jacobian_scale = data_.photometric_weight;
+          bool in_band = false;
           ApplyRobustLoss(data_.robust_loss, data_.robust_scale, r, &jacobian_scale);
           if (channels_ == 4) {
-            r[3] = data_.silhouette_weight * (render_.silhouette.at<float>(y, x) - data_.mask.at<float>(y, x));
+            const double s = render_.silhouette.at<float>(y, x), lo = data_.mask.at<float>(y, x);
+            const double hi = data_.mask_upper.empty() ? lo : data_.mask_upper.at<float>(y, x);
+            in_band = s > lo && s < hi;  // (lo < hi only in a band)
+            r[3] = data_.silhouette_weight * (s - std::clamp(s, lo, hi));
           }
           if (residuals != nullptr) {
             for (int ch = 0; ch < channels_; ++ch) residuals[r0 + ch] = r[ch];
@@ -160,7 +165,7 @@ bool RenderCost::Compute(const double* theta, double* residuals, double* jacobia
           if (render_.end[pixel] == render_.begin[pixel] && jacobian == nullptr) continue;  // a zero row
           ChainPixelJacobian(pixel, P, &local);
           local.topRows(3) *= jacobian_scale;
-          local.row(3) *= data_.silhouette_weight;
+          local.row(3) *= in_band ? 0.0 : data_.silhouette_weight;
           if (jacobian != nullptr) {
             double* jrow = jacobian + static_cast<size_t>(r0) * P;
             for (int ch = 0; ch < channels_; ++ch) {

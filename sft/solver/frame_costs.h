@@ -20,9 +20,12 @@
 namespace polyfit {
 
 // Photometric and silhouette residuals over the pixels of `roi`:
-//   r_rgb(p) = w_photo (I(p; theta) - I_obs(p))   (robustified per pixel)
-//   r_s(p)   = w_sil (S(p; theta) - M(p))          (with a mask only)
-// I and S from the soft rasterizer with the observed frame as background.
+//   r_rgb(p) = w_photo (I(p; theta) - I_obs(p))                (robustified per pixel)
+//   r_s(p)   = w_sil (S(p; theta) - clamp(S(p; theta), M_lo(p), M_hi(p)))
+// (with a mask only). I and S from the soft rasterizer with the observed
+// frame as background. The mask's bounds are equal (r_s = w_sil (S - M)),
+// or a tolerance band around its border (silhouette_band.h) where any coverage
+// costs nothing.
 class RenderCost : public ceres::CostFunction {
  public:
   struct Data {
@@ -31,8 +34,9 @@ class RenderCost : public ceres::CostFunction {
     // Faces, corner texture coordinates, boundary flags, depth range.
     ScreenMesh mesh;
     PinholeCamera camera;
-    cv::Mat image;  // CV_32FC3
-    cv::Mat mask;   // CV_32F or empty
+    cv::Mat image;       // CV_32FC3
+    cv::Mat mask;        // CV_32F or empty: M_lo
+    cv::Mat mask_upper;  // CV_32F, M_hi; empty: M_lo
     cv::Rect roi;
     double photometric_weight = 1.0;
     double silhouette_weight = 1.0;

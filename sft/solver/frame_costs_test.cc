@@ -8,6 +8,7 @@
 #include "polyfit/mesh/mesh_topology.h"
 #include "polyfit/util/scoped_temp_dir.h"
 #include "sft/scene/scene.h"
+#include "sft/solver/silhouette_band.h"
 #include "sft/synthetic/sheet_scene.h"
 
 namespace polyfit {
@@ -150,6 +151,52 @@ TEST_F(FrameCostsTest, RenderCostJacobianMatchesFiniteDifferences) {
   EXPECT_NEAR(squared_norm, R.squaredNorm(), 1e-9 * R.squaredNorm());
   EXPECT_LT((jtj - J.transpose() * J).norm(), 1e-9 * jtj.norm());
   EXPECT_LT((jtr - J.transpose() * R).norm(), 1e-9 * jtr.norm());
+}
+
+// With a band around the mask's border, a silhouette within the bounds
+// costs nothing (residual and Jacobian row zero); elsewhere it is the
+// plain residual S - M; and the Jacobian stays exact.
+TEST_F(FrameCostsTest, ASilhouetteBandFreesTheBorderAndKeepsTheJacobianExact) {
+  const SoftRasterizer rasterizer(SoftRasterizerOptions(), scene_.texture);
+  const SftFrame frame = LoadFrame(scene_, 1);
+  RenderCost::Data d;
+  d.model = model_.get();
+  d.rasterizer = &rasterizer;
+  d.mesh.faces = scene_.template_mesh.faces;
+  d.mesh.corner_texcoords = scene_.template_mesh.corner_texcoords;
+  d.mesh.boundary_edges = MeshBoundaryEdgeFlags(d.mesh.faces);
+  d.mesh.depth_near = 0.2;
+  d.mesh.depth_far = 0.8;
+  d.camera = scene_.camera;
+  d.image = frame.image;
+  d.mask = frame.mask;
+  d.roi = cv::Rect(0, 0, 80, 60);
+  const RenderCost plain(d);
+  MaskBounds(frame.mask, 2.0, &d.mask, &d.mask_upper);
+  const RenderCost banded(d);
+  EXPECT_LT(RelativeJacobianError(banded, theta_, 1e-6), 0.02);
+
+  const int m = plain.num_residuals();
+  std::vector<double> r_plain(m), r_band(m);
+  const double* parameters[1] = {theta_.data()};
+  ASSERT_TRUE(plain.Evaluate(parameters, r_plain.data(), nullptr));
+  ASSERT_TRUE(banded.Evaluate(parameters, r_band.data(), nullptr));
+  int freed = 0, kept = 0;
+  for (int y = 0; y < 60; ++y) {
+    for (int x = 0; x < 80; ++x) {
+      const int i = (y * 80 + x) * 4 + 3;
+      const float lo = d.mask.at<float>(y, x), hi = d.mask_upper.at<float>(y, x);
+      if (lo == hi) {
+        EXPECT_EQ(r_band[i], r_plain[i]);
+        ++kept;
+      } else {
+        EXPECT_LE(std::abs(r_band[i]), std::abs(r_plain[i]) + 1e-12);
+        if (r_band[i] == 0.0 && r_plain[i] != 0.0) ++freed;
+      }
+    }
+  }
+  EXPECT_GT(freed, 50);
+  EXPECT_GT(kept, 1000);
 }
 
 TEST_F(FrameCostsTest, InextensibilityAndTemporalJacobiansMatchFiniteDifferences) {

@@ -19,8 +19,10 @@
 #include "polyfit/util/json_number.h"
 #include "polyfit/util/parallel_for.h"
 #include "sft/scene/sft_metrics.h"
+#include "sft/solver/brightness.h"
 #include "sft/solver/frame_costs.h"
 #include "sft/solver/polysft_settings.h"
+#include "sft/solver/silhouette_band.h"
 
 namespace polyfit {
 namespace {
@@ -32,8 +34,11 @@ double Seconds(Clock::time_point since) { return std::chrono::duration<double>(C
 // One frame's images at every pyramid level (coarsest first).
 struct FrameData {
   SftFrame frame;
-  std::vector<cv::Mat> images, masks;
+  // The silhouette's bounds per level (MaskBounds; equal without a band).
+  std::vector<cv::Mat> images, masks, masks_upper;
   bool mask_empty = false;
+  // The frame's lighting, last matched (PolySftOptions::match_brightness).
+  Brightness brightness;
   // The parameters (JetDeformationModel layout).
   std::vector<double> theta;
 };
@@ -121,6 +126,7 @@ std::string PolySftOptions::Validate() const {
     if (!(w >= 0.0) || !std::isfinite(w)) return "term weights must be finite and >= 0";
   }
   if (!(robust_scale > 0.0)) return "robust_scale must be > 0";
+  if (!(silhouette_band <= 100.0)) return "silhouette_band must be <= 100 px (negative: measured)";
   if (max_frames < 0) return "max_frames must be >= 0";
   return {};
 }
@@ -184,6 +190,7 @@ class PolySftController {
     const PolySftOptions& o = options_;
     const int num_frames = o.max_frames > 0 ? std::min(o.max_frames, scene_.frame_count) : scene_.frame_count;
     use_masks_ = scene_.has_masks() && o.silhouette_weight > 0.0;
+    summary_.silhouette_band_px = use_masks_ ? o.silhouette_band : 0.0;
     use_temporal_ = num_frames > 1 && o.temporal_weight > 0.0;
     use_photometric_ = o.photometric_weight > 0.0;
     use_inextensibility_ = o.inextensibility_weight > 0.0;
@@ -313,6 +320,35 @@ class PolySftController {
     }
   }
 
+  // The band as far as the first frame's mask is off the template's
+  // silhouette, rendered at the finest level (0 after the first frame).
+  void MeasureSilhouetteBand(const FrameData& data, int t) {
+    summary_.silhouette_band_px = 0.0;
+    if (t != 0 || cv::countNonZero(data.frame.mask) == 0) return;
+    const LevelData& level = levels_.back();
+    ScreenMesh screen = mesh_template_;
+    if (!ProjectVertices(level.camera, scene_.template_mesh.vertices, &screen, nullptr)) return;
+    // Nearly hard: the soft silhouette's 1/2 level lies outside the edge.
+    SoftRasterizerOptions hard = options_.rasterizer;
+    hard.sigma = 1e-3;
+    SoftRenderOutput render;
+    SoftRasterizer(hard, scene_.texture)
+        .Render(screen, level.camera.width, level.camera.height, cv::Mat(), false, &render);
+    cv::Mat mask = data.frame.mask;
+    if (level.scale != 1.0) cv::resize(mask, mask, render.silhouette.size(), 0, 0, cv::INTER_AREA);
+    const double offset = MaskBorderOffset(mask, render.silhouette) / level.scale;
+    summary_.silhouette_band_px = SilhouetteBandForOffset(offset);
+    if (std::lround(summary_.silhouette_band_px) > 0) {
+      char buffer[220];
+      std::snprintf(buffer, sizeof(buffer),
+                    "frame %d: the mask is %s by %.1f px against the template's silhouette: silhouettes are left "
+                    "free within %ld px of the masks' borders (silhouette_band)",
+                    data.frame.index, offset > 0.0 ? "grown" : "shrunk", std::abs(offset),
+                    std::lround(summary_.silhouette_band_px));
+      summary_.warnings.emplace_back(buffer);
+    }
+  }
+
   // Loads frame t with its pyramid, warm-started from the newest frame.
   void AddFrameToWindow(int t) {
     auto data = std::make_unique<FrameData>();
@@ -320,14 +356,24 @@ class PolySftController {
     const int levels = static_cast<int>(levels_.size());
     data->images.resize(levels);
     data->masks.resize(levels);
+    data->masks_upper.resize(levels);
+    cv::Mat lower, upper;  // at full size: the band is in its pixels
+    if (!data->frame.mask.empty()) {
+      if (summary_.silhouette_band_px < 0.0) MeasureSilhouetteBand(*data, t);
+      MaskBounds(data->frame.mask, summary_.silhouette_band_px, &lower, &upper);
+    }
     for (int l = 0; l < levels; ++l) {
       const cv::Size size(levels_[l].camera.width, levels_[l].camera.height);
       if (levels_[l].scale == 1.0) {
         data->images[l] = data->frame.image;
-        data->masks[l] = data->frame.mask;
+        data->masks[l] = lower;
+        data->masks_upper[l] = upper;
       } else {
         cv::resize(data->frame.image, data->images[l], size, 0, 0, cv::INTER_AREA);
-        if (!data->frame.mask.empty()) cv::resize(data->frame.mask, data->masks[l], size, 0, 0, cv::INTER_AREA);
+        if (!lower.empty()) {
+          cv::resize(lower, data->masks[l], size, 0, 0, cv::INTER_AREA);
+          cv::resize(upper, data->masks_upper[l], size, 0, 0, cv::INTER_AREA);
+        }
       }
     }
     if (!data->frame.mask.empty() && cv::countNonZero(data->frame.mask) == 0) {
@@ -350,21 +396,39 @@ class PolySftController {
     d.mesh = mesh_template_;
     d.camera = level.camera;
     d.image = frame.images[l];
-    if (use_masks_) d.mask = frame.masks[l];
+    if (use_masks_) {
+      d.mask = frame.masks[l];
+      d.mask_upper = frame.masks_upper[l];
+    }
     Eigen::Matrix3Xd vertices;
     model_.Evaluate(frame.theta.data(), &vertices);
     ScreenMesh screen = mesh_template_;
     if (!ProjectVertices(level.camera, vertices, &screen, nullptr)) return false;
     const double level_pixels = template_pixels_ * level.scale * level.scale;
-    d.roi = RegionOfInterest(screen, d.mask, level.camera.width, level.camera.height,
+    d.roi = RegionOfInterest(screen, d.mask_upper, level.camera.width, level.camera.height,
                              4.0 + std::sqrt(options_.rasterizer.cutoff * options_.rasterizer.sigma));
     d.photometric_weight = use_photometric_ ? std::sqrt(options_.photometric_weight / level_pixels) : 0.0;
     d.silhouette_weight = std::sqrt(options_.silhouette_weight / level_pixels);
     d.robust_loss = options_.robust_loss;
     d.robust_scale = options_.robust_scale * d.photometric_weight;
-    if (d.roi.area() > 0)
-      problem->AddResidualBlock(new CompressedRenderCost(std::move(d)), nullptr, frame.theta.data());
+    if (d.roi.area() <= 0) return true;
+    if (use_photometric_ && options_.match_brightness) {
+      frame.brightness = MatchFrameBrightness(*d.rasterizer, screen, level.camera, d.image, d.mask, d.roi);
+      d.image = CompensateBrightness(d.image, frame.brightness);
+    }
+    problem->AddResidualBlock(new CompressedRenderCost(std::move(d)), nullptr, frame.theta.data());
     return true;
+  }
+
+  // The frame's lighting against the texture's, from a render of the
+  // surface where it is now (coarse levels give it first; finer levels
+  // refine it as the surface settles).
+  static Brightness MatchFrameBrightness(const SoftRasterizer& rasterizer, const ScreenMesh& screen,
+                                         const PinholeCamera& camera, const cv::Mat& image, const cv::Mat& mask,
+                                         const cv::Rect& roi) {
+    SoftRenderOutput render;
+    rasterizer.Render(screen, camera.width, camera.height, cv::Mat(), false, &render, roi);
+    return MatchBrightness(render.color, render.silhouette, image, mask, roi);
   }
 
   // Inextensibility of window frame k, and its temporal link to the frame
@@ -476,6 +540,15 @@ class PolySftController {
                     "frame %d: cost %.3g is %.0f times the first frame's: tracking may be lost (motion too large "
                     "between frames?)",
                     data.frame.index, cost, cost / std::max(first_cost_, 1e-12));
+      summary_.warnings.emplace_back(buffer);
+    }
+    // Matched at the finest level from the frame's nearly final estimate.
+    if (data.brightness.correlation < 0.2) {
+      char buffer[200];
+      std::snprintf(buffer, sizeof(buffer),
+                    "frame %d: its colours barely correlate with the texture's where the surface is (%.2f): "
+                    "tracking may be lost",
+                    data.frame.index, data.brightness.correlation);
       summary_.warnings.emplace_back(buffer);
     }
     SftFrameSummary result;
@@ -622,6 +695,7 @@ void WriteSftOutputs(const std::string& directory, const SftScene& scene, const 
       {"total_time_s", summary.total_time_s},
       {"deformation", summary.deformation},
       {"active_terms", terms},
+      {"silhouette_band_px", summary.silhouette_band_px},
       {"warnings", summary.warnings},
       {"settings", PolySftSettingsToJson(options)}};
   WriteFileAtomically((fs::path(directory) / "metrics.json").string(),

@@ -50,6 +50,19 @@ struct PolySftOptions {
   double silhouette_weight = 1.0;
   double inextensibility_weight = 10.0;  // k_mi
   double temporal_weight = 0.1;          // k_tc
+  // A segmentation's mask is a few pixels off: within this many pixels
+  // (of the full-size frame) of the mask's border, the silhouette may
+  // cover or not at no cost, so that a mask a little too large or too
+  // small does not pull the surface toward or away from the camera
+  // (sft/solver/silhouette_band.h). 0: the silhouette matches the mask
+  // everywhere, as in the paper. Negative: measured on the first frame, as
+  // far as its mask is grown or shrunk against the template's silhouette
+  // (the template is registered to that frame; MaskBorderOffset), so that
+  // exact masks keep their precision.
+  double silhouette_band = -1.0;
+  // Map each frame to the texture's lighting (per-channel gain and bias,
+  // sft/solver/brightness.h) before the photometric term compares them.
+  bool match_brightness = true;
   // Per-pixel robust loss of the photometric residual (real video).
   RobustLoss robust_loss = RobustLoss::kNone;
   double robust_scale = 0.1;
@@ -100,6 +113,9 @@ struct PolySftSummary {
   // Active terms and their weights.
   std::vector<std::pair<std::string, double>> terms;
   std::vector<std::string> warnings;
+  // The silhouette band used (px of the full-size frame; measured when
+  // PolySftOptions::silhouette_band < 0).
+  double silhouette_band_px = 0.0;
   double total_time_s = 0.0;
   double mean_time_per_frame_s = 0.0;
   double mean_e3d = std::numeric_limits<double>::quiet_NaN();

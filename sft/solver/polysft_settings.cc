@@ -64,6 +64,8 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("silhouette_weight", silhouette_weight),
         POLYFIT_SETTING("inextensibility_weight", inextensibility_weight),
         POLYFIT_SETTING("temporal_weight", temporal_weight),
+        POLYFIT_SETTING("silhouette_band", silhouette_band),
+        POLYFIT_SETTING("match_brightness", match_brightness),
         POLYFIT_SETTING("sigma", rasterizer.sigma),
         POLYFIT_SETTING("gamma", rasterizer.gamma),
         POLYFIT_SETTING("robust_scale", robust_scale),

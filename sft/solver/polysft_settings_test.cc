@@ -25,6 +25,8 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.silhouette_weight = 2.0;
   changed.inextensibility_weight = 20.0;
   changed.temporal_weight = 0.3;
+  changed.silhouette_band = 4.5;
+  changed.match_brightness = false;
   changed.rasterizer.sigma = 2.5;
   changed.rasterizer.gamma = 0.2;
   changed.robust_loss = RobustLoss::kCauchy;

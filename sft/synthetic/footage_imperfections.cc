@@ -7,6 +7,8 @@
 #include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
 
+#include "sft/render/mask_distance.h"
+
 namespace polyfit {
 namespace {
 
@@ -21,21 +23,6 @@ cv::Mat SmoothNoise(int width, int height, int cell, std::mt19937_64& rng) {
   cv::Mat field;
   cv::resize(coarse, field, cv::Size(width, height), 0, 0, cv::INTER_CUBIC);
   return cv::min(cv::max(field, -1.0f), 1.0f);
-}
-
-// Signed distance (px) to the mask's border: negative inside, positive
-// outside, +-0.5 on the pixels either side of it.
-cv::Mat SignedBorderDistance(const cv::Mat& inside) {
-  cv::Mat outside = 255 - inside, to_inside, to_outside;
-  cv::distanceTransform(outside, to_inside, cv::DIST_L2, cv::DIST_MASK_PRECISE);
-  cv::distanceTransform(inside, to_outside, cv::DIST_L2, cv::DIST_MASK_PRECISE);
-  cv::Mat d(inside.size(), CV_32F);
-  for (int y = 0; y < d.rows; ++y) {
-    for (int x = 0; x < d.cols; ++x) {
-      d.at<float>(y, x) = inside.at<uchar>(y, x) ? 0.5f - to_outside.at<float>(y, x) : to_inside.at<float>(y, x) - 0.5f;
-    }
-  }
-  return d;
 }
 
 int Bounce(int position, int range) {
@@ -110,7 +97,8 @@ void DegradeFrame(const FootageImperfections& f, double tau, cv::Mat* color) {
 cv::Mat DegradeMask(const FootageImperfections& f, const cv::Mat& coverage, std::uint64_t seed) {
   std::mt19937_64 rng(seed);
   cv::Mat inside;
-  cv::threshold(coverage, inside, 0.5, 255.0, cv::THRESH_BINARY);
+  // Half-covered pixels are inside, as a PNG of the coverage has them (128).
+  cv::threshold(coverage, inside, 0.5 - 1e-6, 255.0, cv::THRESH_BINARY);
   inside.convertTo(inside, CV_8U);
   cv::Mat mask = inside / 255;
   mask.convertTo(mask, CV_32F);
