@@ -51,6 +51,22 @@ class FrameCostsTest : public ::testing::Test {
     // Away from zero so that every term is exercised.
     for (size_t k = 0; k < theta_.size(); ++k) theta_[k] = 0.01 * std::sin(1.0 + 3.0 * k);
   }
+  // The render term of `frame` over the whole image.
+  RenderCost::Data RenderData(const SoftRasterizer& rasterizer, const SftFrame& frame) const {
+    RenderCost::Data d;
+    d.model = model_.get();
+    d.rasterizer = &rasterizer;
+    d.mesh.faces = scene_.template_mesh.faces;
+    d.mesh.corner_texcoords = scene_.template_mesh.corner_texcoords;
+    d.mesh.boundary_edges = MeshBoundaryEdgeFlags(d.mesh.faces);
+    d.mesh.depth_near = 0.2;
+    d.mesh.depth_far = 0.8;
+    d.camera = scene_.camera;
+    d.image = frame.image;
+    d.mask = frame.mask;
+    d.roi = cv::Rect(0, 0, 80, 60);
+    return d;
+  }
   ScopedTempDir dir_{"polyfit_frame_costs"};
   SftScene scene_;
   std::unique_ptr<JetDeformationModel> model_;
@@ -119,18 +135,7 @@ TEST(JetDeformationModelTest, TexturedCylinderFallsBackToTheTextureSpaceField) {
 TEST_F(FrameCostsTest, RenderCostJacobianMatchesFiniteDifferences) {
   const SoftRasterizer rasterizer(SoftRasterizerOptions(), scene_.texture);
   const SftFrame frame = LoadFrame(scene_, 1);
-  RenderCost::Data d;
-  d.model = model_.get();
-  d.rasterizer = &rasterizer;
-  d.mesh.faces = scene_.template_mesh.faces;
-  d.mesh.corner_texcoords = scene_.template_mesh.corner_texcoords;
-  d.mesh.boundary_edges = MeshBoundaryEdgeFlags(d.mesh.faces);
-  d.mesh.depth_near = 0.2;
-  d.mesh.depth_far = 0.8;
-  d.camera = scene_.camera;
-  d.image = frame.image;
-  d.mask = frame.mask;
-  d.roi = cv::Rect(0, 0, 80, 60);
+  RenderCost::Data d = RenderData(rasterizer, frame);
   const RenderCost cost(d);
   double largest = 0.0;
   EXPECT_LT(RelativeJacobianError(cost, theta_, 1e-6, &largest), 0.02);
@@ -159,18 +164,7 @@ TEST_F(FrameCostsTest, RenderCostJacobianMatchesFiniteDifferences) {
 TEST_F(FrameCostsTest, ASilhouetteBandFreesTheBorderAndKeepsTheJacobianExact) {
   const SoftRasterizer rasterizer(SoftRasterizerOptions(), scene_.texture);
   const SftFrame frame = LoadFrame(scene_, 1);
-  RenderCost::Data d;
-  d.model = model_.get();
-  d.rasterizer = &rasterizer;
-  d.mesh.faces = scene_.template_mesh.faces;
-  d.mesh.corner_texcoords = scene_.template_mesh.corner_texcoords;
-  d.mesh.boundary_edges = MeshBoundaryEdgeFlags(d.mesh.faces);
-  d.mesh.depth_near = 0.2;
-  d.mesh.depth_far = 0.8;
-  d.camera = scene_.camera;
-  d.image = frame.image;
-  d.mask = frame.mask;
-  d.roi = cv::Rect(0, 0, 80, 60);
+  RenderCost::Data d = RenderData(rasterizer, frame);
   const RenderCost plain(d);
   MaskBounds(frame.mask, 2.0, &d.mask, &d.mask_upper);
   const RenderCost banded(d);
