@@ -47,6 +47,7 @@ void BindSummaries(py::module_& m) {
       .def_readonly("terms", &PolySftSummary::terms)
       .def_readonly("warnings", &PolySftSummary::warnings)
       .def_readonly("silhouette_band_px", &PolySftSummary::silhouette_band_px)
+      .def_readonly("pyramid_levels", &PolySftSummary::pyramid_levels)
       .def_readonly("total_time_s", &PolySftSummary::total_time_s)
       .def_readonly("mean_time_per_frame_s", &PolySftSummary::mean_time_per_frame_s)
       .def_readonly("mean_e3d", &PolySftSummary::mean_e3d)

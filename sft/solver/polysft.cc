@@ -114,11 +114,19 @@ double Mean(const std::vector<SftFrameSummary>& frames, double SftFrameSummary::
 
 }  // namespace
 
+int ChoosePyramidLevels(const PolySftOptions& options, int image_width) {
+  if (options.pyramid_levels > 0) return options.pyramid_levels;
+  const int finest = options.max_image_width > 0 ? std::min(options.max_image_width, image_width) : image_width;
+  int levels = 3;
+  while (levels < 6 && finest > 128 * (1 << (levels - 1))) ++levels;
+  return levels;
+}
+
 std::string PolySftOptions::Validate() const {
   if (std::string p = deformation.Validate(); !p.empty()) return "deformation: " + p;
   if (std::string p = rasterizer.Validate(); !p.empty()) return "rasterizer: " + p;
   if (window_size < 1) return "window_size must be >= 1";
-  if (pyramid_levels < 1 || pyramid_levels > 6) return "pyramid_levels must be in [1, 6]";
+  if (pyramid_levels < 0 || pyramid_levels > 6) return "pyramid_levels must be in [1, 6], or 0 (chosen by width)";
   if (max_image_width < 0) return "max_image_width must be >= 0";
   if (max_iterations_per_level < 1) return "max_iterations_per_level must be >= 1";
   if (patience < 1) return "patience must be >= 1";
@@ -273,10 +281,11 @@ class PolySftController {
   // Levels coarsest first, halving from the finest (which may itself be
   // scaled down to max_image_width).
   void BuildPyramid() {
-    const int levels = options_.pyramid_levels;
     const double top_scale = options_.max_image_width > 0 && options_.max_image_width < scene_.camera.width
                                  ? static_cast<double>(options_.max_image_width) / scene_.camera.width
                                  : 1.0;
+    const int levels = ChoosePyramidLevels(options_, scene_.camera.width);
+    summary_.pyramid_levels = levels;
     levels_.resize(levels);
     for (int l = 0; l < levels; ++l) {
       levels_[l].scale = top_scale * std::ldexp(1.0, -(levels - 1 - l));
@@ -696,6 +705,7 @@ void WriteSftOutputs(const std::string& directory, const SftScene& scene, const 
       {"deformation", summary.deformation},
       {"active_terms", terms},
       {"silhouette_band_px", summary.silhouette_band_px},
+      {"pyramid_levels", summary.pyramid_levels},
       {"warnings", summary.warnings},
       {"settings", PolySftSettingsToJson(options)}};
   WriteFileAtomically((fs::path(directory) / "metrics.json").string(),

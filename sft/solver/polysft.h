@@ -35,7 +35,11 @@ struct PolySftOptions {
   // when a new one enters.
   int window_size = 3;
   // Levels of the image pyramid, coarsest first (3: 1/4, 1/2, full size).
-  int pyramid_levels = 3;
+  // 0: as many as bring the coarsest level to at most 128 px wide, and at
+  // least 3 (3 at 320 px, 4 at 640, 5 at 1920): a frame's motion must fall
+  // within the coarsest level's reach, and it is as many pixels there at
+  // any resolution only if that level's width is.
+  int pyramid_levels = 0;
   // Solve at most at this image width (0: full size): the finest level is
   // scaled down to it, the others halve from there. For HD video.
   int max_image_width = 0;
@@ -72,6 +76,11 @@ struct PolySftOptions {
 
   std::string Validate() const;
 };
+
+// The pyramid's levels for frames `image_width` pixels wide: the
+// options' own, or when 0, as many as bring the coarsest level to at most
+// 128 px wide (at least 3).
+int ChoosePyramidLevels(const PolySftOptions& options, int image_width);
 
 struct SftFrameSummary {
   int index = 0;
@@ -116,6 +125,9 @@ struct PolySftSummary {
   // The silhouette band used (px of the full-size frame; measured when
   // PolySftOptions::silhouette_band < 0).
   double silhouette_band_px = 0.0;
+  // The pyramid's levels (chosen by width when PolySftOptions::
+  // pyramid_levels is 0).
+  int pyramid_levels = 0;
   double total_time_s = 0.0;
   double mean_time_per_frame_s = 0.0;
   double mean_e3d = std::numeric_limits<double>::quiet_NaN();

@@ -158,6 +158,22 @@ TEST(PolySftTest, AGrownMaskAndDriftingLightAreMeasuredAndDoNotPullTheSheet) {
   EXPECT_TRUE(named);
 }
 
+TEST(PolySftTest, ThePyramidReachesAbout100PixelsWideAtAnyResolution) {
+  ScopedTempDir dir("polyfit_sft_pyramid");
+  GenerateSheetScene(SmallScene(SheetMotion::kBend, 1), dir.path().string());  // 160 px wide
+  const SftScene scene = LoadScene(dir.path().string());
+  EXPECT_EQ(SolvePolySft(PolySftOptions(), scene).pyramid_levels, 3);  // at least 3
+  PolySftOptions fixed;
+  fixed.pyramid_levels = 2;
+  EXPECT_EQ(SolvePolySft(fixed, scene).pyramid_levels, 2);
+  PolySftOptions hd;
+  hd.max_image_width = 640;
+  EXPECT_EQ(ChoosePyramidLevels(hd, 1920), 4);  // solved at 640: 80 px in 4 levels
+  hd.max_image_width = 0;
+  EXPECT_EQ(ChoosePyramidLevels(hd, 1920), 5);  // 120 px
+  EXPECT_EQ(ChoosePyramidLevels(hd, 320), 3);
+}
+
 TEST(PolySftTest, AnExactMaskMeasuresNoBand) {
   ScopedTempDir dir("polyfit_sft_exact_mask");
   GenerateSheetScene(SmallScene(SheetMotion::kBend, 1), dir.path().string());
