@@ -37,8 +37,12 @@ struct FrameData {
   // The silhouette's bounds per level (MaskBounds; equal without a band).
   std::vector<cv::Mat> images, masks, masks_upper;
   bool mask_empty = false;
-  // The frame's lighting, last matched (PolySftOptions::match_brightness).
+  // The frame's lighting, last matched (PolySftOptions::match_brightness),
+  // and per level the frame mapped to the texture's lighting: matched in
+  // the first window the frame enters, kept for the later ones (where its
+  // estimate barely moves) at a third of the renders.
   Brightness brightness;
+  std::vector<cv::Mat> compensated;
   // The parameters (JetDeformationModel layout).
   std::vector<double> theta;
 };
@@ -422,8 +426,12 @@ class PolySftController {
     d.robust_scale = options_.robust_scale * d.photometric_weight;
     if (d.roi.area() <= 0) return true;
     if (use_photometric_ && options_.match_brightness) {
-      frame.brightness = MatchFrameBrightness(*d.rasterizer, screen, level.camera, d.image, d.mask, d.roi);
-      d.image = CompensateBrightness(d.image, frame.brightness);
+      frame.compensated.resize(levels_.size());
+      if (frame.compensated[l].empty()) {
+        frame.brightness = MatchFrameBrightness(*d.rasterizer, screen, level.camera, d.image, d.mask, d.roi);
+        frame.compensated[l] = CompensateBrightness(d.image, frame.brightness);
+      }
+      d.image = frame.compensated[l];
     }
     problem->AddResidualBlock(new CompressedRenderCost(std::move(d)), nullptr, frame.theta.data());
     return true;
