@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
+#include <optional>
 #include <random>
 #include <stdexcept>
 #include <vector>
@@ -93,7 +95,9 @@ SheetMotion ParseSheetMotion(const std::string& name) {
   if (name == "rigid") return SheetMotion::kRigid;
   if (name == "mixed") return SheetMotion::kMixed;
   if (name == "roll") return SheetMotion::kRoll;
-  throw std::invalid_argument("unknown motion '" + name + "' (bend, wave, rigid, mixed or roll)");
+  if (name == "crease") return SheetMotion::kCrease;
+  if (name == "wave_packet") return SheetMotion::kWavePacket;
+  throw std::invalid_argument("unknown motion '" + name + "' (bend, wave, rigid, mixed, roll, crease or wave_packet)");
 }
 
 std::string SheetSceneOptions::Validate() const {
@@ -131,17 +135,91 @@ SheetSceneOptions SheetSceneOptions::Small(int width, int grid_x, int frame_coun
   return o;
 }
 
+namespace {
+
+// A height profile z(w) across the sheet's height, followed by arc length
+// so that the sheet is not stretched (a developable surface, like paper):
+// maps arc length s (from w = 0) to (w, z). Tabulated, then inverted by
+// interpolation.
+class ArcLengthProfile {
+ public:
+  ArcLengthProfile(const std::function<double(double)>& height, double reach) : height_(height) {
+    const int steps = 4000;  // w in [-reach, reach]
+    const double dw = 2 * reach / steps;
+    double arc = 0.0, previous = height(-reach);
+    for (int k = 0; k <= steps; ++k) {
+      const double w = -reach + k * dw, z = height(w);
+      if (k > 0) arc += std::hypot(dw, z - previous);
+      previous = z;
+      w_.push_back(w);
+      s_.push_back(arc);
+    }
+    const double s0 = s_[steps / 2];
+    for (double& s : s_) s -= s0;
+  }
+  void At(double s, double* w, double* z) const {
+    const size_t k = std::min<size_t>(std::lower_bound(s_.begin(), s_.end(), s) - s_.begin(), s_.size() - 1);
+    const size_t k0 = k == 0 ? 0 : k - 1;
+    const double t = s_[k] > s_[k0] ? (s - s_[k0]) / (s_[k] - s_[k0]) : 0.0;
+    *w = w_[k0] + t * (w_[k] - w_[k0]);
+    *z = height_(*w);
+  }
+
+ private:
+  std::function<double(double)> height_;
+  std::vector<double> w_, s_;
+};
+
+// The profile across the sheet's height at tau, or none (flat).
+std::optional<ArcLengthProfile> HeightProfile(const SheetSceneOptions& o, double tau) {
+  if (o.motion == SheetMotion::kWave) {
+    // Travelling, its amplitude rising and falling; zero at w = 0.
+    const double amplitude = o.wave_amplitude * std::sin(M_PI * tau), lambda = o.wavelength, phase = 0.5 * tau;
+    return ArcLengthProfile(
+        [=](double w) { return amplitude * (std::sin(2 * M_PI * (w / lambda + phase)) - std::sin(2 * M_PI * phase)); },
+        o.sheet_height);
+  }
+  if (o.motion == SheetMotion::kWavePacket) {
+    // About two periods across the height under a Gaussian envelope that
+    // drifts along it, the crests travelling a period: no single low-order
+    // polynomial holds it. Slopes up to about 0.6.
+    const double h = o.sheet_height, lambda = 0.5 * h, amplitude = 0.05 * h * std::sin(M_PI * tau);
+    const double centre = 0.25 * h * (tau - 0.5), sigma = 0.3 * h, phase = tau;
+    return ArcLengthProfile(
+        [=](double w) {
+          const double envelope = std::exp(-0.5 * (w - centre) * (w - centre) / (sigma * sigma));
+          return amplitude * envelope * std::sin(2 * M_PI * (w / lambda + phase));
+        },
+        h);
+  }
+  return std::nullopt;
+}
+
+// The sheet's point at (x, y) (before the rigid motion) for the motions
+// that bend it about its vertical axis: a cylinder of the given curvature,
+// or a crease along x = 0 whose halves each turn by `fold` toward the
+// camera. Both isometric.
+Eigen::Vector3d BendAcross(double x, double curvature, double fold) {
+  if (fold != 0.0) return Eigen::Vector3d(x * std::cos(fold), 0.0, -std::abs(x) * std::sin(fold));
+  if (curvature == 0.0) return Eigen::Vector3d(x, 0.0, 0.0);
+  return Eigen::Vector3d(std::sin(curvature * x) / curvature, 0.0, (1.0 - std::cos(curvature * x)) / curvature);
+}
+
+}  // namespace
+
 Eigen::Matrix3Xd SheetVerticesAt(const SheetSceneOptions& o, double tau) {
   const int nx = o.grid_x, ny = o.grid_y;
   Eigen::Matrix3Xd vertices(3, (nx + 1) * (ny + 1));
   const bool bend = o.motion == SheetMotion::kBend || o.motion == SheetMotion::kMixed;
-  const bool wave = o.motion == SheetMotion::kWave;
-  const bool rigid = o.motion == SheetMotion::kRigid || o.motion == SheetMotion::kMixed;
+  const bool rigid =
+      o.motion == SheetMotion::kRigid || o.motion == SheetMotion::kMixed || o.motion == SheetMotion::kWavePacket;
   // Curvature up to 1 / 0.13 m: the sheet's ends fold about 65 degrees.
   // Rolled: the sheet wraps 270 degrees at first, 180 at the end.
   const double curvature = bend                             ? std::sin(M_PI * tau) / 0.13
                            : o.motion == SheetMotion::kRoll ? (1.5 * M_PI - 0.5 * M_PI * tau) / o.sheet_width
                                                             : 0.0;
+  // The crease closes from flat to a 60 degree dihedral (each half 60).
+  const double fold = o.motion == SheetMotion::kCrease ? (M_PI / 3.0) * tau : 0.0;
   const Eigen::Matrix3d rotation =
       rigid ? (Eigen::AngleAxisd(o.yaw_amplitude * std::sin(M_PI * tau), Eigen::Vector3d::UnitY()) *
                Eigen::AngleAxisd(0.2 * std::sin(2 * M_PI * tau), Eigen::Vector3d::UnitX()))
@@ -150,61 +228,19 @@ Eigen::Matrix3Xd SheetVerticesAt(const SheetSceneOptions& o, double tau) {
   const Eigen::Vector3d translation = rigid ? Eigen::Vector3d(o.sideways_amplitude * std::sin(2 * M_PI * tau),
                                                               0.015 * std::sin(M_PI * tau), 0.05 * std::sin(M_PI * tau))
                                             : Eigen::Vector3d::Zero();
-  // The wave: the profile z = A sin(2 pi (w / lambda + phase)) across the
-  // sheet's height, travelling, followed by arc length so that the sheet is
-  // not stretched (a developable surface, like paper). Tabulated: arc
-  // length s(w) from w = 0, then inverted by interpolation.
-  const double amplitude = wave ? o.wave_amplitude * std::sin(M_PI * tau) : 0.0, wavelength = o.wavelength,
-               phase = 0.5 * tau;
-  std::vector<double> table_w, table_s;
-  if (wave) {
-    const int steps = 4000;
-    const double reach = o.sheet_height;  // w in [-reach, reach] covers s in [-h/2, h/2]
-    double arc = 0.0;
-    const double dw = 2 * reach / steps;
-    auto slope = [&](double w) {
-      return amplitude * 2 * M_PI / wavelength * std::cos(2 * M_PI * (w / wavelength + phase));
-    };
-    for (int k = 0; k <= steps; ++k) {
-      const double w = -reach + k * dw;
-      if (k > 0) {
-        const double mid = w - 0.5 * dw;
-        arc += dw * std::sqrt(1.0 + slope(mid) * slope(mid));
-      }
-      table_w.push_back(w);
-      table_s.push_back(arc);
-    }
-    // Arc length measured from w = 0.
-    const double s0 = table_s[steps / 2];
-    for (double& s : table_s) s -= s0;
-  }
-  auto profile = [&](double s, double* w, double* z) {
-    if (!wave) {
-      *w = s;
-      *z = 0.0;
-      return;
-    }
-    const size_t k =
-        std::min<size_t>(std::lower_bound(table_s.begin(), table_s.end(), s) - table_s.begin(), table_s.size() - 1);
-    const size_t k0 = k == 0 ? 0 : k - 1;
-    const double t = table_s[k] > table_s[k0] ? (s - table_s[k0]) / (table_s[k] - table_s[k0]) : 0.0;
-    *w = table_w[k0] + t * (table_w[k] - table_w[k0]);
-    *z = amplitude * std::sin(2 * M_PI * (*w / wavelength + phase)) - amplitude * std::sin(2 * M_PI * phase);
-  };
+  const std::optional<ArcLengthProfile> profile = HeightProfile(o, tau);
   for (int j = 0; j <= ny; ++j) {
     for (int i = 0; i <= nx; ++i) {
       const double x = (static_cast<double>(i) / nx - 0.5) * o.sheet_width;
       const double y = (static_cast<double>(j) / ny - 0.5) * o.sheet_height;
-      Eigen::Vector3d p(x, y, 0.0);
-      if (curvature != 0.0) {
-        // Arc length x along a circle of radius 1 / curvature: an isometry.
-        p.x() = std::sin(curvature * x) / curvature;
-        p.z() = (1.0 - std::cos(curvature * x)) / curvature;
+      Eigen::Vector3d p = BendAcross(x, curvature, fold);
+      p.y() = y;
+      if (profile) {
+        double w, z;
+        profile->At(y, &w, &z);
+        p.y() = w;
+        p.z() += z;
       }
-      double w, z;
-      profile(y, &w, &z);
-      p.y() = w;
-      p.z() += z;
       vertices.col(j * (nx + 1) + i) = rotation * p + translation + Eigen::Vector3d(0, 0, o.distance);
     }
   }
@@ -345,6 +381,8 @@ const char* SheetMotionName(SheetMotion motion) {
     case SheetMotion::kRigid: return "rigid";
     case SheetMotion::kRoll: return "roll";
     case SheetMotion::kMixed: return "mixed";
+    case SheetMotion::kCrease: return "crease";
+    case SheetMotion::kWavePacket: return "wave_packet";
   }
   return "mixed";
 }

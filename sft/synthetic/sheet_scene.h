@@ -19,14 +19,17 @@
 namespace polyfit {
 
 enum class SheetMotion {
-  kBend,   // cylindrical bend (isometric), curvature rising and falling
-  kWave,   // a travelling wave across the sheet's height, isometric (arc length kept)
-  kRigid,  // rotation and translation of the flat sheet
-  kMixed,  // bend and rigid motion together
-  kRoll,   // rolled into three quarters of a cylinder, unrolling to half (no height field)
+  kBend,        // cylindrical bend (isometric), curvature rising and falling
+  kWave,        // a travelling wave across the sheet's height, isometric (arc length kept)
+  kRigid,       // rotation and translation of the flat sheet
+  kMixed,       // bend and rigid motion together
+  kRoll,        // rolled into three quarters of a cylinder, unrolling to half (no height field)
+  kCrease,      // a sharp vertical fold closing from flat to a 60 degree dihedral, toward the camera
+  kWavePacket,  // about two periods of a travelling wave under a drifting envelope, with rigid motion
 };
 
-// "bend", "wave", "rigid", "mixed", "roll"; throws std::invalid_argument otherwise.
+// "bend", "wave", "rigid", "mixed", "roll", "crease", "wave_packet";
+// throws std::invalid_argument otherwise.
 SheetMotion ParseSheetMotion(const std::string& name);
 
 struct SheetSceneOptions {

@@ -2,7 +2,7 @@
 // generator.
 //
 //   polysft --scene DIR --out DIR [--config FILE] [--overlays]
-//   polysft generate --out DIR [--motion bend|wave|rigid|mixed] [--frames N] ...
+//   polysft generate --out DIR [--motion bend|wave|rigid|mixed|roll|crease|wave_packet] [--frames N] ...
 //   polysft demo [--dir DIR]      generate the default scene, then solve it
 //
 // Defaults live in PolySftOptions and SheetSceneOptions; this file maps
@@ -84,7 +84,8 @@ CLI::App* AddGenerateCommand(CLI::App* app, GenerateFlags* f) {
   polyfit::SheetSceneOptions& o = f->options;
   CLI::App* generate = app->add_subcommand("generate", "Write a synthetic sheet scene with exact ground truth");
   generate->add_option("--out", f->out, "Scene directory to write")->required();
-  generate->add_option("--motion", f->motion, "bend, wave, rigid, mixed or roll")->capture_default_str();
+  generate->add_option("--motion", f->motion, "bend, wave, rigid, mixed, roll, crease or wave_packet")
+      ->capture_default_str();
   generate->add_option("--frames", o.frame_count, "Frames")->capture_default_str();
   generate->add_option("--width", o.width, "Image width")->capture_default_str();
   generate->add_option("--height", o.height, "Image height")->capture_default_str();
