@@ -43,6 +43,9 @@ def test_polysft_equals_the_command_line(scene, tmp_path):
         assert np.isfinite(frame.e3d) and frame.e3d < 0.05
     assert summary.mean_e3d == pytest.approx(np.mean([f.e3d for f in summary.frames]))
     assert len(summary.trace) >= 3 and summary.trace[-1].time_s > 0
+    # Chosen by the solver, as the command line records them.
+    assert summary.silhouette_band_px == metrics["silhouette_band_px"] == 0.0  # exact generated masks
+    assert summary.pyramid_levels == metrics["pyramid_levels"] == 3
 
 
 def test_settings_are_the_command_lines(scene, tmp_path):
