@@ -362,6 +362,21 @@ class PolySftController {
     }
   }
 
+  // The warm start of a new frame: the newest frame's parameters, moved on
+  // by their last change (constant velocity of the deformation and the
+  // rigid motion) when PolySftOptions::predict_motion.
+  std::vector<double> PredictTheta() const {
+    if (window_.empty()) return std::vector<double>(model_.num_parameters(), 0.0);
+    std::vector<double> theta = window_.back()->theta;
+    const std::vector<double>* before = window_.size() >= 2   ? &window_[window_.size() - 2]->theta
+                                        : has_previous_final_ ? &previous_final_theta_
+                                                              : nullptr;
+    if (options_.predict_motion && before != nullptr) {
+      for (size_t k = 0; k < theta.size(); ++k) theta[k] += theta[k] - (*before)[k];
+    }
+    return theta;
+  }
+
   // Loads frame t with its pyramid, warm-started from the newest frame.
   void AddFrameToWindow(int t) {
     auto data = std::make_unique<FrameData>();
@@ -394,7 +409,7 @@ class PolySftController {
       summary_.warnings.emplace_back("frame " + std::to_string(data->frame.index) +
                                      ": the mask is empty (object not visible?): its image terms are skipped");
     }
-    data->theta = window_.empty() ? std::vector<double>(model_.num_parameters(), 0.0) : window_.back()->theta;
+    data->theta = PredictTheta();
     window_.push_back(std::move(data));
   }
 
@@ -588,6 +603,7 @@ class PolySftController {
       result.chamfer_1e4 = ComputePointChamfer1e4(surface, data.frame.ground_truth);
     }
     previous_final_ = result.vertices;
+    previous_final_theta_ = data.theta;
     has_previous_final_ = true;
     summary_.frames.push_back(result);
     if (on_frame_) on_frame_(summary_.frames.back());
@@ -628,6 +644,7 @@ class PolySftController {
   std::vector<LevelData> levels_;
   std::deque<std::unique_ptr<FrameData>> window_;
   Eigen::Matrix3Xd previous_final_;  // the frame before the window, once there is one
+  std::vector<double> previous_final_theta_;
   bool has_previous_final_ = false;
   double first_cost_ = -1.0;
   std::vector<double> frame_time_, frame_cost_;

@@ -67,6 +67,12 @@ struct PolySftOptions {
   // Map each frame to the texture's lighting (per-channel gain and bias,
   // sft/solver/brightness.h) before the photometric term compares them.
   bool match_brightness = true;
+  // Start each frame from the last one moved on by its last change
+  // (constant velocity), not from the last one: fast smooth motion stays
+  // within the pyramid's reach and takes fewer iterations, but a motion
+  // that reverses between two frames is overshot (off by default until
+  // the prediction is checked against the frame; docs/benchmarks.md).
+  bool predict_motion = false;
   // Per-pixel robust loss of the photometric residual (real video).
   RobustLoss robust_loss = RobustLoss::kNone;
   double robust_scale = 0.1;

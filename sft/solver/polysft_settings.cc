@@ -66,6 +66,7 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("temporal_weight", temporal_weight),
         POLYFIT_SETTING("silhouette_band", silhouette_band),
         POLYFIT_SETTING("match_brightness", match_brightness),
+        POLYFIT_SETTING("predict_motion", predict_motion),
         POLYFIT_SETTING("sigma", rasterizer.sigma),
         POLYFIT_SETTING("gamma", rasterizer.gamma),
         POLYFIT_SETTING("robust_scale", robust_scale),

@@ -27,6 +27,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.temporal_weight = 0.3;
   changed.silhouette_band = 4.5;
   changed.match_brightness = false;
+  changed.predict_motion = true;
   changed.rasterizer.sigma = 2.5;
   changed.rasterizer.gamma = 0.2;
   changed.robust_loss = RobustLoss::kCauchy;
