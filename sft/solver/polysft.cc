@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <deque>
 #include <filesystem>
+#include <limits>
 #include <memory>
 
 #include <ceres/ceres.h>
@@ -410,6 +411,14 @@ class PolySftController {
                                      ": the mask is empty (object not visible?): its image terms are skipped");
     }
     data->theta = PredictTheta();
+    // The prediction is kept only where the frame agrees: a motion that
+    // reverses between frames is overshot by it.
+    if (options_.predict_motion && !window_.empty() && !data->mask_empty && (use_photometric_ || use_masks_)) {
+      const double predicted = CoarseImageCost(*data);
+      std::vector<double> predicted_theta = std::move(data->theta);
+      data->theta = window_.back()->theta;
+      if (!(CoarseImageCost(*data) <= predicted)) data->theta = std::move(predicted_theta);
+    }
     window_.push_back(std::move(data));
   }
 
@@ -419,8 +428,33 @@ class PolySftController {
     if (frame.mask_empty || (!use_photometric_ && !use_masks_)) return true;
     const LevelData& level = levels_[l];
     RenderCost::Data d;
+    ScreenMesh screen;
+    if (!ImageTermData(l, frame, window_.size() > 1 ? level.serial_rasterizer.get() : level.rasterizer.get(), &d,
+                       &screen)) {
+      return false;
+    }
+    if (d.roi.area() <= 0) return true;
+    if (use_photometric_ && options_.match_brightness) {
+      frame.compensated.resize(levels_.size());
+      if (frame.compensated[l].empty()) {
+        frame.brightness = MatchFrameBrightness(*d.rasterizer, screen, level.camera, d.image, d.mask, d.roi);
+        frame.compensated[l] = CompensateBrightness(d.image, frame.brightness);
+      }
+      d.image = frame.compensated[l];
+    }
+    problem->AddResidualBlock(new CompressedRenderCost(std::move(d)), nullptr, frame.theta.data());
+    return true;
+  }
+
+  // The image terms' data of a frame at a level, at its parameters (the
+  // frame's own lighting, before brightness matching); false when the
+  // surface went behind the camera.
+  bool ImageTermData(int l, const FrameData& frame, const SoftRasterizer* rasterizer, RenderCost::Data* out,
+                     ScreenMesh* screen_out) const {
+    const LevelData& level = levels_[l];
+    RenderCost::Data d;
     d.model = &model_;
-    d.rasterizer = window_.size() > 1 ? level.serial_rasterizer.get() : level.rasterizer.get();
+    d.rasterizer = rasterizer;
     d.mesh = mesh_template_;
     d.camera = level.camera;
     d.image = frame.images[l];
@@ -439,17 +473,23 @@ class PolySftController {
     d.silhouette_weight = std::sqrt(options_.silhouette_weight / level_pixels);
     d.robust_loss = options_.robust_loss;
     d.robust_scale = options_.robust_scale * d.photometric_weight;
-    if (d.roi.area() <= 0) return true;
-    if (use_photometric_ && options_.match_brightness) {
-      frame.compensated.resize(levels_.size());
-      if (frame.compensated[l].empty()) {
-        frame.brightness = MatchFrameBrightness(*d.rasterizer, screen, level.camera, d.image, d.mask, d.roi);
-        frame.compensated[l] = CompensateBrightness(d.image, frame.brightness);
-      }
-      d.image = frame.compensated[l];
-    }
-    problem->AddResidualBlock(new CompressedRenderCost(std::move(d)), nullptr, frame.theta.data());
+    *out = std::move(d);
+    *screen_out = std::move(screen);
     return true;
+  }
+
+  // The image terms' cost of a frame at its parameters, at the coarsest
+  // level (infinite when the surface is behind the camera).
+  double CoarseImageCost(const FrameData& frame) const {
+    RenderCost::Data d;
+    ScreenMesh screen;
+    if (!ImageTermData(0, frame, levels_[0].rasterizer.get(), &d, &screen)) {
+      return std::numeric_limits<double>::infinity();
+    }
+    if (d.roi.area() <= 0) return 0.0;
+    double squared_norm = 0.0;
+    RenderCost(std::move(d)).EvaluateNormalEquations(frame.theta.data(), &squared_norm, nullptr, nullptr);
+    return squared_norm;
   }
 
   // The frame's lighting against the texture's, from a render of the

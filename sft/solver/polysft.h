@@ -68,10 +68,12 @@ struct PolySftOptions {
   // sft/solver/brightness.h) before the photometric term compares them.
   bool match_brightness = true;
   // Start each frame from the last one moved on by its last change
-  // (constant velocity), not from the last one: fast smooth motion stays
-  // within the pyramid's reach and takes fewer iterations, but a motion
-  // that reverses between two frames is overshot (off by default until
-  // the prediction is checked against the frame; docs/benchmarks.md).
+  // (constant velocity) where that fits the frame better than the last
+  // one does (the image terms at the coarsest level): fast smooth motion
+  // stays within the pyramid's reach and takes fewer iterations, and a
+  // motion that reverses between two frames is not overshot. Off by
+  // default: once tracking is lost, the prediction carries the lost
+  // motion on and the surface is not found again (docs/benchmarks.md).
   bool predict_motion = false;
   // Per-pixel robust loss of the photometric residual (real video).
   RobustLoss robust_loss = RobustLoss::kNone;
