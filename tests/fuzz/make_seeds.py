@@ -20,6 +20,8 @@ import tempfile
 HERE = os.path.dirname(os.path.abspath(__file__))
 CORPUS = os.path.join(HERE, "corpus")
 DATA = os.path.join(HERE, "..", "data")
+# Read where it is, never copied (a clip on the CMU rig the procedural body shares).
+SHARED_CLIP = os.path.join(HERE, "..", "..", "..", "shared", "data", "drape", "motion", "02_01.bvh")
 
 
 def put(target, name, content):
@@ -120,13 +122,14 @@ def bvh_seeds(target):
         motion += "0.1 %g 0 %g 0 0 %g 0 0 0 0 %g 0 0 0\n" % (17 + t * 0.1, 5 * t, -10 * t, 20 * t)
     put(target, "three_joints.bvh", hierarchy + motion)
     # The degenerate motions need no rig: one joint, rotations only, in the
-    # order X Y Z.
-    bone = ("HIERARCHY\nROOT bone\n{\n OFFSET 0 0 0\n CHANNELS 3 Xrotation Yrotation Zrotation\n"
-            " End Site\n {\n  OFFSET 0 2 0\n }\n}\n")
-    put(target, "no_frames.bvh", bone + "MOTION\nFrames: 0\nFrame Time: 0.04\n")
-    put(target, "short_frame.bvh", bone + "MOTION\nFrames: 2\nFrame Time: 0.04\n0 0\n")
+    # order X Y Z. The reader takes tokens, not lines, up to the Frame Time
+    # line: the rig and the motion's header each on one line (only frames
+    # are read a line each).
+    bone = "HIERARCHY ROOT bone { OFFSET 0 0 0 CHANNELS 3 Xrotation Yrotation Zrotation End Site { OFFSET 0 2 0 } }\n"
+    put(target, "no_frames.bvh", bone + "MOTION Frames: 0 Frame Time: 0.04\n")
+    put(target, "short_frame.bvh", bone + "MOTION Frames: 2 Frame Time: 0.04\n0 0\n")
     # The first finding (UBSan): a frame count beyond int.
-    put(target, "regression_frame_count_overflow.bvh", bone + "MOTION\nFrames: 42147483647\nFrame Time: 0.03\n0 0 0\n")
+    put(target, "regression_frame_count_overflow.bvh", bone + "MOTION Frames: 42147483647 Frame Time: 0.03\n0 0 0\n")
 
 
 def mhclo_seeds(target):
@@ -180,7 +183,7 @@ def generated_seeds(build):
                     os.path.join(CORPUS, "polysft_config_fuzzer", "bad_sft_config.json"))
         # A tiny OneFit model: the procedural body, layers of width 4.
         model = os.path.join(tmp, "tiny.pfonefit")
-        clip = os.path.join(CORPUS, "bvh_fuzzer", "three_joints.bvh")
+        clip = SHARED_CLIP  # the seeds' own rig names no joint of the body's
         garment = os.path.join(tmp, "square.obj")
         with open(garment, "w") as f:
             f.write("v -0.1 1.0 0.2\nv 0.1 1.0 0.2\nv 0.1 1.2 0.2\nv -0.1 1.2 0.2\nf 1 2 3\nf 1 3 4\n")
