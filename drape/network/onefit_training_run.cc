@@ -10,6 +10,7 @@
 
 #include "drape/motion/mirror_pose.h"
 #include "drape/motion/perturb_pose.h"
+#include "drape/network/onefit_draper.h"
 #include "drape/simulate/drape_inputs.h"
 #include "polyfit/util/atomic_file.h"
 
@@ -177,9 +178,7 @@ std::unique_ptr<OneFitTrainer> MakeTrainer(const OneFitTrainingRunOptions& optio
     init = LoadOneFitModel(options.init_model_path);
     trainer_options.network.warp_order = init.network.warp_order();
     trainer_options.network.local_pose = init.network.local_pose();
-    trainer_options.drape.patching.align_frames = init.aligned_frames;
-    trainer_options.drape.patching.patch_area = init.patch_area;
-    trainer_options.drape.patching.max_fit_error = init.max_fit_error;
+    PatchLikeModel(init, &trainer_options.drape);
   }
   auto trainer = std::make_unique<OneFitTrainer>(LoadTrainingBodies(options, body), trainer_options);
   if (!options.validation_motion_path.empty()) {

@@ -363,19 +363,23 @@ class PolySftController {
     }
   }
 
-  // The warm start of a new frame: the newest frame's parameters, moved on
-  // by their last change (constant velocity of the deformation and the
-  // rigid motion) when PolySftOptions::predict_motion.
-  std::vector<double> PredictTheta() const {
+  // The warm start of a new frame: the newest frame's parameters, or with
+  // PolySftOptions::predict_motion those moved on by their last change
+  // (constant velocity of the deformation and the rigid motion) where the
+  // frame prefers them: a motion that reverses between frames is
+  // overshot by the prediction.
+  std::vector<double> WarmStart(const FrameData& data) const {
     if (window_.empty()) return std::vector<double>(model_.num_parameters(), 0.0);
-    std::vector<double> theta = window_.back()->theta;
+    const std::vector<double>& last = window_.back()->theta;
     const std::vector<double>* before = window_.size() >= 2   ? &window_[window_.size() - 2]->theta
                                         : has_previous_final_ ? &previous_final_theta_
                                                               : nullptr;
-    if (options_.predict_motion && before != nullptr) {
-      for (size_t k = 0; k < theta.size(); ++k) theta[k] += theta[k] - (*before)[k];
+    if (!options_.predict_motion || before == nullptr || data.mask_empty || (!use_photometric_ && !use_masks_)) {
+      return last;
     }
-    return theta;
+    std::vector<double> predicted = last;
+    for (size_t k = 0; k < predicted.size(); ++k) predicted[k] += last[k] - (*before)[k];
+    return CoarseImageCost(data, predicted.data()) < CoarseImageCost(data, last.data()) ? predicted : last;
   }
 
   // Loads frame t with its pyramid, warm-started from the newest frame.
@@ -410,15 +414,7 @@ class PolySftController {
       summary_.warnings.emplace_back("frame " + std::to_string(data->frame.index) +
                                      ": the mask is empty (object not visible?): its image terms are skipped");
     }
-    data->theta = PredictTheta();
-    // The prediction is kept only where the frame agrees: a motion that
-    // reverses between frames is overshot by it.
-    if (options_.predict_motion && !window_.empty() && !data->mask_empty && (use_photometric_ || use_masks_)) {
-      const double predicted = CoarseImageCost(*data);
-      std::vector<double> predicted_theta = std::move(data->theta);
-      data->theta = window_.back()->theta;
-      if (!(CoarseImageCost(*data) <= predicted)) data->theta = std::move(predicted_theta);
-    }
+    data->theta = WarmStart(*data);
     window_.push_back(std::move(data));
   }
 
@@ -429,8 +425,8 @@ class PolySftController {
     const LevelData& level = levels_[l];
     RenderCost::Data d;
     ScreenMesh screen;
-    if (!ImageTermData(l, frame, window_.size() > 1 ? level.serial_rasterizer.get() : level.rasterizer.get(), &d,
-                       &screen)) {
+    if (!ImageTermData(l, frame, frame.theta.data(),
+                       window_.size() > 1 ? level.serial_rasterizer.get() : level.rasterizer.get(), &d, &screen)) {
       return false;
     }
     if (d.roi.area() <= 0) return true;
@@ -446,11 +442,11 @@ class PolySftController {
     return true;
   }
 
-  // The image terms' data of a frame at a level, at its parameters (the
+  // The image terms' data of a frame at a level, at parameters theta (the
   // frame's own lighting, before brightness matching); false when the
   // surface went behind the camera.
-  bool ImageTermData(int l, const FrameData& frame, const SoftRasterizer* rasterizer, RenderCost::Data* out,
-                     ScreenMesh* screen_out) const {
+  bool ImageTermData(int l, const FrameData& frame, const double* theta, const SoftRasterizer* rasterizer,
+                     RenderCost::Data* out, ScreenMesh* screen_out) const {
     const LevelData& level = levels_[l];
     RenderCost::Data d;
     d.model = &model_;
@@ -463,7 +459,7 @@ class PolySftController {
       d.mask_upper = frame.masks_upper[l];
     }
     Eigen::Matrix3Xd vertices;
-    model_.Evaluate(frame.theta.data(), &vertices);
+    model_.Evaluate(theta, &vertices);
     ScreenMesh screen = mesh_template_;
     if (!ProjectVertices(level.camera, vertices, &screen, nullptr)) return false;
     const double level_pixels = template_pixels_ * level.scale * level.scale;
@@ -478,17 +474,17 @@ class PolySftController {
     return true;
   }
 
-  // The image terms' cost of a frame at its parameters, at the coarsest
+  // The image terms' cost of a frame at parameters theta, at the coarsest
   // level (infinite when the surface is behind the camera).
-  double CoarseImageCost(const FrameData& frame) const {
+  double CoarseImageCost(const FrameData& frame, const double* theta) const {
     RenderCost::Data d;
     ScreenMesh screen;
-    if (!ImageTermData(0, frame, levels_[0].rasterizer.get(), &d, &screen)) {
+    if (!ImageTermData(0, frame, theta, levels_[0].rasterizer.get(), &d, &screen)) {
       return std::numeric_limits<double>::infinity();
     }
     if (d.roi.area() <= 0) return 0.0;
     double squared_norm = 0.0;
-    RenderCost(std::move(d)).EvaluateNormalEquations(frame.theta.data(), &squared_norm, nullptr, nullptr);
+    RenderCost(std::move(d)).EvaluateNormalEquations(theta, &squared_norm, nullptr, nullptr);
     return squared_norm;
   }
 
