@@ -106,5 +106,28 @@ TEST(CompressedCostTest, SameCostGradientAndGaussNewtonModel) {
   EXPECT_NEAR(rs.squaredNorm(), rf.squaredNorm(), 1e-9);
 }
 
+// Above kCompressedEigenLimit parameters the compression is a pivoted
+// Cholesky: the same cost, gradient and Gauss-Newton model, also when J
+// has a zero and a repeated column.
+TEST(CompressedCostTest, LargeSystemsCompressByPivotedCholesky) {
+  const int m = 400, n = kCompressedEigenLimit + 36;
+  std::srand(3);
+  Eigen::MatrixXd j = Eigen::MatrixXd::Random(m, n);
+  j.col(5).setZero();
+  j.col(9) = j.col(7);
+  const Eigen::VectorXd r = Eigen::VectorXd::Random(m);
+  const Eigen::MatrixXd jtj = j.transpose() * j;
+  const Eigen::VectorXd jtr = j.transpose() * r;
+  std::vector<double> residuals(n + 1), jacobian(static_cast<size_t>(n + 1) * n);
+  double* jacobians[1] = {jacobian.data()};
+  WriteCompressedResiduals({n}, r.squaredNorm(), jtj, jtr, residuals.data(), jacobians);
+  const Eigen::Map<const Eigen::VectorXd> rs(residuals.data(), n + 1);
+  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> js(jacobian.data(),
+                                                                                                   n + 1, n);
+  EXPECT_NEAR(rs.squaredNorm(), r.squaredNorm(), 1e-9 * r.squaredNorm());
+  EXPECT_LT((js.transpose() * rs - jtr).norm(), 1e-9 * jtr.norm());
+  EXPECT_LT((js.transpose() * js - jtj).norm(), 1e-9 * jtj.norm());
+}
+
 }  // namespace
 }  // namespace polyfit

@@ -9,6 +9,15 @@
 // the rigid motion's). Parameters, in this order:
 //   [dalpha | du, dv | omega (R_c = exp(omega), angle-axis) | T_c].
 //
+// The atlas: the template's vertices are split among patches, each with
+// its own parameter block (the layout above) and its own centre c_k (in the
+// frame's (u, v, z); the whole template's is 0), about which it turns:
+//   X_i = s R_O (R_k (phi(u_i + du_k, v_i + dv_k; alpha + dalpha_k) - c_k) + c_k + T_k) + T_O.
+// Every patch keeps the template's frame, jet and (u, v), so a patch split
+// in children that inherit its block (InheritParameters) leaves the surface
+// exactly where it was: refinement adds freedom, never a jump. theta is the
+// blocks in patch order. One patch, the paper's model, until SplitPatch.
+//
 // Templates that are no height field over one plane (a cylinder, a folded
 // cloth) fall back to a texture-space field: the template's texture
 // coordinates (s, t) parameterise it whatever its shape, and
@@ -21,8 +30,10 @@
 #include <string>
 #include <vector>
 
+#include <ceres/rotation.h>
 #include <Eigen/Core>
 
+#include "polyfit/jet/jet_surface.h"
 #include "polyfit/mesh/triangle_mesh.h"
 #include "polyfit/patch/jet_patch.h"
 
@@ -45,6 +56,15 @@ struct JetDeformationOptions {
   std::string Validate() const;
 };
 
+// What SplitPatch did: patch `patch` became itself and the patches
+// first_new .. first_new + num_children - 2.
+struct PatchSplit {
+  int patch = 0;
+  int first_new = 0;
+  int num_children = 0;
+  Eigen::Vector3d parent_centre = Eigen::Vector3d::Zero();
+};
+
 class JetDeformationModel {
  public:
   // Fits the template (3 by #V, camera frame) with one patch. When it is no
@@ -59,7 +79,10 @@ class JetDeformationModel {
   bool texture_space() const { return texture_space_; }
 
   int num_vertices() const { return static_cast<int>(uv_.cols()); }
-  int num_parameters() const { return num_dalpha_ + num_duv_ + 6; }
+  // One patch's parameters: [dalpha | du, dv | omega | T].
+  int block_size() const { return num_dalpha_ + num_duv_ + 6; }
+  int num_patches() const { return static_cast<int>(centres_.size()); }
+  int num_parameters() const { return num_patches() * block_size(); }
   int num_dalpha() const { return num_dalpha_; }
   int num_duv() const { return num_duv_; }
   int rotation_offset() const { return num_dalpha_ + num_duv_; }
@@ -70,14 +93,45 @@ class JetDeformationModel {
   // RMS distance between the template and the model at zero parameters.
   double template_rms_error() const { return template_rms_error_; }
 
+  // The atlas. #V patch indices.
+  const std::vector<int>& vertex_patches() const { return vertex_patch_; }
+  int patch_of_vertex(int i) const { return vertex_patch_[i]; }
+  // Vertices per patch.
+  std::vector<int> PatchSizes() const;
+  // Only the patch jet with a compact uv field splits (per-vertex uv and
+  // the texture-space field keep one patch).
+  bool can_split() const { return !texture_space_ && options_.uv_displacement == UvDisplacement::kCompactField; }
+  // child_of_vertex (#V): for the vertices of `patch`, which of its
+  // num_children children takes them (0 keeps the patch's index; the others
+  // are appended); other entries are ignored. Throws std::invalid_argument
+  // when the model cannot split or a child would be empty.
+  PatchSplit SplitPatch(int patch, const std::vector<int>& child_of_vertex);
+  // theta from before `split`, extended so that every child carries on
+  // exactly as its parent: same jet and uv field, and the same rigid motion
+  // about its own centre.
+  std::vector<double> InheritParameters(const PatchSplit& split, const std::vector<double>& theta) const;
+
   // Vertices (3 by #V) for parameters theta, and optionally their Jacobian
   // (3 #V by num_parameters, row 3 i + k is coordinate k of vertex i; for
   // per-vertex uv only the vertex's own two columns are non-zero).
   void Evaluate(const double* theta, Eigen::Matrix3Xd* vertices, Eigen::MatrixXd* jacobian = nullptr) const;
+  // The same with each vertex's Jacobian against its own patch's block only
+  // (3 #V by block_size(); rows 3 i .. 3 i + 2 are d X_i / d theta_p,
+  // p = patch_of_vertex(i)): the rest of its row is zero.
+  void EvaluateLocal(const double* theta, Eigen::Matrix3Xd* vertices, Eigen::MatrixXd* local_jacobian) const;
+  // Vertex i where patch p (its own or not) puts it, from p's block;
+  // jacobian (3 by block_size(), row-major) may be null.
+  void EvaluateVertex(int i, int p, const double* block, double* x, double* jacobian) const;
+
+  // Vertex i where patch p puts it, and p's unit normal there: the
+  // definition EvaluateVertex differentiates by hand (patch jet only), for
+  // automatic differentiation.
+  template <typename T>
+  void VertexOnPatch(int i, int p, const T* block, T* x, T* normal) const;
 
  private:
-  void EvaluateTextureSpace(const double* theta, Eigen::Matrix3Xd* vertices, Eigen::MatrixXd* jacobian) const;
-  void EvaluatePatchJet(const double* theta, Eigen::Matrix3Xd* vertices, Eigen::MatrixXd* jacobian) const;
+  void EvaluateTextureSpace(int i, const double* block, double* x, double* jacobian) const;
+  void EvaluatePatchJet(int i, int p, const double* block, double* x, double* jacobian) const;
   JetDeformationOptions options_;
   JetPatch patch_;
   Eigen::Matrix2Xd uv_;
@@ -87,6 +141,9 @@ class JetDeformationModel {
   int num_dalpha_ = 0;
   int num_duv_ = 0;
   double template_rms_error_ = 0.0;
+  // The atlas: each vertex's patch, each patch's centre (frame coordinates).
+  std::vector<int> vertex_patch_;
+  std::vector<Eigen::Vector3d> centres_;
   // The texture-space fallback.
   bool texture_space_ = false;
   Eigen::Matrix3Xd template_;
@@ -94,6 +151,38 @@ class JetDeformationModel {
   // Monomials of (s, t) at each vertex without the constant: (K - 1) by #V.
   Eigen::MatrixXd st_monomials_;
 };
+
+template <typename T>
+void JetDeformationModel::VertexOnPatch(int i, int p, const T* block, T* x, T* normal) const {
+  const int order = patch_.order, num_alpha = NumJetCoefficients(order);
+  T alpha[kMaxJetCoefficients];
+  for (int k = 0; k < num_alpha; ++k) alpha[k] = T(patch_.coefficients[k]) + (k >= 3 ? block[k - 3] : T(0.0));
+  const int m = static_cast<int>(uv_monomials_.rows());
+  T du(0.0), dv(0.0);
+  for (int k = 0; k < m; ++k) {
+    du += block[num_dalpha_ + k] * uv_monomials_(k, i);
+    dv += block[num_dalpha_ + m + k] * uv_monomials_(k, i);
+  }
+  const T u = T(uv_(0, i)) + du, v = T(uv_(1, i)) + dv;
+  const JetHeightDerivatives<T> d = EvaluateJetDerivatives(order, alpha, u, v);
+  const Eigen::Vector3d& c = centres_[p];
+  const T phi[3] = {u - c.x(), v - c.y(), d.z - c.z()};
+  T local_normal[3], moved[3], turned[3];
+  JetNormal(d, local_normal);
+  ceres::AngleAxisRotatePoint(block + rotation_offset(), phi, moved);
+  ceres::AngleAxisRotatePoint(block + rotation_offset(), local_normal, turned);
+  const T* translation = block + translation_offset();
+  for (int k = 0; k < 3; ++k) moved[k] += c[k] + translation[k];
+  const Eigen::Matrix3d& rotation = patch_.frame.rotation;
+  for (int r = 0; r < 3; ++r) {
+    x[r] = T(patch_.frame.translation[r]);
+    normal[r] = T(0.0);
+    for (int k = 0; k < 3; ++k) {
+      x[r] += T(patch_.frame.scale * rotation(r, k)) * moved[k];
+      normal[r] += T(rotation(r, k)) * turned[k];
+    }
+  }
+}
 
 // Per-vertex texture coordinates (2 by #V) from per-corner ones: the mean
 // of each vertex's corners (vertices on a texture seam get a compromise).

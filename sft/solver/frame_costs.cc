@@ -1,8 +1,10 @@
 #include "sft/solver/frame_costs.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
+#include <ceres/dynamic_autodiff_cost_function.h>
 #include <ceres/jet.h>
 
 #include "cost_functions/edge_inextensibility.h"
@@ -14,13 +16,19 @@ namespace polyfit {
 RenderCost::RenderCost(Data data) : data_(std::move(data)) {
   channels_ = data_.mask.empty() ? 3 : 4;
   set_num_residuals(data_.roi.area() * channels_);
-  mutable_parameter_block_sizes()->push_back(data_.model->num_parameters());
+  for (int p = 0; p < data_.model->num_patches(); ++p) {
+    mutable_parameter_block_sizes()->push_back(data_.model->block_size());
+  }
   screen_ = data_.mesh;
 }
 
 bool RenderCost::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
-  const bool want = jacobians != nullptr && jacobians[0] != nullptr;
-  return Compute(parameters[0], residuals, want ? jacobians[0] : nullptr, nullptr, nullptr, nullptr);
+  const int b = data_.model->block_size(), K = data_.model->num_patches();
+  theta_.resize(static_cast<size_t>(b) * K);
+  for (int p = 0; p < K; ++p) std::copy(parameters[p], parameters[p] + b, theta_.begin() + static_cast<size_t>(b) * p);
+  bool want = jacobians != nullptr;
+  for (int p = 0; want && p < K; ++p) want = jacobians[p] != nullptr;
+  return Compute(theta_.data(), residuals, want ? jacobians : nullptr, nullptr, nullptr, nullptr);
 }
 
 bool RenderCost::EvaluateNormalEquations(const double* theta, double* squared_norm, Eigen::MatrixXd* jtj,
@@ -52,34 +60,81 @@ void ApplyRobustLoss(RobustLoss loss, double b, double* r, double* jacobian_scal
 
 }  // namespace
 
-void RenderCost::ChainPixelJacobian(int pixel, int P, PixelRows* local) const {
-  // local (4 by P) = sum over the pixel's vertices of d (4 by 3) times their
-  // 3 by P rows; written out, as Eigen's dynamic-size product costs more
-  // than the arithmetic at this size.
-  local->setZero();
-  for (int k = render_.begin[pixel]; k < render_.end[pixel]; ++k) {
-    const VertexGradient& g = render_.gradients[k];
-    const double* s0 = screen_theta_.data() + static_cast<size_t>(3 * g.vertex) * P;
-    const double* s1 = s0 + P;
-    const double* s2 = s1 + P;
-    for (int a = 0; a < 4; ++a) {
-      const double d0 = g.d[a][0], d1 = g.d[a][1], d2 = g.d[a][2];
-      double* out = local->data() + static_cast<size_t>(a) * P;
-      for (int c = 0; c < P; ++c) out[c] += d0 * s0[c] + d1 * s1[c] + d2 * s2[c];
-    }
+void RenderCost::PixelResiduals(int y, int x, double* r, double* jacobian_scale, bool* in_band) const {
+  const cv::Vec3f rendered = render_.color.at<cv::Vec3f>(y, x), observed = data_.image.at<cv::Vec3f>(y, x);
+  for (int ch = 0; ch < 3; ++ch) r[ch] = data_.photometric_weight * (rendered[ch] - observed[ch]);
+  *jacobian_scale = data_.photometric_weight;
+  *in_band = false;
+  ApplyRobustLoss(data_.robust_loss, data_.robust_scale, r, jacobian_scale);
+  if (channels_ == 4) {
+    const double s = render_.silhouette.at<float>(y, x), lo = data_.mask.at<float>(y, x);
+    const double hi = data_.mask_upper.empty() ? lo : data_.mask_upper.at<float>(y, x);
+    *in_band = s > lo && s < hi;  // (lo < hi only in a band)
+    r[3] = data_.silhouette_weight * (s - std::clamp(s, lo, hi));
   }
 }
 
-void RenderCost::ResetAccumulators(int threads, int P, bool want_jacobian) const {
-  accumulators_.resize(threads);
-  for (Accumulator& a : accumulators_) {
-    a.squared_norm = 0.0;
-    if (want_jacobian) {
-      a.jtj.setZero(P, P);
-      a.jtr.setZero(P);
-      a.rows.resize(kBlockRows, P);
-      a.values.resize(kBlockRows);
-      a.count = 0;
+bool RenderCost::GatherPatches(int pixel, PixelPatches* out) const {
+  const std::vector<int>& vertex_patch = data_.model->vertex_patches();
+  out->size = 0;
+  for (int k = render_.begin[pixel]; k < render_.end[pixel]; ++k) {
+    const int p = vertex_patch[render_.gradients[k].vertex];
+    int j = 0;
+    while (j < out->size && out->patches[j] < p) ++j;
+    if (j < out->size && out->patches[j] == p) continue;
+    if (out->size == kMaxPatchesPerPixel) return false;
+    for (int m = out->size; m > j; --m) out->patches[m] = out->patches[m - 1];
+    out->patches[j] = p;
+    ++out->size;
+  }
+  return true;
+}
+
+RenderCost::Accumulator& RenderCost::FindAccumulator(ThreadState* state, const PixelPatches& patches, int block) const {
+  auto same = [&](const Accumulator& a) {
+    return a.size == patches.size && std::equal(patches.patches, patches.patches + patches.size, a.patches);
+  };
+  if (state->last < static_cast<int>(state->accumulators.size()) && same(state->accumulators[state->last])) {
+    return state->accumulators[state->last];
+  }
+  for (size_t k = 0; k < state->accumulators.size(); ++k) {
+    if (same(state->accumulators[k])) {
+      state->last = static_cast<int>(k);
+      return state->accumulators[k];
+    }
+  }
+  // First seen: allocated once, then kept for later evaluations.
+  Accumulator a;
+  std::copy(patches.patches, patches.patches + patches.size, a.patches);
+  a.size = patches.size;
+  const int n = patches.size * block;
+  a.jtj.setZero(n, n);
+  a.jtr.setZero(n);
+  a.rows.resize(kBlockRows, n);
+  a.values.resize(kBlockRows);
+  state->accumulators.push_back(std::move(a));
+  state->last = static_cast<int>(state->accumulators.size()) - 1;
+  return state->accumulators.back();
+}
+
+void RenderCost::ChainPixelJacobian(int pixel, const PixelPatches& patches, int block, double* local) const {
+  // local (4 by |patches| block) = sum over the pixel's vertices of d (4 by
+  // 3) times their 3 by block rows, at their patch's columns; written out,
+  // as Eigen's dynamic-size product costs more than the arithmetic here.
+  const int n = patches.size * block;
+  std::fill(local, local + 4 * n, 0.0);
+  const std::vector<int>& vertex_patch = data_.model->vertex_patches();
+  for (int k = render_.begin[pixel]; k < render_.end[pixel]; ++k) {
+    const VertexGradient& g = render_.gradients[k];
+    const int slot = static_cast<int>(
+        std::find(patches.patches, patches.patches + patches.size, vertex_patch[g.vertex]) - patches.patches);
+    const double* s0 = screen_theta_.data() + static_cast<size_t>(3 * g.vertex) * block;
+    const double* s1 = s0 + block;
+    const double* s2 = s1 + block;
+    for (int a = 0; a < 4; ++a) {
+      const double d0 = g.d[a][0], d1 = g.d[a][1], d2 = g.d[a][2];
+      double* out = local + static_cast<size_t>(a) * n + static_cast<size_t>(slot) * block;
+      for (int c = 0; c < block; ++c) out[c] += d0 * s0[c] + d1 * s1[c] + d2 * s2[c];
     }
   }
 }
@@ -94,32 +149,43 @@ void RenderCost::Flush(Accumulator* a) {
 void RenderCost::ReduceAccumulators(int P, bool want_jacobian, double* squared_norm, Eigen::MatrixXd* jtj,
                                     Eigen::VectorXd* jtr) const {
   *squared_norm = 0.0;
-  for (Accumulator& a : accumulators_) *squared_norm += a.squared_norm;
+  for (ThreadState& t : threads_) *squared_norm += t.squared_norm;
   if (!want_jacobian) return;
+  const int b = data_.model->block_size();
   jtj->setZero(P, P);
   jtr->setZero(P);
-  for (Accumulator& a : accumulators_) {
-    Flush(&a);
-    *jtj += a.jtj;
-    *jtr += a.jtr;
+  for (ThreadState& t : threads_) {
+    for (Accumulator& a : t.accumulators) {
+      Flush(&a);
+      a.jtj.triangularView<Eigen::StrictlyUpper>() = a.jtj.transpose();
+      for (int i = 0; i < a.size; ++i) {
+        jtr->segment(static_cast<Eigen::Index>(b) * a.patches[i], b) += a.jtr.segment(b * i, b);
+        for (int j = 0; j < a.size; ++j) {
+          jtj->block(static_cast<Eigen::Index>(b) * a.patches[i], static_cast<Eigen::Index>(b) * a.patches[j], b, b) +=
+              a.jtj.block(b * i, b * j, b, b);
+        }
+      }
+    }
   }
-  *jtj = jtj->selfadjointView<Eigen::Lower>();
 }
 
-bool RenderCost::Compute(const double* theta, double* residuals, double* jacobian, double* squared_norm,
+bool RenderCost::Compute(const double* theta, double* residuals, double** jacobians, double* squared_norm,
                          Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr) const {
   const JetDeformationModel& model = *data_.model;
   const bool normal = squared_norm != nullptr;
-  const bool want_jacobian = jacobian != nullptr || jtj != nullptr;
-  model.Evaluate(theta, &vertices_, want_jacobian ? &model_jacobian_ : nullptr);
+  const bool want_jacobian = jacobians != nullptr || jtj != nullptr;
+  if (want_jacobian) {
+    model.EvaluateLocal(theta, &vertices_, &model_jacobian_);
+  } else {
+    model.Evaluate(theta, &vertices_);
+  }
   if (!ProjectVertices(data_.camera, vertices_, &screen_, want_jacobian ? &screen_jacobian_ : nullptr)) return false;
   data_.rasterizer->Render(screen_, data_.camera.width, data_.camera.height, data_.image, want_jacobian, &render_,
                            data_.roi);
-  const int P = model.num_parameters();
+  const int b = model.block_size(), K = model.num_patches(), P = model.num_parameters();
   const int n = model.num_vertices();
-  // d(x, y, depth)/d theta per vertex: 3 #V by P.
   if (want_jacobian) {
-    screen_theta_.resize(3 * n, P);
+    screen_theta_.resize(3 * n, b);
     for (int i = 0; i < n; ++i) {
       screen_theta_.middleRows(3 * i, 3).noalias() =
           screen_jacobian_.middleRows(3 * i, 3) * model_jacobian_.middleRows(3 * i, 3);
@@ -127,132 +193,259 @@ bool RenderCost::Compute(const double* theta, double* residuals, double* jacobia
   }
   const cv::Rect& roi = data_.roi;
   const int width = data_.camera.width;
-  // Normal equations: per thread, Jacobian rows of covered pixels are
-  // gathered in blocks and added with one symmetric rank-k update each.
+  // Normal equations: per thread and per set of patches, Jacobian rows of
+  // covered pixels are gathered in blocks and added with one symmetric
+  // rank-k update each.
   const int threads = std::max(1, std::min(ResolveNumThreads(data_.rasterizer->options().num_threads), roi.height));
-  if (normal) ResetAccumulators(threads, P, want_jacobian);
-  if (static_cast<int>(scratch_.size()) < threads || (!scratch_.empty() && scratch_[0].cols() != P)) {
-    scratch_.assign(threads, PixelRows(4, P));
+  threads_.resize(threads);
+  for (ThreadState& t : threads_) {
+    t.squared_norm = 0.0;
+    t.local.resize(static_cast<size_t>(4) * kMaxPatchesPerPixel * b);
+    for (Accumulator& a : t.accumulators) {
+      a.jtj.setZero();
+      a.jtr.setZero();
+      a.count = 0;
+    }
   }
+  if (jacobians != nullptr) {
+    for (int p = 0; p < K; ++p) std::fill(jacobians[p], jacobians[p] + static_cast<size_t>(num_residuals()) * b, 0.0);
+  }
+  std::atomic<bool> ok(true);
   ParallelFor(
       roi.height, threads,
       [&](int thread, int row) {
         const int y = roi.y + row;
-        PixelRows& local = scratch_[thread];
+        ThreadState& state = threads_[thread];
         double r[4];
+        PixelPatches patches;
         for (int col = 0; col < roi.width; ++col) {
           const int x = roi.x + col;
           const int r0 = (row * roi.width + col) * channels_;
-          const cv::Vec3f rendered = render_.color.at<cv::Vec3f>(y, x), observed = data_.image.at<cv::Vec3f>(y, x);
-          for (int ch = 0; ch < 3; ++ch) r[ch] = data_.photometric_weight * (rendered[ch] - observed[ch]);
-          double jacobian_scale = data_.photometric_weight;
-          bool in_band = false;
-          ApplyRobustLoss(data_.robust_loss, data_.robust_scale, r, &jacobian_scale);
-          if (channels_ == 4) {
-            const double s = render_.silhouette.at<float>(y, x), lo = data_.mask.at<float>(y, x);
-            const double hi = data_.mask_upper.empty() ? lo : data_.mask_upper.at<float>(y, x);
-            in_band = s > lo && s < hi;  // (lo < hi only in a band)
-            r[3] = data_.silhouette_weight * (s - std::clamp(s, lo, hi));
-          }
+          double jacobian_scale;
+          bool in_band;
+          PixelResiduals(y, x, r, &jacobian_scale, &in_band);
           if (residuals != nullptr) {
             for (int ch = 0; ch < channels_; ++ch) residuals[r0 + ch] = r[ch];
           }
-          if (normal) {
-            for (int ch = 0; ch < channels_; ++ch) accumulators_[thread].squared_norm += r[ch] * r[ch];
-          }
+          for (int ch = 0; ch < channels_; ++ch) state.squared_norm += r[ch] * r[ch];
           if (!want_jacobian) continue;
           const int pixel = y * width + x;
-          if (render_.end[pixel] == render_.begin[pixel] && jacobian == nullptr) continue;  // a zero row
-          ChainPixelJacobian(pixel, P, &local);
-          local.topRows(3) *= jacobian_scale;
-          local.row(3) *= in_band ? 0.0 : data_.silhouette_weight;
-          if (jacobian != nullptr) {
-            double* jrow = jacobian + static_cast<size_t>(r0) * P;
+          if (render_.end[pixel] == render_.begin[pixel]) continue;  // a zero row
+          if (!GatherPatches(pixel, &patches)) {
+            ok = false;
+            continue;
+          }
+          const int m = patches.size * b;
+          double* local = state.local.data();
+          ChainPixelJacobian(pixel, patches, b, local);
+          for (int c = 0; c < 3 * m; ++c) local[c] *= jacobian_scale;
+          const double silhouette_scale = in_band ? 0.0 : data_.silhouette_weight;
+          for (int c = 3 * m; c < 4 * m; ++c) local[c] *= silhouette_scale;
+          if (jacobians != nullptr) {
             for (int ch = 0; ch < channels_; ++ch) {
-              for (int c = 0; c < P; ++c) jrow[ch * P + c] = local(ch, c);
+              for (int j = 0; j < patches.size; ++j) {
+                std::copy(local + ch * m + j * b, local + ch * m + (j + 1) * b,
+                          jacobians[patches.patches[j]] + static_cast<size_t>(r0 + ch) * b);
+              }
             }
           }
           if (normal) {
-            Accumulator& a = accumulators_[thread];
+            Accumulator& a = FindAccumulator(&state, patches, b);
             if (a.count + channels_ > kBlockRows) Flush(&a);
-            a.rows.middleRows(a.count, channels_) = local.topRows(channels_);
-            for (int ch = 0; ch < channels_; ++ch) a.values[a.count + ch] = r[ch];
+            for (int ch = 0; ch < channels_; ++ch) {
+              a.rows.row(a.count + ch) = Eigen::Map<const Eigen::RowVectorXd>(local + ch * m, m);
+              a.values[a.count + ch] = r[ch];
+            }
             a.count += channels_;
           }
         }
       },
       1);
   if (normal) ReduceAccumulators(P, want_jacobian, squared_norm, jtj, jtr);
+  return ok;
+}
+
+bool RenderCost::VertexResiduals(const double* theta, Eigen::VectorXd* squared_residuals,
+                                 Eigen::VectorXd* pixels) const {
+  const JetDeformationModel& model = *data_.model;
+  model.Evaluate(theta, &vertices_);
+  if (!ProjectVertices(data_.camera, vertices_, &screen_, nullptr)) return false;
+  data_.rasterizer->Render(screen_, data_.camera.width, data_.camera.height, data_.image, true, &render_, data_.roi);
+  squared_residuals->setZero(model.num_vertices());
+  pixels->setZero(model.num_vertices());
+  const cv::Rect& roi = data_.roi;
+  for (int y = roi.y; y < roi.y + roi.height; ++y) {
+    for (int x = roi.x; x < roi.x + roi.width; ++x) {
+      const int pixel = y * data_.camera.width + x;
+      const int begin = render_.begin[pixel], end = render_.end[pixel];
+      if (end == begin) continue;
+      double r[4], jacobian_scale;
+      bool in_band;
+      PixelResiduals(y, x, r, &jacobian_scale, &in_band);
+      double squared = 0.0;
+      for (int ch = 0; ch < channels_; ++ch) squared += r[ch] * r[ch];
+      // A vertex may appear once per triangle: shares by entry.
+      const double share = 1.0 / (end - begin);
+      for (int k = begin; k < end; ++k) {
+        const int v = render_.gradients[k].vertex;
+        (*squared_residuals)[v] += share * squared;
+        (*pixels)[v] += share;
+      }
+    }
+  }
   return true;
 }
 
 CompressedRenderCost::CompressedRenderCost(RenderCost::Data data)
-    : NormalEquationsCost({data.model->num_parameters()}), cost_(std::move(data)) {}
+    : NormalEquationsCost(std::vector<int32_t>(data.model->num_patches(), data.model->block_size())),
+      cost_(std::move(data)) {}
 
 bool CompressedRenderCost::EvaluateNormalEquations(double const* const* parameters, double* squared_norm,
                                                    Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr) const {
-  return cost_.EvaluateNormalEquations(parameters[0], squared_norm, jtj, jtr);
+  const std::vector<int32_t>& sizes = parameter_block_sizes();
+  theta_.clear();
+  for (size_t p = 0; p < sizes.size(); ++p) theta_.insert(theta_.end(), parameters[p], parameters[p] + sizes[p]);
+  return cost_.EvaluateNormalEquations(theta_.data(), squared_norm, jtj, jtr);
 }
 
-InextensibilityCost::InextensibilityCost(const JetDeformationModel* model, const std::vector<Eigen::Vector2i>& edges,
+InextensibilityCost::InextensibilityCost(const JetDeformationModel* model, const std::vector<int>& patches,
+                                         const std::vector<Eigen::Vector2i>& edges,
                                          const std::vector<double>& rest_lengths, double weight)
-    : model_(model), edges_(edges), rest_lengths_(rest_lengths), weight_(weight) {
+    : model_(model), patches_(patches), rest_lengths_(rest_lengths), weight_(weight) {
+  std::vector<int> local(model->num_vertices(), -1);
+  for (const Eigen::Vector2i& e : edges) {
+    Eigen::Vector2i mapped;
+    for (int k = 0; k < 2; ++k) {
+      if (local[e[k]] < 0) {
+        local[e[k]] = static_cast<int>(vertices_.size());
+        vertices_.push_back(e[k]);
+      }
+      mapped[k] = local[e[k]];
+    }
+    edges_.push_back(mapped);
+  }
   set_num_residuals(static_cast<int>(edges.size()));
-  mutable_parameter_block_sizes()->push_back(model->num_parameters());
+  for (size_t p = 0; p < patches.size(); ++p) mutable_parameter_block_sizes()->push_back(model->block_size());
 }
 
 bool InextensibilityCost::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
-  const bool want_jacobian = jacobians != nullptr && jacobians[0] != nullptr;
-  model_->Evaluate(parameters[0], &vertices_, want_jacobian ? &jacobian_ : nullptr);
-  const int P = model_->num_parameters();
+  const bool want_jacobian = jacobians != nullptr;
+  const int b = model_->block_size(), n = static_cast<int>(vertices_.size());
+  // Which of this cost's blocks each vertex's patch is.
+  auto slot_of = [&](int vertex) {
+    return static_cast<int>(std::find(patches_.begin(), patches_.end(), model_->patch_of_vertex(vertex)) -
+                            patches_.begin());
+  };
+  positions_.resize(3, n);
+  if (want_jacobian) jacobian_.resize(3 * n, b);
+  for (int v = 0; v < n; ++v) {
+    const int i = vertices_[v];
+    model_->EvaluateVertex(i, model_->patch_of_vertex(i), parameters[slot_of(i)], positions_.col(v).data(),
+                           want_jacobian ? jacobian_.data() + static_cast<size_t>(3 * v) * b : nullptr);
+  }
+  if (want_jacobian) {
+    for (size_t p = 0; p < patches_.size(); ++p) {
+      if (jacobians[p] != nullptr) std::fill(jacobians[p], jacobians[p] + edges_.size() * b, 0.0);
+    }
+  }
   using J6 = ceres::Jet<double, 6>;
   for (size_t e = 0; e < edges_.size(); ++e) {
     const int i = edges_[e][0], j = edges_[e][1];
     const EdgeInextensibilityResidual functor(rest_lengths_[e], weight_);
     if (!want_jacobian) {
-      functor(vertices_.col(i).data(), vertices_.col(j).data(), &residuals[e]);
+      functor(positions_.col(i).data(), positions_.col(j).data(), &residuals[e]);
       continue;
     }
     J6 xi[3], xj[3], r;
     for (int k = 0; k < 3; ++k) {
-      xi[k] = J6(vertices_(k, i), k);
-      xj[k] = J6(vertices_(k, j), 3 + k);
+      xi[k] = J6(positions_(k, i), k);
+      xj[k] = J6(positions_(k, j), 3 + k);
     }
     functor(xi, xj, &r);
     residuals[e] = r.a;
-    Eigen::Map<Eigen::RowVectorXd> row(jacobians[0] + e * P, P);
-    row.noalias() = r.v.head<3>().transpose() * jacobian_.middleRows(3 * i, 3) +
-                    r.v.tail<3>().transpose() * jacobian_.middleRows(3 * j, 3);
+    for (int end = 0; end < 2; ++end) {
+      const int v = edges_[e][end];
+      double* out = jacobians[slot_of(vertices_[v])];
+      if (out == nullptr) continue;
+      Eigen::Map<Eigen::RowVectorXd> row(out + e * b, b);
+      row.noalias() += r.v.segment<3>(3 * end).transpose() * jacobian_.middleRows(3 * v, 3);
+    }
   }
   return true;
 }
 
-TemporalCost::TemporalCost(const JetDeformationModel* model, double length_scale, double weight,
+TemporalCost::TemporalCost(const JetDeformationModel* model, int patch, double length_scale, double weight,
                            const Eigen::Matrix3Xd* previous)
-    : model_(model), scale_(weight / length_scale), fixed_previous_(previous != nullptr) {
-  if (previous != nullptr) previous_ = *previous;
-  set_num_residuals(3 * model->num_vertices());
-  mutable_parameter_block_sizes()->push_back(model->num_parameters());
-  if (!fixed_previous_) mutable_parameter_block_sizes()->push_back(model->num_parameters());
+    : model_(model), patch_(patch), scale_(weight / length_scale), fixed_previous_(previous != nullptr) {
+  for (int i = 0; i < model->num_vertices(); ++i) {
+    if (model->patch_of_vertex(i) == patch) vertices_.push_back(i);
+  }
+  if (previous != nullptr) {
+    previous_.resize(3, vertices_.size());
+    for (size_t v = 0; v < vertices_.size(); ++v) previous_.col(v) = previous->col(vertices_[v]);
+  }
+  set_num_residuals(3 * static_cast<int>(vertices_.size()));
+  mutable_parameter_block_sizes()->push_back(model->block_size());
+  if (!fixed_previous_) mutable_parameter_block_sizes()->push_back(model->block_size());
 }
 
 bool TemporalCost::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
   const bool j_now = jacobians != nullptr && jacobians[0] != nullptr;
   const bool j_before = !fixed_previous_ && jacobians != nullptr && jacobians[1] != nullptr;
-  model_->Evaluate(parameters[0], &now_, j_now ? &jacobian_now_ : nullptr);
-  const Eigen::Matrix3Xd* before = &previous_;
-  if (!fixed_previous_) {
-    model_->Evaluate(parameters[1], &before_, j_before ? &jacobian_before_ : nullptr);
-    before = &before_;
-  }
-  const int n = model_->num_vertices(), P = model_->num_parameters();
+  const int b = model_->block_size();
   // r = scale (x_t - x_{t-1}): TemporalConsistencyResidual with length
   // scale / weight folded into scale_.
   const TemporalConsistencyResidual functor(1.0 / scale_, 1.0);
-  for (int i = 0; i < n; ++i) functor(now_.col(i).data(), before->col(i).data(), residuals + 3 * i);
-  if (j_now) Eigen::Map<Eigen::MatrixXd>(jacobians[0], P, 3 * n) = scale_ * jacobian_now_.transpose();
-  if (j_before) Eigen::Map<Eigen::MatrixXd>(jacobians[1], P, 3 * n) = -scale_ * jacobian_before_.transpose();
+  for (size_t v = 0; v < vertices_.size(); ++v) {
+    const int i = vertices_[v];
+    Eigen::Vector3d now, before;
+    model_->EvaluateVertex(i, patch_, parameters[0], now.data(), j_now ? jacobians[0] + 3 * v * b : nullptr);
+    if (fixed_previous_) {
+      before = previous_.col(v);
+    } else {
+      model_->EvaluateVertex(i, patch_, parameters[1], before.data(), j_before ? jacobians[1] + 3 * v * b : nullptr);
+    }
+    functor(now.data(), before.data(), residuals + 3 * v);
+  }
+  const size_t size = 3 * vertices_.size() * b;
+  if (j_now) Eigen::Map<Eigen::VectorXd>(jacobians[0], size) *= scale_;
+  if (j_before) Eigen::Map<Eigen::VectorXd>(jacobians[1], size) *= -scale_;
   return true;
+}
+
+namespace {
+
+struct SeamResidual {
+  template <typename T>
+  bool operator()(T const* const* parameters, T* residuals) const {
+    for (size_t v = 0; v < vertices.size(); ++v) {
+      T xa[3], na[3], xb[3], nb[3];
+      model->VertexOnPatch(vertices[v], a, parameters[0], xa, na);
+      model->VertexOnPatch(vertices[v], b, parameters[1], xb, nb);
+      for (int k = 0; k < 3; ++k) {
+        residuals[6 * v + k] = position_scale * (xa[k] - xb[k]);
+        residuals[6 * v + 3 + k] = normal_weight * (na[k] - nb[k]);
+      }
+    }
+    return true;
+  }
+  const JetDeformationModel* model;
+  int a, b;
+  std::vector<int> vertices;
+  double position_scale, normal_weight;
+};
+
+}  // namespace
+
+ceres::CostFunction* CreateSeamCost(const JetDeformationModel* model, int patch_a, int patch_b,
+                                    const std::vector<int>& seam_vertices, double length_scale, double position_weight,
+                                    double normal_weight) {
+  auto* cost = new ceres::DynamicAutoDiffCostFunction<SeamResidual, 8>(
+      new SeamResidual{model, patch_a, patch_b, seam_vertices, position_weight / length_scale, normal_weight});
+  cost->AddParameterBlock(model->block_size());
+  cost->AddParameterBlock(model->block_size());
+  cost->SetNumResiduals(6 * static_cast<int>(seam_vertices.size()));
+  return cost;
 }
 
 }  // namespace polyfit

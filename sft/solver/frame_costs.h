@@ -1,7 +1,8 @@
-// The per-frame Ceres costs of PolySfT, on one parameter block per frame
-// (the JetDeformationModel parameters theta). Each evaluates the model once
-// and chains its Jacobian by hand, so that a frame's thousands of residuals
-// cost one model evaluation.
+// The per-frame Ceres costs of PolySfT, on the JetDeformationModel's
+// parameters: one block per patch of its atlas (block_size() each), so that
+// the solver's normal equations stay sparse by patch. Each evaluates the
+// model once and chains its Jacobian by hand, so that a frame's thousands
+// of residuals cost one model evaluation.
 #ifndef POLYFIT_SFT_SOLVER_FRAME_COSTS_H_
 #define POLYFIT_SFT_SOLVER_FRAME_COSTS_H_
 
@@ -43,30 +44,57 @@ class RenderCost : public ceres::CostFunction {
     RobustLoss robust_loss = RobustLoss::kNone;
     double robust_scale = 0.1;
   };
+  // Parameter blocks: one per patch of the model, in patch order.
   explicit RenderCost(Data data);
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
-  // |r|^2, and J^T J and J^T r (when not null), without forming J: rows of
-  // pixels no triangle touches are zero and skipped.
+  // |r|^2, and J^T J and J^T r (when not null), without forming J, at theta
+  // (all blocks, contiguous). Rows of pixels no triangle touches are zero
+  // and skipped; a pixel's row is non-zero only in the blocks of the patches
+  // its vertices belong to, and is gathered with the pixels of the same
+  // patches: the work per pixel is that of one patch's block (two or three
+  // on a seam), whatever the atlas's size.
   bool EvaluateNormalEquations(const double* theta, double* squared_norm, Eigen::MatrixXd* jtj,
                                Eigen::VectorXd* jtr) const;
+  // Per vertex (#V): the squared residuals of the pixels it shapes, each
+  // pixel's shared equally among its vertices, and the pixels so shared
+  // (where the surface fits worse than elsewhere).
+  bool VertexResiduals(const double* theta, Eigen::VectorXd* squared_residuals, Eigen::VectorXd* pixels) const;
 
  private:
+  static constexpr int kBlockRows = 64;
+  static constexpr int kMaxPatchesPerPixel = 8;
+  // The normal equations of the pixels whose vertices belong to `patches`
+  // (sorted), over those patches' blocks.
   struct Accumulator {
-    double squared_norm = 0.0;
+    int patches[kMaxPatchesPerPixel];
+    int size = 0;
     Eigen::MatrixXd jtj;
     Eigen::VectorXd jtr;
     Eigen::MatrixXd rows;
     Eigen::VectorXd values;
     int count = 0;
   };
-  // Rows of the Jacobian of one pixel's 4 residuals (RGB, silhouette).
-  using PixelRows = Eigen::Matrix<double, 4, Eigen::Dynamic, Eigen::RowMajor>;
-  static constexpr int kBlockRows = 64;
+  struct ThreadState {
+    double squared_norm = 0.0;
+    std::vector<Accumulator> accumulators;
+    int last = 0;  // the accumulator of the previous pixel
+    // One pixel's 4 Jacobian rows over its patches' blocks (row-major).
+    std::vector<double> local;
+  };
+  // Sorted patches of a pixel's vertices; false when more than the maximum.
+  struct PixelPatches {
+    int patches[kMaxPatchesPerPixel];
+    int size = 0;
+  };
 
-  bool Compute(const double* theta, double* residuals, double* jacobian, double* squared_norm, Eigen::MatrixXd* jtj,
+  bool Compute(const double* theta, double* residuals, double** jacobians, double* squared_norm, Eigen::MatrixXd* jtj,
                Eigen::VectorXd* jtr) const;
-  void ChainPixelJacobian(int pixel, int P, PixelRows* local) const;
-  void ResetAccumulators(int threads, int P, bool want_jacobian) const;
+  // The pixel's residuals (RGB, silhouette), the scale of its RGB Jacobian
+  // rows (robust loss) and whether its silhouette is within the band.
+  void PixelResiduals(int y, int x, double* r, double* jacobian_scale, bool* in_band) const;
+  bool GatherPatches(int pixel, PixelPatches* out) const;
+  Accumulator& FindAccumulator(ThreadState* state, const PixelPatches& patches, int block) const;
+  void ChainPixelJacobian(int pixel, const PixelPatches& patches, int block, double* local) const;
   static void Flush(Accumulator* a);
   void ReduceAccumulators(int P, bool want_jacobian, double* squared_norm, Eigen::MatrixXd* jtj,
                           Eigen::VectorXd* jtr) const;
@@ -77,10 +105,11 @@ class RenderCost : public ceres::CostFunction {
   mutable SoftRenderOutput render_;
   mutable Eigen::Matrix3Xd vertices_;
   mutable Eigen::MatrixXd model_jacobian_, screen_jacobian_;
-  // Row-major: a vertex's three rows are contiguous.
+  mutable std::vector<double> theta_;
+  // d(x, y, depth) / d theta_p per vertex, p its patch: 3 #V by block size,
+  // row-major so that a vertex's three rows are contiguous.
   mutable Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> screen_theta_;
-  mutable std::vector<Accumulator> accumulators_;
-  mutable std::vector<PixelRows> scratch_;  // per thread
+  mutable std::vector<ThreadState> threads_;
 };
 
 // RenderCost compressed (cost_functions/compressed_cost.h) from its normal
@@ -93,42 +122,60 @@ class CompressedRenderCost : public NormalEquationsCost {
 
  private:
   RenderCost cost_;
+  mutable std::vector<double> theta_;
 };
 
-// Edge inextensibility over all template edges (EdgeInextensibilityResidual).
+// Edge inextensibility (EdgeInextensibilityResidual) over edges whose
+// vertices belong to `patches` (one patch, or the two of a seam; sorted):
+// parameter blocks, those patches' blocks.
 class InextensibilityCost : public ceres::CostFunction {
  public:
-  InextensibilityCost(const JetDeformationModel* model, const std::vector<Eigen::Vector2i>& edges,
-                      const std::vector<double>& rest_lengths, double weight);
+  InextensibilityCost(const JetDeformationModel* model, const std::vector<int>& patches,
+                      const std::vector<Eigen::Vector2i>& edges, const std::vector<double>& rest_lengths,
+                      double weight);
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
  private:
   const JetDeformationModel* model_;
-  std::vector<Eigen::Vector2i> edges_;
+  std::vector<int> patches_;
+  std::vector<int> vertices_;           // the edges' vertices
+  std::vector<Eigen::Vector2i> edges_;  // into vertices_
   std::vector<double> rest_lengths_;
   double weight_;
-  mutable Eigen::Matrix3Xd vertices_;
-  mutable Eigen::MatrixXd jacobian_;
+  mutable Eigen::Matrix3Xd positions_;
+  mutable Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> jacobian_;  // 3 per vertex
 };
 
-// Temporal consistency of every vertex between two frames
-// (TemporalConsistencyResidual). With `previous` given, the earlier frame
-// is fixed data and the cost has one parameter block; otherwise two (this
-// frame, the earlier one).
+// Temporal consistency of patch p's vertices between two frames
+// (TemporalConsistencyResidual). With `previous` (3 by #V) given, the
+// earlier frame is fixed data and the cost has one parameter block (this
+// frame's block p); otherwise two (this frame's, the earlier one's).
 class TemporalCost : public ceres::CostFunction {
  public:
-  TemporalCost(const JetDeformationModel* model, double length_scale, double weight,
+  TemporalCost(const JetDeformationModel* model, int patch, double length_scale, double weight,
                const Eigen::Matrix3Xd* previous = nullptr);
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
  private:
   const JetDeformationModel* model_;
+  int patch_;
+  std::vector<int> vertices_;
   double scale_;
   bool fixed_previous_;
-  Eigen::Matrix3Xd previous_;
-  mutable Eigen::Matrix3Xd now_, before_;
-  mutable Eigen::MatrixXd jacobian_now_, jacobian_before_;
+  Eigen::Matrix3Xd previous_;  // of vertices_
 };
+
+// Continuity across the seam of patches a < b (the paper's eq. 5, as
+// cost_functions/patch_boundary_residual.h, on this model): each vertex of
+// one with a neighbour in the other is where both patches put it, with the
+// same normal,
+//   r = (w_x (X_a(i) - X_b(i)) / L, w_n (n_a(i) - n_b(i)))       6 per vertex
+// (L: the template's mean edge length). At a split both are zero: children
+// start as their parent
+// (automatic differentiation: seams are short). Parameter blocks: a's, b's.
+ceres::CostFunction* CreateSeamCost(const JetDeformationModel* model, int patch_a, int patch_b,
+                                    const std::vector<int>& seam_vertices, double length_scale, double position_weight,
+                                    double normal_weight);
 
 }  // namespace polyfit
 

@@ -3,38 +3,62 @@
 #include <cmath>
 #include <memory>
 
+#include <ceres/jet.h>
 #include <gtest/gtest.h>
 
 #include "polyfit/mesh/mesh_topology.h"
+#include "polyfit/mesh/unique_edges.h"
 #include "polyfit/util/scoped_temp_dir.h"
 #include "sft/scene/scene.h"
+#include "sft/solver/patch_atlas.h"
 #include "sft/solver/silhouette_band.h"
 #include "sft/synthetic/sheet_scene.h"
 
 namespace polyfit {
 namespace {
 
-// Central differences of a one-block cost's residuals against its Jacobian;
-// returns the largest difference relative to the Jacobian's largest entry.
+// Central differences of a cost's residuals against its Jacobian, theta
+// holding its parameter blocks one after the other; returns the largest
+// difference relative to the Jacobian's largest entry.
 double RelativeJacobianError(const ceres::CostFunction& cost, std::vector<double> theta, double h,
                              double* largest = nullptr) {
-  const int m = cost.num_residuals(), P = static_cast<int>(theta.size());
-  std::vector<double> r(m), rp(m), rm(m), jacobian(static_cast<size_t>(m) * P);
-  const double* parameters[1] = {theta.data()};
-  double* jacobians[1] = {jacobian.data()};
-  EXPECT_TRUE(cost.Evaluate(parameters, r.data(), jacobians));
+  const int m = cost.num_residuals();
+  const std::vector<int32_t>& sizes = cost.parameter_block_sizes();
+  std::vector<int> offsets;
+  int total = 0;
+  for (int size : sizes) {
+    offsets.push_back(total);
+    total += size;
+  }
+  EXPECT_EQ(total, static_cast<int>(theta.size()));
+  auto blocks = [&](std::vector<double>& t) {
+    std::vector<const double*> out;
+    for (int offset : offsets) out.push_back(t.data() + offset);
+    return out;
+  };
+  std::vector<double> r(m), rp(m), rm(m);
+  std::vector<std::vector<double>> jacobian(sizes.size());
+  std::vector<double*> jacobians;
+  for (size_t b = 0; b < sizes.size(); ++b) {
+    jacobian[b].resize(static_cast<size_t>(m) * sizes[b]);
+    jacobians.push_back(jacobian[b].data());
+  }
+  EXPECT_TRUE(cost.Evaluate(blocks(theta).data(), r.data(), jacobians.data()));
   double max_entry = 0.0, max_error = 0.0;
-  for (double j : jacobian) max_entry = std::max(max_entry, std::abs(j));
-  for (int c = 0; c < P; ++c) {
-    std::vector<double> plus = theta, minus = theta;
-    plus[c] += h;
-    minus[c] -= h;
-    const double* pp[1] = {plus.data()};
-    const double* pm[1] = {minus.data()};
-    cost.Evaluate(pp, rp.data(), nullptr);
-    cost.Evaluate(pm, rm.data(), nullptr);
-    for (int i = 0; i < m; ++i) {
-      max_error = std::max(max_error, std::abs((rp[i] - rm[i]) / (2 * h) - jacobian[static_cast<size_t>(i) * P + c]));
+  for (const auto& j : jacobian) {
+    for (double v : j) max_entry = std::max(max_entry, std::abs(v));
+  }
+  for (size_t b = 0; b < sizes.size(); ++b) {
+    for (int c = 0; c < sizes[b]; ++c) {
+      std::vector<double> plus = theta, minus = theta;
+      plus[offsets[b] + c] += h;
+      minus[offsets[b] + c] -= h;
+      cost.Evaluate(blocks(plus).data(), rp.data(), nullptr);
+      cost.Evaluate(blocks(minus).data(), rm.data(), nullptr);
+      for (int i = 0; i < m; ++i) {
+        const double analytic = jacobian[b][static_cast<size_t>(i) * sizes[b] + c];
+        max_error = std::max(max_error, std::abs((rp[i] - rm[i]) / (2 * h) - analytic));
+      }
     }
   }
   if (largest != nullptr) *largest = max_entry;
@@ -199,11 +223,171 @@ TEST_F(FrameCostsTest, InextensibilityAndTemporalJacobiansMatchFiniteDifferences
   for (const auto& e : edges) {
     lengths.push_back((scene_.template_mesh.vertices.col(e[0]) - scene_.template_mesh.vertices.col(e[1])).norm());
   }
-  const InextensibilityCost inextensibility(model_.get(), edges, lengths, 2.0);
+  const InextensibilityCost inextensibility(model_.get(), {0}, edges, lengths, 2.0);
   EXPECT_LT(RelativeJacobianError(inextensibility, theta_, 1e-7), 1e-5);
   const Eigen::Matrix3Xd previous = scene_.template_mesh.vertices;
-  const TemporalCost temporal(model_.get(), 0.3, 1.5, &previous);
+  const TemporalCost temporal(model_.get(), 0, 0.3, 1.5, &previous);
   EXPECT_LT(RelativeJacobianError(temporal, theta_, 1e-7), 1e-5);
+}
+
+// The atlas: the sheet split in four by ACVD, each child inheriting the
+// parent's parameters, is the same surface; its hand Jacobian matches
+// finite differences and the templated definition (automatic
+// differentiation); and every cost over the patches' blocks is exact.
+class AtlasCostsTest : public FrameCostsTest {
+ protected:
+  void SetUp() override {
+    FrameCostsTest::SetUp();
+    model_->Evaluate(theta_.data(), &before_split_);
+    const std::vector<int> child = SplitPatchVertices(scene_.template_mesh, model_->vertex_patches(), 0, 4);
+    ASSERT_FALSE(child.empty());
+    const PatchSplit split = model_->SplitPatch(0, child);
+    EXPECT_EQ(split.num_children, 4);
+    theta_ = model_->InheritParameters(split, theta_);
+  }
+  Eigen::Matrix3Xd before_split_;
+};
+
+TEST_F(AtlasCostsTest, ChildrenInheritTheSurfaceAndTheJacobianIsExact) {
+  ASSERT_EQ(model_->num_patches(), 4);
+  for (int size : model_->PatchSizes()) EXPECT_GE(size, 10);
+  Eigen::Matrix3Xd v, vp, vm;
+  Eigen::MatrixXd jacobian;
+  model_->Evaluate(theta_.data(), &v, &jacobian);
+  EXPECT_LT((v - before_split_).cwiseAbs().maxCoeff(), 1e-12);
+  // Each child moves on its own: perturb, then differentiate.
+  for (size_t k = 0; k < theta_.size(); ++k) theta_[k] += 0.005 * std::cos(0.3 + 7.0 * k);
+  model_->Evaluate(theta_.data(), &v, &jacobian);
+  double max_error = 0.0;
+  for (int c = 0; c < model_->num_parameters(); ++c) {
+    std::vector<double> plus = theta_, minus = theta_;
+    plus[c] += 1e-7;
+    minus[c] -= 1e-7;
+    model_->Evaluate(plus.data(), &vp);
+    model_->Evaluate(minus.data(), &vm);
+    const Eigen::Matrix3Xd numeric = (vp - vm) / 2e-7;
+    for (int i = 0; i < model_->num_vertices(); ++i) {
+      max_error = std::max(max_error, (numeric.col(i) - jacobian.block(3 * i, c, 3, 1)).cwiseAbs().maxCoeff());
+    }
+  }
+  EXPECT_LT(max_error, 1e-6);
+  // The hand Jacobian against the templated definition, also where a
+  // vertex is placed by a patch that does not own it.
+  const int b = model_->block_size();
+  using J = ceres::Jet<double, 64>;
+  ASSERT_LE(b, 64);
+  for (int i = 0; i < model_->num_vertices(); i += 7) {
+    for (int p = 0; p < model_->num_patches(); ++p) {
+      const double* block = theta_.data() + b * p;
+      std::vector<J> jets(b);
+      for (int k = 0; k < b; ++k) jets[k] = J(block[k], k);
+      J x[3], n[3];
+      model_->VertexOnPatch(i, p, jets.data(), x, n);
+      Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::RowMajor> rows(3, b);
+      Eigen::Vector3d position;
+      model_->EvaluateVertex(i, p, block, position.data(), rows.data());
+      for (int r = 0; r < 3; ++r) {
+        EXPECT_NEAR(x[r].a, position[r], 1e-14);
+        EXPECT_LT((x[r].v.head(b).transpose() - rows.row(r)).cwiseAbs().maxCoeff(), 1e-12);
+      }
+    }
+  }
+}
+
+TEST_F(AtlasCostsTest, CostsOverPatchBlocksAreExact) {
+  // Children apart, a little: larger steps make the soft render's finite
+  // differences cross its cut-offs.
+  for (size_t k = 0; k < theta_.size(); ++k) theta_[k] += 0.001 * std::cos(0.3 + 7.0 * k);
+  const SoftRasterizer rasterizer(SoftRasterizerOptions(), scene_.texture);
+  const SftFrame frame = LoadFrame(scene_, 1);
+  const RenderCost cost(RenderData(rasterizer, frame));
+  ASSERT_EQ(cost.parameter_block_sizes().size(), 4u);
+  EXPECT_LT(RelativeJacobianError(cost, theta_, 1e-6), 0.02);
+  // The normal equations gathered by patch equal those of the full
+  // Jacobian (rows of seam pixels span several blocks).
+  const int m = cost.num_residuals(), P = model_->num_parameters(), b = model_->block_size();
+  std::vector<double> r(m);
+  std::vector<std::vector<double>> j(4, std::vector<double>(static_cast<size_t>(m) * b));
+  std::vector<const double*> parameters;
+  std::vector<double*> jacobians;
+  for (int p = 0; p < 4; ++p) {
+    parameters.push_back(theta_.data() + b * p);
+    jacobians.push_back(j[p].data());
+  }
+  ASSERT_TRUE(cost.Evaluate(parameters.data(), r.data(), jacobians.data()));
+  Eigen::MatrixXd full(m, P);
+  for (int p = 0; p < 4; ++p) {
+    full.middleCols(b * p, b) =
+        Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(j[p].data(), m, b);
+  }
+  const Eigen::Map<const Eigen::VectorXd> R(r.data(), m);
+  double squared_norm = 0.0;
+  Eigen::MatrixXd jtj;
+  Eigen::VectorXd jtr;
+  ASSERT_TRUE(cost.EvaluateNormalEquations(theta_.data(), &squared_norm, &jtj, &jtr));
+  EXPECT_NEAR(squared_norm, R.squaredNorm(), 1e-9 * R.squaredNorm());
+  EXPECT_LT((jtj - full.transpose() * full).norm(), 1e-9 * jtj.norm());
+  EXPECT_LT((jtr - full.transpose() * R).norm(), 1e-9 * jtr.norm());
+  // Pixels shared among vertices add up to the covered pixels' cost.
+  Eigen::VectorXd squared, pixels;
+  ASSERT_TRUE(cost.VertexResiduals(theta_.data(), &squared, &pixels));
+  EXPECT_GT(pixels.sum(), 100.0);
+  EXPECT_LE(squared.sum(), R.squaredNorm() * (1.0 + 1e-9));
+
+  // Inextensibility across a seam, temporal per patch, and the seam itself.
+  std::vector<int> ends(2, -1);
+  Eigen::Vector2i seam_edge(-1, -1);
+  for (int f = 0; f < scene_.template_mesh.num_faces() && seam_edge[0] < 0; ++f) {
+    const int a = scene_.template_mesh.faces(0, f), c = scene_.template_mesh.faces(1, f);
+    if (model_->patch_of_vertex(a) != model_->patch_of_vertex(c)) seam_edge = Eigen::Vector2i(a, c);
+  }
+  ASSERT_GE(seam_edge[0], 0);
+  const int pa = model_->patch_of_vertex(seam_edge[0]), pb = model_->patch_of_vertex(seam_edge[1]);
+  const std::vector<int> pair = {std::min(pa, pb), std::max(pa, pb)};
+  const double length =
+      (scene_.template_mesh.vertices.col(seam_edge[0]) - scene_.template_mesh.vertices.col(seam_edge[1])).norm();
+  const InextensibilityCost across(model_.get(), pair, {seam_edge}, {length}, 2.0);
+  std::vector<double> pair_theta(theta_.begin() + b * pair[0], theta_.begin() + b * (pair[0] + 1));
+  pair_theta.insert(pair_theta.end(), theta_.begin() + b * pair[1], theta_.begin() + b * (pair[1] + 1));
+  EXPECT_LT(RelativeJacobianError(across, pair_theta, 1e-7), 1e-5);
+  const TemporalCost temporal(model_.get(), pair[1], 0.3, 1.5);
+  std::vector<double> two_frames(theta_.begin() + b * pair[1], theta_.begin() + b * (pair[1] + 1));
+  two_frames.insert(two_frames.end(), two_frames.begin(), two_frames.end());
+  two_frames[3] += 0.01;
+  EXPECT_LT(RelativeJacobianError(temporal, two_frames, 1e-7), 1e-5);
+  std::unique_ptr<ceres::CostFunction> seam(
+      CreateSeamCost(model_.get(), pair[0], pair[1], {seam_edge[0], seam_edge[1]}, 0.01, 1.0, 0.1));
+  EXPECT_LT(RelativeJacobianError(*seam, pair_theta, 1e-7), 1e-5);
+}
+
+TEST_F(AtlasCostsTest, SeamsAreContinuousWhenChildrenStartAndNotOnceTheyDiffer) {
+  const AtlasTerms terms = GroupAtlasTerms(*model_, {{0, 1}}, {1.0});
+  EXPECT_EQ(terms.edge_groups.size(), 1u);
+  Eigen::Matrix2Xi unique = UniqueEdges(scene_.template_mesh);
+  std::vector<Eigen::Vector2i> edges;
+  std::vector<double> lengths;
+  for (Eigen::Index e = 0; e < unique.cols(); ++e) {
+    edges.emplace_back(unique(0, e), unique(1, e));
+    lengths.push_back(1.0);
+  }
+  const AtlasTerms all = GroupAtlasTerms(*model_, edges, lengths);
+  size_t grouped = 0;
+  for (const auto& g : all.edge_groups) grouped += g.edges.size();
+  EXPECT_EQ(grouped, edges.size());
+  ASSERT_GE(all.seams.size(), 3u);  // four quarters: at least three seams
+  const int b = model_->block_size();
+  for (const AtlasTerms::Seam& s : all.seams) {
+    std::unique_ptr<ceres::CostFunction> seam(CreateSeamCost(model_.get(), s.a, s.b, s.vertices, 0.01, 1.0, 1.0));
+    std::vector<double> blocks(theta_.begin() + b * s.a, theta_.begin() + b * (s.a + 1));
+    blocks.insert(blocks.end(), theta_.begin() + b * s.b, theta_.begin() + b * (s.b + 1));
+    const double* parameters[2] = {blocks.data(), blocks.data() + b};
+    std::vector<double> r(seam->num_residuals());
+    ASSERT_TRUE(seam->Evaluate(parameters, r.data(), nullptr));
+    EXPECT_LT(Eigen::Map<Eigen::VectorXd>(r.data(), r.size()).cwiseAbs().maxCoeff(), 1e-10);
+    blocks[b + 2] += 0.05;  // a jet coefficient of the second patch
+    ASSERT_TRUE(seam->Evaluate(parameters, r.data(), nullptr));
+    EXPECT_GT(Eigen::Map<Eigen::VectorXd>(r.data(), r.size()).cwiseAbs().maxCoeff(), 1e-4);
+  }
 }
 
 }  // namespace

@@ -46,6 +46,8 @@ struct FrameData {
   std::vector<cv::Mat> compensated;
   // The parameters (JetDeformationModel layout).
   std::vector<double> theta;
+  // The atlas's patches when the frame was last solved.
+  int patches = 1;
 };
 
 // Stops a level once `patience` iterations in a row improved the cost by
@@ -105,6 +107,15 @@ cv::Rect RegionOfInterest(const ScreenMesh& screen, const cv::Mat& mask, int wid
   return box & cv::Rect(0, 0, width, height);
 }
 
+// Sparse normal equations for an atlas (its blocks couple only across
+// seams), dense where no sparse library is built in.
+ceres::LinearSolverType SparseSolver() {
+  return ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE) ||
+                 ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::EIGEN_SPARSE)
+             ? ceres::SPARSE_NORMAL_CHOLESKY
+             : ceres::DENSE_NORMAL_CHOLESKY;
+}
+
 double Mean(const std::vector<SftFrameSummary>& frames, double SftFrameSummary::*field) {
   double sum = 0.0;
   int count = 0;
@@ -130,6 +141,7 @@ int ChoosePyramidLevels(const PolySftOptions& options, int image_width) {
 std::string PolySftOptions::Validate() const {
   if (std::string p = deformation.Validate(); !p.empty()) return "deformation: " + p;
   if (std::string p = rasterizer.Validate(); !p.empty()) return "rasterizer: " + p;
+  if (std::string p = atlas.Validate(); !p.empty()) return p;
   if (window_size < 1) return "window_size must be >= 1";
   if (pyramid_levels < 0 || pyramid_levels > 6) return "pyramid_levels must be in [1, 6], or 0 (chosen by width)";
   if (max_image_width < 0) return "max_image_width must be >= 0";
@@ -172,6 +184,7 @@ class PolySftController {
     ChooseTerms();
     CheckTemplate();
     PrepareTemplateData();
+    atlas_terms_ = GroupAtlasTerms(model_, edges_, rest_lengths_);
     BuildPyramid();
     CreateRasterizers();
     const int num_frames =
@@ -185,6 +198,7 @@ class PolySftController {
       double cost = 0.0;
       int iterations = 0;
       if (!SolveWindow(&cost, &iterations)) break;
+      if (RefineAtlas(t) && !SolveWindow(&cost, &iterations)) break;
       frame_time_[t] = Seconds(frame_start);
       frame_cost_[t] = cost;
       frame_iterations_[t] = iterations;
@@ -271,6 +285,7 @@ class PolySftController {
         rest_lengths_.push_back(length);
       }
     }
+    for (double length : rest_lengths_) mean_edge_ += length / rest_lengths_.size();
     ScreenMesh screen = mesh_template_;
     ProjectVertices(scene_.camera, mesh.vertices, &screen, nullptr);
     template_pixels_ = 0.0;
@@ -422,15 +437,24 @@ class PolySftController {
   // false when the surface went behind the camera.
   bool AddImageTerm(int l, FrameData& frame, ceres::Problem* problem) {
     if (frame.mask_empty || (!use_photometric_ && !use_masks_)) return true;
+    RenderCost::Data d;
+    if (!ImageTerm(l, frame, window_.size() > 1, &d)) return false;
+    if (d.roi.area() <= 0) return true;
+    problem->AddResidualBlock(new CompressedRenderCost(std::move(d)), nullptr, Blocks(frame.theta));
+    return true;
+  }
+
+  // The image terms' data as the solve sees them: the frame mapped to the
+  // texture's lighting. serial: rendered on one thread (frames side by side).
+  bool ImageTerm(int l, FrameData& frame, bool serial, RenderCost::Data* out) {
     const LevelData& level = levels_[l];
     RenderCost::Data d;
     ScreenMesh screen;
-    if (!ImageTermData(l, frame, frame.theta.data(),
-                       window_.size() > 1 ? level.serial_rasterizer.get() : level.rasterizer.get(), &d, &screen)) {
+    if (!ImageTermData(l, frame, frame.theta.data(), serial ? level.serial_rasterizer.get() : level.rasterizer.get(),
+                       &d, &screen)) {
       return false;
     }
-    if (d.roi.area() <= 0) return true;
-    if (use_photometric_ && options_.match_brightness) {
+    if (d.roi.area() > 0 && use_photometric_ && options_.match_brightness) {
       frame.compensated.resize(levels_.size());
       if (frame.compensated[l].empty()) {
         frame.brightness = MatchFrameBrightness(*d.rasterizer, screen, level.camera, d.image, d.mask, d.roi);
@@ -438,8 +462,16 @@ class PolySftController {
       }
       d.image = frame.compensated[l];
     }
-    problem->AddResidualBlock(new CompressedRenderCost(std::move(d)), nullptr, frame.theta.data());
+    *out = std::move(d);
     return true;
+  }
+
+  // Pointers to each patch's block of theta.
+  std::vector<double*> Blocks(std::vector<double>& theta) const {
+    std::vector<double*> blocks(model_.num_patches());
+    for (int p = 0; p < model_.num_patches(); ++p)
+      blocks[p] = theta.data() + static_cast<size_t>(model_.block_size()) * p;
+    return blocks;
   }
 
   // The image terms' data of a frame at a level, at parameters theta (the
@@ -499,24 +531,46 @@ class PolySftController {
     return MatchBrightness(render.color, render.silhouette, image, mask, roi);
   }
 
-  // Inextensibility of window frame k, and its temporal link to the frame
-  // before it (in the window, or the last finalised one).
+  // Inextensibility of window frame k, its patches' seams, and its
+  // temporal link to the frame before it (in the window, or the last
+  // finalised one): each over the blocks of the patches it joins.
   void AddRegularizers(size_t k, ceres::Problem* problem) {
-    double* theta = window_[k]->theta.data();
+    const std::vector<double*> blocks = Blocks(window_[k]->theta);
+    auto of = [&](const std::vector<double*>& all, const std::vector<int>& patches) {
+      std::vector<double*> some;
+      for (int p : patches) some.push_back(all[p]);
+      return some;
+    };
     if (use_inextensibility_ && !edges_.empty()) {
-      problem->AddResidualBlock(
-          new CompressedCost(new InextensibilityCost(&model_, edges_, rest_lengths_,
-                                                     std::sqrt(options_.inextensibility_weight / edges_.size()))),
-          nullptr, theta);
+      const double w = std::sqrt(options_.inextensibility_weight / edges_.size());
+      for (const AtlasTerms::EdgeGroup& g : atlas_terms_.edge_groups) {
+        problem->AddResidualBlock(
+            new CompressedCost(new InextensibilityCost(&model_, g.patches, g.edges, g.rest_lengths, w)), nullptr,
+            of(blocks, g.patches));
+      }
+    }
+    const PatchAtlasOptions& atlas = options_.atlas;
+    if (!atlas_terms_.seams.empty() && (atlas.seam_position_weight > 0.0 || atlas.seam_normal_weight > 0.0)) {
+      size_t count = 0;
+      for (const AtlasTerms::Seam& seam : atlas_terms_.seams) count += seam.vertices.size();
+      const double wx = std::sqrt(atlas.seam_position_weight / count), wn = std::sqrt(atlas.seam_normal_weight / count);
+      for (const AtlasTerms::Seam& seam : atlas_terms_.seams) {
+        problem->AddResidualBlock(
+            new CompressedCost(CreateSeamCost(&model_, seam.a, seam.b, seam.vertices, mean_edge_, wx, wn)), nullptr,
+            blocks[seam.a], blocks[seam.b]);
+      }
     }
     if (!use_temporal_) return;
     const double w = std::sqrt(options_.temporal_weight / model_.num_vertices());
-    if (k > 0) {
-      problem->AddResidualBlock(new CompressedCost(new TemporalCost(&model_, size_, w)), nullptr, theta,
-                                window_[k - 1]->theta.data());
-    } else if (has_previous_final_) {
-      problem->AddResidualBlock(new CompressedCost(new TemporalCost(&model_, size_, w, &previous_final_)), nullptr,
-                                theta);
+    const std::vector<double*> before = k > 0 ? Blocks(window_[k - 1]->theta) : std::vector<double*>();
+    for (int p = 0; p < model_.num_patches(); ++p) {
+      if (k > 0) {
+        problem->AddResidualBlock(new CompressedCost(new TemporalCost(&model_, p, size_, w)), nullptr, blocks[p],
+                                  before[p]);
+      } else if (has_previous_final_) {
+        problem->AddResidualBlock(new CompressedCost(new TemporalCost(&model_, p, size_, w, &previous_final_)), nullptr,
+                                  blocks[p]);
+      }
     }
   }
 
@@ -524,8 +578,9 @@ class PolySftController {
     ceres::Solver::Options solver;
     solver.minimizer_type = ceres::TRUST_REGION;
     solver.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-    // Every term is compressed to (parameters + 1) rows: a small dense system.
-    solver.linear_solver_type = ceres::DENSE_QR;
+    // Every term is compressed to (parameters + 1) rows: one patch gives a
+    // small dense system; an atlas, one sparse by patch.
+    solver.linear_solver_type = model_.num_patches() == 1 ? ceres::DENSE_QR : SparseSolver();
     solver.max_num_iterations = options_.max_iterations_per_level;
     // The window's frames are evaluated side by side; a lone frame's pixels
     // are split over the threads by the rasterizer instead.
@@ -544,7 +599,7 @@ class PolySftController {
       ceres::Problem problem(problem_options);
       for (size_t k = 0; k < window_.size(); ++k) {
         FrameData& frame = *window_[k];
-        problem.AddParameterBlock(frame.theta.data(), model_.num_parameters());
+        for (double* block : Blocks(frame.theta)) problem.AddParameterBlock(block, model_.block_size());
         if (!AddImageTerm(l, frame, &problem)) {
           return Fail("frame " + std::to_string(frame.frame.index) + ": the surface went behind the camera");
         }
@@ -554,6 +609,7 @@ class PolySftController {
       SftIterationSummary row;
       row.frame = window_.back()->frame.index;
       row.window = window_.front()->frame.index;
+      row.patches = model_.num_patches();
       std::function<double()> e3d;
       if (scene_.ground_truth_kind == GroundTruthKind::kVertices) {
         FrameData* newest = window_.back().get();
@@ -573,6 +629,7 @@ class PolySftController {
       *cost = result.final_cost / window_.size();
       *iterations += callback.iterations();
       for (const auto& frame : window_) {
+        frame->patches = model_.num_patches();
         for (double v : frame->theta) {
           if (!std::isfinite(v)) {
             return Fail("frame " + std::to_string(window_.back()->frame.index) +
@@ -582,6 +639,96 @@ class PolySftController {
       }
     }
     return true;
+  }
+
+  // After frame t's window is solved: on the first frame, the image
+  // residual per vertex (the floor); later, the patch that fits worst
+  // against its floor is split if the split passes the score test (below);
+  // true when it was, and the window must be solved again.
+  bool RefineAtlas(int t) {
+    if (!model_.can_split() || options_.atlas.max_patches <= 1 || (!use_photometric_ && !use_masks_)) return false;
+    FrameData& newest = *window_.back();
+    if (newest.mask_empty || (t > 0 && floor_squared_.size() == 0)) return false;
+    RenderCost::Data d;
+    if (!ImageTerm(static_cast<int>(levels_.size()) - 1, newest, false, &d) || d.roi.area() <= 0) return false;
+    const int channels = d.mask.empty() ? 3 : 4;
+    Eigen::VectorXd squared, pixels;
+    if (!RenderCost(std::move(d)).VertexResiduals(newest.theta.data(), &squared, &pixels)) return false;
+    if (t == 0) {
+      floor_squared_ = squared;
+      floor_pixels_ = pixels;
+      // Per residual, in the cost's units (1/2 r^2).
+      noise_cost_ = 0.5 * squared.sum() / std::max(pixels.sum(), 1.0) / channels;
+      return false;
+    }
+    std::vector<double> ratios;
+    const std::vector<int> chosen =
+        PatchesToSplit(options_.atlas, model_, squared, pixels, floor_squared_, floor_pixels_, &ratios);
+    if (chosen.empty()) return false;
+    const int p = chosen.front();
+    const std::vector<int> child =
+        SplitPatchVertices(scene_.template_mesh, model_.vertex_patches(), p, options_.atlas.children);
+    if (child.empty()) return false;
+    // The score test: the decrease one Gauss-Newton step on the newest
+    // frame would give with the split, beyond what it gives without, against
+    // what its extra parameters would gain from noise alone (about one
+    // residual's variance each).
+    const double before = PredictedDecrease();
+    const JetDeformationModel unsplit = model_;
+    const AtlasTerms unsplit_terms = atlas_terms_;
+    std::vector<std::vector<double>> thetas;
+    for (auto& frame : window_) thetas.push_back(frame->theta);
+    const std::vector<double> previous = previous_final_theta_;
+    const PatchSplit split = model_.SplitPatch(p, child);
+    for (auto& frame : window_) frame->theta = model_.InheritParameters(split, frame->theta);
+    if (has_previous_final_) previous_final_theta_ = model_.InheritParameters(split, previous_final_theta_);
+    atlas_terms_ = GroupAtlasTerms(model_, edges_, rest_lengths_);
+    const double gain = PredictedDecrease() - before;
+    const double noise = (split.num_children - 1) * model_.block_size() * noise_cost_;
+    if (gain > options_.atlas.split_significance * noise) {
+      summary_.splits.push_back({newest.frame.index, p, split.num_children, ratios[p], gain / noise});
+      return true;
+    }
+    model_ = unsplit;
+    atlas_terms_ = unsplit_terms;
+    for (size_t k = 0; k < window_.size(); ++k) window_[k]->theta = thetas[k];
+    previous_final_theta_ = previous;
+    return false;
+  }
+
+  // The decrease of the newest frame's cost at the finest level that one
+  // Gauss-Newton step (lightly damped) would give, the other frames held.
+  double PredictedDecrease() {
+    ceres::Problem::Options problem_options;
+    problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+    ceres::Problem problem(problem_options);
+    const size_t k = window_.size() - 1;
+    FrameData& frame = *window_[k];
+    const std::vector<double*> blocks = Blocks(frame.theta);
+    for (double* block : blocks) problem.AddParameterBlock(block, model_.block_size());
+    if (!AddImageTerm(static_cast<int>(levels_.size()) - 1, frame, &problem)) return 0.0;
+    AddRegularizers(k, &problem);
+    ceres::Problem::EvaluateOptions evaluate;
+    evaluate.parameter_blocks = blocks;
+    evaluate.num_threads = ResolveNumThreads(options_.num_threads);
+    double cost = 0.0;
+    std::vector<double> gradient;
+    ceres::CRSMatrix crs;
+    if (!problem.Evaluate(evaluate, &cost, nullptr, &gradient, &crs)) return 0.0;
+    const int n = crs.num_cols;
+    Eigen::MatrixXd jtj = Eigen::MatrixXd::Zero(n, n);
+    Eigen::VectorXd row(n);
+    for (int r = 0; r < crs.num_rows; ++r) {
+      row.setZero();
+      for (int e = crs.rows[r]; e < crs.rows[r + 1]; ++e) row[crs.cols[e]] = crs.values[e];
+      jtj.selfadjointView<Eigen::Lower>().rankUpdate(row);
+    }
+    jtj = jtj.selfadjointView<Eigen::Lower>();
+    const Eigen::Map<const Eigen::VectorXd> g(gradient.data(), n);
+    Eigen::MatrixXd damped = jtj;
+    damped.diagonal() *= 1.0 + 1e-4;
+    const Eigen::VectorXd step = -damped.ldlt().solve(g);
+    return std::max(0.0, -(g.dot(step) + 0.5 * step.dot(jtj * step)));
   }
 
   bool Fail(const std::string& message) {
@@ -625,6 +772,7 @@ class PolySftController {
     result.time_s = time_s;
     result.cost = cost;
     result.iterations = iterations;
+    result.patches = data.patches;
     if (scene_.ground_truth_kind == GroundTruthKind::kVertices) {
       const Eigen::Matrix3Xd& gt = data.frame.ground_truth;
       result.e3d = ComputeE3D(result.vertices, gt);
@@ -653,6 +801,7 @@ class PolySftController {
     s.mean_normal_error_deg = Mean(s.frames, &SftFrameSummary::normal_error_deg);
     s.mean_rmse_mm = Mean(s.frames, &SftFrameSummary::rmse_mm);
     s.mean_chamfer_1e4 = Mean(s.frames, &SftFrameSummary::chamfer_1e4);
+    s.patch_vertices = model_.PatchSizes();
     if (std::isfinite(s.template_e3d) && !s.frames.empty()) {
       s.template_e3d /= s.frames.size();
       s.template_rmse_mm /= s.frames.size();
@@ -669,7 +818,13 @@ class PolySftController {
   const SftFrameCallback& on_frame_;
   const Clock::time_point start_;
   const Eigen::Matrix2Xd vertex_texcoords_;
-  const JetDeformationModel model_;
+  JetDeformationModel model_;
+  AtlasTerms atlas_terms_;
+  double mean_edge_ = 0.0;  // the template's, in metres
+  // The image residual per vertex on the first frame (the floor a patch's
+  // fit is compared with).
+  Eigen::VectorXd floor_squared_, floor_pixels_;
+  double noise_cost_ = 0.0;
   PolySftSummary summary_;
   bool use_masks_ = false, use_temporal_ = false, use_photometric_ = false, use_inextensibility_ = false;
   ScreenMesh mesh_template_;
@@ -729,11 +884,12 @@ void WriteSftOutputs(const std::string& directory, const SftScene& scene, const 
     WritePly((fs::path(directory) / "meshes" / name).string(), mesh);
   }
   WriteFileAtomically((fs::path(directory) / "trace.csv").string(), [&](std::ostream& trace) {
-    trace << "frame,window,iteration,time_s,cost,e3d\n";
+    // The scene format's columns first; the atlas's patches last.
+    trace << "frame,window,iteration,time_s,cost,e3d,patches\n";
     for (const SftIterationSummary& r : summary.trace) {
       trace << r.frame << ',' << r.window << ',' << r.iteration << ',' << r.time_s << ',' << r.cost << ',';
       if (std::isfinite(r.e3d)) trace << r.e3d;
-      trace << '\n';
+      trace << ',' << r.patches << '\n';
     }
   });
   nlohmann::json frames = nlohmann::json::array();
@@ -742,10 +898,19 @@ void WriteSftOutputs(const std::string& directory, const SftScene& scene, const 
                       {"time_s", f.time_s},
                       {"cost", f.cost},
                       {"iterations", f.iterations},
+                      {"patches", f.patches},
                       {"e3d", JsonNumber(f.e3d)},
                       {"e_n_deg", JsonNumber(f.normal_error_deg)},
                       {"rmse_mm", JsonNumber(f.rmse_mm)},
                       {"chamfer_1e4", JsonNumber(f.chamfer_1e4)}});
+  }
+  nlohmann::json splits = nlohmann::json::array();
+  for (const SftPatchSplit& s : summary.splits) {
+    splits.push_back({{"frame", s.frame},
+                      {"patch", s.patch},
+                      {"children", s.children},
+                      {"ratio", JsonNumber(s.ratio)},
+                      {"significance", JsonNumber(s.significance)}});
   }
   nlohmann::json terms = nlohmann::json::object();
   for (const auto& [name, weight] : summary.terms) terms[name] = weight;
@@ -764,6 +929,8 @@ void WriteSftOutputs(const std::string& directory, const SftScene& scene, const 
        {{"e3d", JsonNumber(summary.template_e3d)}, {"rmse_mm", JsonNumber(summary.template_rmse_mm)}}},
       {"total_time_s", summary.total_time_s},
       {"deformation", summary.deformation},
+      {"atlas",
+       {{"patches", summary.patch_vertices.size()}, {"patch_vertices", summary.patch_vertices}, {"splits", splits}}},
       {"active_terms", terms},
       {"silhouette_band_px", summary.silhouette_band_px},
       {"pyramid_levels", summary.pyramid_levels},

@@ -23,12 +23,16 @@
 #include "sft/model/jet_deformation.h"
 #include "sft/render/soft_rasterizer.h"
 #include "sft/scene/scene.h"
+#include "sft/solver/patch_atlas.h"
 #include "sft/solver/robust_loss.h"
 
 namespace polyfit {
 
 struct PolySftOptions {
   JetDeformationOptions deformation;
+  // The template starts as one patch and splits where one jet cannot
+  // hold the frames (sft/solver/patch_atlas.h); max_patches 1: never.
+  PatchAtlasOptions atlas;
   // sigma is in pixels squared at every pyramid level.
   SoftRasterizerOptions rasterizer;
   // Frames solved together; the oldest leaves the window (and is written)
@@ -100,6 +104,8 @@ struct SftFrameSummary {
   // frame of that window.
   double cost = 0.0;
   int iterations = 0;
+  // The atlas the frame was solved with.
+  int patches = 1;
   double e3d = std::numeric_limits<double>::quiet_NaN();
   double normal_error_deg = std::numeric_limits<double>::quiet_NaN();
   double rmse_mm = std::numeric_limits<double>::quiet_NaN();
@@ -112,7 +118,20 @@ struct SftIterationSummary {
   int iteration = 0;
   double time_s = 0.0;  // since the start of the sequence
   double cost = 0.0;
+  int patches = 1;
   double e3d = std::numeric_limits<double>::quiet_NaN();
+};
+
+// A patch of the atlas split after `frame` was solved: it fit `ratio` times
+// worse than on the first frame, and splitting it promised `significance`
+// times what noise would give.
+struct SftPatchSplit {
+  int frame = 0;
+  int patch = 0;
+  int children = 0;
+  double ratio = 0.0;
+  // The score test's gain over its noise level.
+  double significance = 0.0;
 };
 
 struct PolySftSummary {
@@ -127,6 +146,9 @@ struct PolySftSummary {
   // "patch_jet", or "texture_space" (the fallback for templates that are
   // no height field, or when asked for).
   std::string deformation;
+  // The atlas: its splits in order, and each patch's vertex count at the end.
+  std::vector<SftPatchSplit> splits;
+  std::vector<int> patch_vertices;
   // Active terms and their weights.
   std::vector<std::pair<std::string, double>> terms;
   std::vector<std::string> warnings;

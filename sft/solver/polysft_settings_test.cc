@@ -34,6 +34,13 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.robust_scale = 0.3;
   changed.max_frames = 7;
   changed.num_threads = 1;
+  changed.atlas.max_patches = 10;
+  changed.atlas.split_ratio = 1.5;
+  changed.atlas.split_significance = 30.0;
+  changed.atlas.children = 2;
+  changed.atlas.min_vertices = 12;
+  changed.atlas.seam_position_weight = 3.0;
+  changed.atlas.seam_normal_weight = 0.01;
   const nlohmann::json written = PolySftSettingsToJson(changed);
   EXPECT_EQ(written.size(), PolySftSettingKeys().size());
   PolySftOptions read;

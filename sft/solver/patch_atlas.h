@@ -1,0 +1,92 @@
+// PolySfT's patch atlas: where the template's single patch (the paper's
+// model) is split, and the terms that tie the patches together.
+//
+// A sequence starts with one patch. After a frame is solved, each patch's
+// image residual per pixel (RenderCost::VertexResiduals, summed over its
+// vertices) is compared with the same patch's on the first frame, where the
+// template is registered and the residual is the scene's floor (noise,
+// blur, texture the renderer does not reproduce). The patch that fits
+// worst against that floor (at least split_ratio times) is split in
+// `children` by ACVD on its faces, each child inheriting its parent's
+// parameters (JetDeformationModel::InheritParameters), if the split passes
+// a score test: one Gauss-Newton step on the frame would lower its cost by
+// split_significance times what the children's extra parameters would gain
+// from noise alone. The window is then solved again.
+//
+// Off by default (max_patches 1), as measured (docs/benchmarks.md): it
+// holds creases and wave packets that one patch cannot (RMSE 7.7 -> 1.9 mm,
+// 7.6 -> 2.6 mm), but a strong smooth bend passes the test as well, and
+// there the split atlas tracks worse than the one patch (1.2 -> 3.3 mm),
+// at 2-3 s per frame with 16 patches.
+#ifndef POLYFIT_SFT_SOLVER_PATCH_ATLAS_H_
+#define POLYFIT_SFT_SOLVER_PATCH_ATLAS_H_
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "polyfit/mesh/triangle_mesh.h"
+#include "sft/model/jet_deformation.h"
+
+namespace polyfit {
+
+struct PatchAtlasOptions {
+  // 1: the paper's single patch, never split (the default, see above).
+  int max_patches = 1;
+  // A patch is a candidate when its residual per pixel exceeds this many
+  // times its first-frame floor; the worst candidate splits when one
+  // Gauss-Newton step with the split would lower the frame's cost by
+  // split_significance times what its extra parameters would gain from
+  // noise alone (the score test).
+  double split_ratio = 1.1;
+  double split_significance = 10.0;
+  int children = 4;
+  // A patch splits only when each child would have this many vertices.
+  int min_vertices = 20;
+  // Seam continuity (SeamCost): positions (in template edge lengths) and
+  // normals. Normals are left free by default: a crease on a seam is a
+  // real shape, and only the images should decide it.
+  double seam_position_weight = 1.0;
+  double seam_normal_weight = 0.0;
+
+  std::string Validate() const;
+};
+
+// The edges and seams of the current atlas, grouped by the patches they
+// join.
+struct AtlasTerms {
+  struct EdgeGroup {
+    std::vector<int> patches;  // one, or two sorted
+    std::vector<Eigen::Vector2i> edges;
+    std::vector<double> rest_lengths;
+  };
+  struct Seam {
+    int a = 0, b = 0;           // a < b
+    std::vector<int> vertices;  // of either patch, with a neighbour in the other
+  };
+  std::vector<EdgeGroup> edge_groups;
+  std::vector<Seam> seams;
+};
+
+AtlasTerms GroupAtlasTerms(const JetDeformationModel& model, const std::vector<Eigen::Vector2i>& edges,
+                           const std::vector<double>& rest_lengths);
+
+// #V entries: for the vertices of `patch`, which of up to `children` ACVD
+// cells of its faces takes them; empty when it does not split into
+// non-empty children.
+std::vector<int> SplitPatchVertices(const TriangleMesh& mesh, const std::vector<int>& vertex_patch, int patch,
+                                    int children);
+
+// The patches to split, worst first, within max_patches: each patch's
+// residual per pixel (sums over its vertices of squared / pixels, #V each)
+// against its first-frame floor (the same sums then). Patches seen in
+// fewer than a quarter of their first-frame pixels are left alone.
+std::vector<int> PatchesToSplit(const PatchAtlasOptions& options, const JetDeformationModel& model,
+                                const Eigen::VectorXd& squared, const Eigen::VectorXd& pixels,
+                                const Eigen::VectorXd& floor_squared, const Eigen::VectorXd& floor_pixels,
+                                std::vector<double>* ratios = nullptr);
+
+}  // namespace polyfit
+
+#endif  // POLYFIT_SFT_SOLVER_PATCH_ATLAS_H_
