@@ -389,12 +389,26 @@ class PolySftController {
     const std::vector<double>* before = window_.size() >= 2   ? &window_[window_.size() - 2]->theta
                                         : has_previous_final_ ? &previous_final_theta_
                                                               : nullptr;
-    if (!options_.predict_motion || before == nullptr || data.mask_empty || (!use_photometric_ && !use_masks_)) {
+    if (!options_.predict_motion || before == nullptr || data.mask_empty || (!use_photometric_ && !use_masks_) ||
+        !Tracked(*window_.back()) || (window_.size() >= 2 && !Tracked(*window_[window_.size() - 2]))) {
       return last;
     }
     std::vector<double> predicted = last;
     for (size_t k = 0; k < predicted.size(); ++k) predicted[k] += last[k] - (*before)[k];
     return CoarseImageCost(data, predicted.data()) < CoarseImageCost(data, last.data()) ? predicted : last;
+  }
+
+  // Whether a solved frame fits far worse than the first (as
+  // FinalizeFrame warns): its motion is no motion to carry on.
+  bool Lost(const FrameData& data) const {
+    const int t = data.frame.index - scene_.first_frame;
+    return t > 0 && frame_cost_[t] > 4.0 * std::max(frame_cost_[0], 1e-12);
+  }
+
+  // A solved frame whose motion may be carried on: seen, fitting about as
+  // well as the first, in the texture's colours.
+  bool Tracked(const FrameData& data) const {
+    return !data.mask_empty && !Lost(data) && data.brightness.correlation >= 0.2;
   }
 
   // Loads frame t with its pyramid, warm-started from the newest frame.
@@ -747,14 +761,12 @@ class PolySftController {
   // The frame's result, its error against ground truth, and a warning when
   // it fits far worse than the first (tracking probably lost).
   void FinalizeFrame(FrameData& data, double time_s, double cost, int iterations) {
-    if (first_cost_ < 0.0) {
-      first_cost_ = cost;
-    } else if (cost > 4.0 * std::max(first_cost_, 1e-12)) {
+    if (Lost(data)) {
       char buffer[200];
       std::snprintf(buffer, sizeof(buffer),
                     "frame %d: cost %.3g is %.0f times the first frame's: tracking may be lost (motion too large "
                     "between frames?)",
-                    data.frame.index, cost, cost / std::max(first_cost_, 1e-12));
+                    data.frame.index, cost, cost / std::max(frame_cost_[0], 1e-12));
       summary_.warnings.emplace_back(buffer);
     }
     // Matched at the finest level from the frame's nearly final estimate.
@@ -837,7 +849,6 @@ class PolySftController {
   Eigen::Matrix3Xd previous_final_;  // the frame before the window, once there is one
   std::vector<double> previous_final_theta_;
   bool has_previous_final_ = false;
-  double first_cost_ = -1.0;
   std::vector<double> frame_time_, frame_cost_;
   std::vector<int> frame_iterations_;
   int solves_ = 0, unconverged_solves_ = 0;

@@ -75,9 +75,11 @@ struct PolySftOptions {
   // (constant velocity) where that fits the frame better than the last
   // one does (the image terms at the coarsest level): fast smooth motion
   // stays within the pyramid's reach and takes fewer iterations, and a
-  // motion that reverses between two frames is not overshot. Off by
-  // default: once tracking is lost, the prediction carries the lost
-  // motion on and the surface is not found again (docs/benchmarks.md).
+  // motion that reverses between two frames is not overshot. Only the
+  // motion of two tracked frames is carried on (seen, fitting within 4
+  // times the first frame's cost, colours correlated with the texture's).
+  // Off by default: a sheet turning edge-on is still carried past where
+  // it can be found again (docs/benchmarks.md).
   bool predict_motion = false;
   // Per-pixel robust loss of the photometric residual (real video).
   RobustLoss robust_loss = RobustLoss::kNone;
