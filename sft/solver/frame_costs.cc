@@ -448,4 +448,36 @@ ceres::CostFunction* CreateSeamCost(const JetDeformationModel* model, int patch_
   return cost;
 }
 
+namespace {
+
+class SharedUv : public ceres::CostFunction {
+ public:
+  SharedUv(const JetDeformationModel* model, double weight)
+      : offset_(model->num_dalpha()), count_(model->num_duv()), weight_(weight) {
+    set_num_residuals(count_);
+    mutable_parameter_block_sizes()->push_back(model->block_size());
+    mutable_parameter_block_sizes()->push_back(model->block_size());
+  }
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const int b = parameter_block_sizes()[0];
+    for (int k = 0; k < count_; ++k) residuals[k] = weight_ * (parameters[0][offset_ + k] - parameters[1][offset_ + k]);
+    for (int j = 0; jacobians != nullptr && j < 2; ++j) {
+      if (jacobians[j] == nullptr) continue;
+      std::fill(jacobians[j], jacobians[j] + count_ * b, 0.0);
+      for (int k = 0; k < count_; ++k) jacobians[j][k * b + offset_ + k] = j == 0 ? weight_ : -weight_;
+    }
+    return true;
+  }
+
+ private:
+  int offset_, count_;
+  double weight_;
+};
+
+}  // namespace
+
+ceres::CostFunction* CreateSharedUvCost(const JetDeformationModel* model, double weight) {
+  return new SharedUv(model, weight);
+}
+
 }  // namespace polyfit

@@ -177,6 +177,11 @@ ceres::CostFunction* CreateSeamCost(const JetDeformationModel* model, int patch_
                                     const std::vector<int>& seam_vertices, double length_scale, double position_weight,
                                     double normal_weight);
 
+// The uv fields of patches a and b alike (their compact fields'
+// coefficients): r = w (duv_a - duv_b), so that patches share how the
+// surface slides and differ in shape and pose. Parameter blocks: a's, b's.
+ceres::CostFunction* CreateSharedUvCost(const JetDeformationModel* model, double weight);
+
 }  // namespace polyfit
 
 #endif  // POLYFIT_SFT_SOLVER_FRAME_COSTS_H_

@@ -335,6 +335,9 @@ TEST_F(AtlasCostsTest, CostsOverPatchBlocksAreExact) {
   std::unique_ptr<ceres::CostFunction> seam(
       CreateSeamCost(model_.get(), pair[0], pair[1], {seam_edge[0], seam_edge[1]}, 0.01, 1.0, 0.1));
   EXPECT_LT(RelativeJacobianError(*seam, pair_theta, 1e-7), 1e-5);
+  std::unique_ptr<ceres::CostFunction> shared_uv(CreateSharedUvCost(model_.get(), 3.0));
+  EXPECT_EQ(shared_uv->num_residuals(), model_->num_duv());
+  EXPECT_LT(RelativeJacobianError(*shared_uv, pair_theta, 1e-7), 1e-8);
 }
 
 TEST_F(AtlasCostsTest, SeamsAreContinuousWhenChildrenStartAndNotOnceTheyDiffer) {

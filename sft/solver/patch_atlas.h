@@ -13,11 +13,11 @@
 // split_significance times what the children's extra parameters would gain
 // from noise alone. The window is then solved again.
 //
-// Off by default (max_patches 1), as measured (docs/benchmarks.md): it
-// holds creases and wave packets that one patch cannot (RMSE 7.7 -> 1.9 mm,
-// 7.6 -> 2.6 mm), but a strong smooth bend passes the test as well, and
-// there the split atlas tracks worse than the one patch (1.2 -> 3.3 mm),
-// at 2-3 s per frame with 16 patches.
+// Off by default (max_patches 1), as measured (docs/benchmarks.md): with
+// up to 16 patches it holds creases and wave packets that one patch cannot
+// (RMSE 7.7 -> 2.6 mm, 7.6 -> 3.5 mm) and a strong smooth bend a little
+// better (1.2 -> 1.0 mm), but a smooth bend passes the score test as well
+// and then costs 2-3 s per frame instead of 0.66.
 #ifndef POLYFIT_SFT_SOLVER_PATCH_ATLAS_H_
 #define POLYFIT_SFT_SOLVER_PATCH_ATLAS_H_
 
@@ -49,6 +49,10 @@ struct PatchAtlasOptions {
   // real shape, and only the images should decide it.
   double seam_position_weight = 1.0;
   double seam_normal_weight = 0.0;
+  // Neighbouring patches' uv fields alike (SharedUvCost), per seam: small
+  // patches that each slide on their own lose a smooth bend that one patch
+  // holds (docs/benchmarks.md); tied, they share how the surface slides.
+  double seam_uv_weight = 10.0;
 
   std::string Validate() const;
 };

@@ -572,6 +572,11 @@ class PolySftController {
         problem->AddResidualBlock(
             new CompressedCost(CreateSeamCost(&model_, seam.a, seam.b, seam.vertices, mean_edge_, wx, wn)), nullptr,
             blocks[seam.a], blocks[seam.b]);
+        if (atlas.seam_uv_weight > 0.0) {
+          problem->AddResidualBlock(
+              CreateSharedUvCost(&model_, std::sqrt(atlas.seam_uv_weight / atlas_terms_.seams.size())), nullptr,
+              blocks[seam.a], blocks[seam.b]);
+        }
       }
     }
     if (!use_temporal_) return;
