@@ -668,6 +668,8 @@ class PolySftController {
     if (!model_.can_split() || options_.atlas.max_patches <= 1 || (!use_photometric_ && !use_masks_)) return false;
     FrameData& newest = *window_.back();
     if (newest.mask_empty || (t > 0 && floor_squared_.size() == 0)) return false;
+    // A full atlas: nothing to measure.
+    if (t > 0 && model_.num_patches() + options_.atlas.children - 1 > options_.atlas.max_patches) return false;
     RenderCost::Data d;
     if (!ImageTerm(static_cast<int>(levels_.size()) - 1, newest, false, &d) || d.roi.area() <= 0) return false;
     const int channels = d.mask.empty() ? 3 : 4;
