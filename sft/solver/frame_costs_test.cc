@@ -86,6 +86,19 @@ double ModelJacobianError(const JetDeformationModel& model, const std::vector<do
   return max_error;
 }
 
+// The normal equations a render cost forms directly equal those of its
+// full Jacobian J and residuals r.
+void ExpectNormalEquationsOf(const RenderCost& cost, const std::vector<double>& theta, const Eigen::MatrixXd& J,
+                             const Eigen::VectorXd& r) {
+  double squared_norm = 0.0;
+  Eigen::MatrixXd jtj;
+  Eigen::VectorXd jtr;
+  ASSERT_TRUE(cost.EvaluateNormalEquations(theta.data(), &squared_norm, &jtj, &jtr));
+  EXPECT_NEAR(squared_norm, r.squaredNorm(), 1e-9 * r.squaredNorm());
+  EXPECT_LT((jtj - J.transpose() * J).norm(), 1e-9 * jtj.norm());
+  EXPECT_LT((jtr - J.transpose() * r).norm(), 1e-9 * jtr.norm());
+}
+
 class FrameCostsTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -163,14 +176,7 @@ TEST_F(FrameCostsTest, RenderCostJacobianMatchesFiniteDifferences) {
   double* jacobians[1] = {j.data()};
   ASSERT_TRUE(cost.Evaluate(parameters, r.data(), jacobians));
   const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(j.data(), m, P);
-  const Eigen::Map<const Eigen::VectorXd> R(r.data(), m);
-  double squared_norm = 0.0;
-  Eigen::MatrixXd jtj;
-  Eigen::VectorXd jtr;
-  ASSERT_TRUE(cost.EvaluateNormalEquations(theta_.data(), &squared_norm, &jtj, &jtr));
-  EXPECT_NEAR(squared_norm, R.squaredNorm(), 1e-9 * R.squaredNorm());
-  EXPECT_LT((jtj - J.transpose() * J).norm(), 1e-9 * jtj.norm());
-  EXPECT_LT((jtr - J.transpose() * R).norm(), 1e-9 * jtr.norm());
+  ExpectNormalEquationsOf(cost, theta_, J, Eigen::Map<const Eigen::VectorXd>(r.data(), m));
 }
 
 // With a band around the mask's border, a silhouette within the bounds
@@ -298,13 +304,7 @@ TEST_F(AtlasCostsTest, CostsOverPatchBlocksAreExact) {
         Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(j[p].data(), m, b);
   }
   const Eigen::Map<const Eigen::VectorXd> R(r.data(), m);
-  double squared_norm = 0.0;
-  Eigen::MatrixXd jtj;
-  Eigen::VectorXd jtr;
-  ASSERT_TRUE(cost.EvaluateNormalEquations(theta_.data(), &squared_norm, &jtj, &jtr));
-  EXPECT_NEAR(squared_norm, R.squaredNorm(), 1e-9 * R.squaredNorm());
-  EXPECT_LT((jtj - full.transpose() * full).norm(), 1e-9 * jtj.norm());
-  EXPECT_LT((jtr - full.transpose() * R).norm(), 1e-9 * jtr.norm());
+  ExpectNormalEquationsOf(cost, theta_, full, R);
   // Pixels shared among vertices add up to the covered pixels' cost.
   Eigen::VectorXd squared, pixels;
   ASSERT_TRUE(cost.VertexResiduals(theta_.data(), &squared, &pixels));
