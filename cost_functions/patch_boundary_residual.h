@@ -51,11 +51,22 @@ class PatchBoundaryResidual {
     T xa[3], na[3], xb[3], nb[3];
     Point(alpha_a, scale_a[0], translation_a, uv_a_, rotation_a_, xa, na);
     Point(alpha_b, scale_b[0], translation_b, uv_b_, rotation_b_, xb, nb);
-    for (int k = 0; k < 3; ++k) {
-      residual[k] = T(position_weight_) * (xa[k] - xb[k] - T(position_gap_[k]));
-      residual[3 + k] = T(normal_weight_) * (na[k] - nb[k] - T(normal_gap_[k]));
-    }
+    Difference(xa, na, xb, nb, position_weight_, normal_weight_, residual, position_gap_, normal_gap_);
     return true;
+  }
+
+  // The residual from the points and normals both patches give (eq. 5),
+  // for solvers whose patches are parameterised otherwise
+  // (sft/solver/frame_costs.h's seams).
+  template <typename T>
+  static void Difference(const T* xa, const T* na, const T* xb, const T* nb, double position_weight,
+                         double normal_weight, T* residual,
+                         const Eigen::Vector3d& position_gap = Eigen::Vector3d::Zero(),
+                         const Eigen::Vector3d& normal_gap = Eigen::Vector3d::Zero()) {
+    for (int k = 0; k < 3; ++k) {
+      residual[k] = T(position_weight) * (xa[k] - xb[k] - T(position_gap[k]));
+      residual[3 + k] = T(normal_weight) * (na[k] - nb[k] - T(normal_gap[k]));
+    }
   }
 
   static ceres::CostFunction* Create(int order, const Eigen::Vector2d& uv_a, const Eigen::Matrix3d& rotation_a,

@@ -8,6 +8,7 @@
 #include <ceres/jet.h>
 
 #include "cost_functions/edge_inextensibility.h"
+#include "cost_functions/patch_boundary_residual.h"
 #include "cost_functions/temporal_consistency.h"
 #include "polyfit/util/parallel_for.h"
 
@@ -422,10 +423,7 @@ struct SeamResidual {
       T xa[3], na[3], xb[3], nb[3];
       model->VertexOnPatch(vertices[v], a, parameters[0], xa, na);
       model->VertexOnPatch(vertices[v], b, parameters[1], xb, nb);
-      for (int k = 0; k < 3; ++k) {
-        residuals[6 * v + k] = position_scale * (xa[k] - xb[k]);
-        residuals[6 * v + 3 + k] = normal_weight * (na[k] - nb[k]);
-      }
+      PatchBoundaryResidual::Difference(xa, na, xb, nb, position_scale, normal_weight, residuals + 6 * v);
     }
     return true;
   }
