@@ -50,6 +50,7 @@ inline void WriteCompressedResiduals(const std::vector<int32_t>& sizes, double s
     return;
   }
   Eigen::MatrixXd r_matrix;
+  const Eigen::MatrixXd* r = &r_matrix;  // R
   double compressed = 0.0;
   if (n <= kCompressedEigenLimit) {
     const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(jtj);
@@ -67,30 +68,36 @@ inline void WriteCompressedResiduals(const std::vector<int32_t>& sizes, double s
     // Large systems (a patch atlas): pivoted Cholesky, ten times cheaper,
     //   J^T J = P^T L D L^T P,  R = D^(1/2) L^T P,  r~ = D^(-1/2) L^-1 P J^T r,
     // pivots below 1e-12 of the largest dropped as above.
-    const Eigen::LDLT<Eigen::MatrixXd> ldlt(jtj);
-    const Eigen::VectorXd d = ldlt.vectorD();
+    // Kept per thread: at a few hundred parameters, fresh matrices cost
+    // more in page faults than the factorisation.
+    thread_local Eigen::LDLT<Eigen::MatrixXd> ldlt;
+    thread_local Eigen::MatrixXd factor;
+    thread_local Eigen::VectorXd y;
+    ldlt.compute(jtj);
+    const Eigen::VectorXd& d = ldlt.vectorD();
     const double floor = 1e-12 * std::max(d.maxCoeff(), 1e-300);
-    Eigen::VectorXd y = ldlt.transpositionsP() * jtr;
+    y = ldlt.transpositionsP() * jtr;
     ldlt.matrixL().solveInPlace(y);
-    const Eigen::PermutationMatrix<Eigen::Dynamic> permutation(ldlt.transpositionsP());
-    r_matrix = Eigen::MatrixXd(ldlt.matrixU()) * permutation;
+    factor = ldlt.matrixU();
+    factor = factor * Eigen::PermutationMatrix<Eigen::Dynamic>(ldlt.transpositionsP());
     for (int i = 0; i < n; ++i) {
       if (!(d[i] > floor)) {
-        r_matrix.row(i).setZero();
+        factor.row(i).setZero();
         continue;
       }
       const double s = std::sqrt(d[i]);
-      r_matrix.row(i) *= s;
+      factor.row(i) *= s;
       out[i] = y[i] / s;
       compressed += out[i] * out[i];
     }
+    r = &factor;
   }
   out[n] = std::sqrt(std::max(0.0, squared_norm - compressed));
   for (size_t b = 0, cb = 0; b < sizes.size(); cb += sizes[b], ++b) {
     if (jacobians[b] == nullptr) continue;
     Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> jac(jacobians[b], n + 1,
                                                                                            sizes[b]);
-    jac.topRows(n) = r_matrix.middleCols(cb, sizes[b]);
+    jac.topRows(n) = r->middleCols(cb, sizes[b]);
     jac.row(n).setZero();
   }
 }
