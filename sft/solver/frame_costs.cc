@@ -170,34 +170,28 @@ void RenderCost::ReduceAccumulators(int P, bool want_jacobian, double* squared_n
   }
 }
 
-bool RenderCost::Compute(const double* theta, double* residuals, double** jacobians, double* squared_norm,
-                         Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr) const {
+bool RenderCost::Prepare(const double* theta, bool model_jacobian, bool render_gradients) const {
   const JetDeformationModel& model = *data_.model;
-  const bool normal = squared_norm != nullptr;
-  const bool want_jacobian = jacobians != nullptr || jtj != nullptr;
-  if (want_jacobian) {
+  if (model_jacobian) {
     model.EvaluateLocal(theta, &vertices_, &model_jacobian_);
   } else {
     model.Evaluate(theta, &vertices_);
   }
-  if (!ProjectVertices(data_.camera, vertices_, &screen_, want_jacobian ? &screen_jacobian_ : nullptr)) return false;
-  data_.rasterizer->Render(screen_, data_.camera.width, data_.camera.height, data_.image, want_jacobian, &render_,
+  if (!ProjectVertices(data_.camera, vertices_, &screen_, model_jacobian ? &screen_jacobian_ : nullptr)) return false;
+  data_.rasterizer->Render(screen_, data_.camera.width, data_.camera.height, data_.image, render_gradients, &render_,
                            data_.roi);
-  const int b = model.block_size(), K = model.num_patches(), P = model.num_parameters();
+  if (!model_jacobian) return true;
   const int n = model.num_vertices();
-  if (want_jacobian) {
-    screen_theta_.resize(3 * n, b);
-    for (int i = 0; i < n; ++i) {
-      screen_theta_.middleRows(3 * i, 3).noalias() =
-          screen_jacobian_.middleRows(3 * i, 3) * model_jacobian_.middleRows(3 * i, 3);
-    }
+  screen_theta_.resize(3 * n, model.block_size());
+  for (int i = 0; i < n; ++i) {
+    screen_theta_.middleRows(3 * i, 3).noalias() =
+        screen_jacobian_.middleRows(3 * i, 3) * model_jacobian_.middleRows(3 * i, 3);
   }
-  const cv::Rect& roi = data_.roi;
-  const int width = data_.camera.width;
-  // Normal equations: per thread and per set of patches, Jacobian rows of
-  // covered pixels are gathered in blocks and added with one symmetric
-  // rank-k update each.
-  const int threads = std::max(1, std::min(ResolveNumThreads(data_.rasterizer->options().num_threads), roi.height));
+  return true;
+}
+
+void RenderCost::ResetThreads(int threads, double** jacobians) const {
+  const int b = data_.model->block_size();
   threads_.resize(threads);
   for (ThreadState& t : threads_) {
     t.squared_norm = 0.0;
@@ -208,9 +202,53 @@ bool RenderCost::Compute(const double* theta, double* residuals, double** jacobi
       a.count = 0;
     }
   }
-  if (jacobians != nullptr) {
-    for (int p = 0; p < K; ++p) std::fill(jacobians[p], jacobians[p] + static_cast<size_t>(num_residuals()) * b, 0.0);
+  if (jacobians == nullptr) return;
+  for (int p = 0; p < data_.model->num_patches(); ++p) {
+    std::fill(jacobians[p], jacobians[p] + static_cast<size_t>(num_residuals()) * b, 0.0);
   }
+}
+
+bool RenderCost::AddPixelJacobian(ThreadState* state, int pixel, int r0, const double* r, double jacobian_scale,
+                                  bool in_band, double** jacobians, bool normal) const {
+  const int b = data_.model->block_size();
+  PixelPatches patches;
+  if (!GatherPatches(pixel, &patches)) return false;
+  const int m = patches.size * b;
+  double* local = state->local.data();
+  ChainPixelJacobian(pixel, patches, b, local);
+  for (int c = 0; c < 3 * m; ++c) local[c] *= jacobian_scale;
+  const double silhouette_scale = in_band ? 0.0 : data_.silhouette_weight;
+  for (int c = 3 * m; c < 4 * m; ++c) local[c] *= silhouette_scale;
+  if (jacobians != nullptr) {
+    for (int ch = 0; ch < channels_; ++ch) {
+      for (int j = 0; j < patches.size; ++j) {
+        std::copy(local + ch * m + j * b, local + ch * m + (j + 1) * b,
+                  jacobians[patches.patches[j]] + static_cast<size_t>(r0 + ch) * b);
+      }
+    }
+  }
+  if (!normal) return true;
+  Accumulator& a = FindAccumulator(state, patches, b);
+  if (a.count + channels_ > kBlockRows) Flush(&a);
+  for (int ch = 0; ch < channels_; ++ch) {
+    a.rows.row(a.count + ch) = Eigen::Map<const Eigen::RowVectorXd>(local + ch * m, m);
+    a.values[a.count + ch] = r[ch];
+  }
+  a.count += channels_;
+  return true;
+}
+
+bool RenderCost::Compute(const double* theta, double* residuals, double** jacobians, double* squared_norm,
+                         Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr) const {
+  const bool normal = squared_norm != nullptr;
+  const bool want_jacobian = jacobians != nullptr || jtj != nullptr;
+  if (!Prepare(theta, want_jacobian, want_jacobian)) return false;
+  const cv::Rect& roi = data_.roi;
+  // Normal equations: per thread and per set of patches, Jacobian rows of
+  // covered pixels are gathered in blocks and added with one symmetric
+  // rank-k update each.
+  const int threads = std::max(1, std::min(ResolveNumThreads(data_.rasterizer->options().num_threads), roi.height));
+  ResetThreads(threads, jacobians);
   std::atomic<bool> ok(true);
   ParallelFor(
       roi.height, threads,
@@ -218,7 +256,6 @@ bool RenderCost::Compute(const double* theta, double* residuals, double** jacobi
         const int y = roi.y + row;
         ThreadState& state = threads_[thread];
         double r[4];
-        PixelPatches patches;
         for (int col = 0; col < roi.width; ++col) {
           const int x = roi.x + col;
           const int r0 = (row * roi.width + col) * channels_;
@@ -229,49 +266,20 @@ bool RenderCost::Compute(const double* theta, double* residuals, double** jacobi
             for (int ch = 0; ch < channels_; ++ch) residuals[r0 + ch] = r[ch];
           }
           for (int ch = 0; ch < channels_; ++ch) state.squared_norm += r[ch] * r[ch];
-          if (!want_jacobian) continue;
-          const int pixel = y * width + x;
-          if (render_.end[pixel] == render_.begin[pixel]) continue;  // a zero row
-          if (!GatherPatches(pixel, &patches)) {
-            ok = false;
-            continue;
-          }
-          const int m = patches.size * b;
-          double* local = state.local.data();
-          ChainPixelJacobian(pixel, patches, b, local);
-          for (int c = 0; c < 3 * m; ++c) local[c] *= jacobian_scale;
-          const double silhouette_scale = in_band ? 0.0 : data_.silhouette_weight;
-          for (int c = 3 * m; c < 4 * m; ++c) local[c] *= silhouette_scale;
-          if (jacobians != nullptr) {
-            for (int ch = 0; ch < channels_; ++ch) {
-              for (int j = 0; j < patches.size; ++j) {
-                std::copy(local + ch * m + j * b, local + ch * m + (j + 1) * b,
-                          jacobians[patches.patches[j]] + static_cast<size_t>(r0 + ch) * b);
-              }
-            }
-          }
-          if (normal) {
-            Accumulator& a = FindAccumulator(&state, patches, b);
-            if (a.count + channels_ > kBlockRows) Flush(&a);
-            for (int ch = 0; ch < channels_; ++ch) {
-              a.rows.row(a.count + ch) = Eigen::Map<const Eigen::RowVectorXd>(local + ch * m, m);
-              a.values[a.count + ch] = r[ch];
-            }
-            a.count += channels_;
-          }
+          const int pixel = y * data_.camera.width + x;
+          if (!want_jacobian || render_.end[pixel] == render_.begin[pixel]) continue;  // a zero row
+          if (!AddPixelJacobian(&state, pixel, r0, r, jacobian_scale, in_band, jacobians, normal)) ok = false;
         }
       },
       1);
-  if (normal) ReduceAccumulators(P, want_jacobian, squared_norm, jtj, jtr);
+  if (normal) ReduceAccumulators(data_.model->num_parameters(), want_jacobian, squared_norm, jtj, jtr);
   return ok;
 }
 
 bool RenderCost::VertexResiduals(const double* theta, Eigen::VectorXd* squared_residuals,
                                  Eigen::VectorXd* pixels) const {
   const JetDeformationModel& model = *data_.model;
-  model.Evaluate(theta, &vertices_);
-  if (!ProjectVertices(data_.camera, vertices_, &screen_, nullptr)) return false;
-  data_.rasterizer->Render(screen_, data_.camera.width, data_.camera.height, data_.image, true, &render_, data_.roi);
+  if (!Prepare(theta, false, true)) return false;
   squared_residuals->setZero(model.num_vertices());
   pixels->setZero(model.num_vertices());
   const cv::Rect& roi = data_.roi;

@@ -89,6 +89,15 @@ class RenderCost : public ceres::CostFunction {
 
   bool Compute(const double* theta, double* residuals, double** jacobians, double* squared_norm, Eigen::MatrixXd* jtj,
                Eigen::VectorXd* jtr) const;
+  // The surface at theta (with its Jacobian against each vertex's patch
+  // block, in screen coordinates: screen_theta_), rendered (with the
+  // render's gradients); false when it went behind the camera.
+  bool Prepare(const double* theta, bool model_jacobian, bool render_gradients) const;
+  void ResetThreads(int threads, double** jacobians) const;
+  // The pixel's Jacobian rows, into the dense Jacobians and/or its patches'
+  // normal equations; false when its vertices span too many patches.
+  bool AddPixelJacobian(ThreadState* state, int pixel, int r0, const double* r, double jacobian_scale, bool in_band,
+                        double** jacobians, bool normal) const;
   // The pixel's residuals (RGB, silhouette), the scale of its RGB Jacobian
   // rows (robust loss) and whether its silhouette is within the band.
   void PixelResiduals(int y, int x, double* r, double* jacobian_scale, bool* in_band) const;
