@@ -17,6 +17,7 @@
 
 #include "polyfit/mesh/mesh_io.h"
 #include "polyfit/util/atomic_file.h"
+#include "sft/synthetic/cloth_motion.h"
 
 namespace polyfit {
 namespace {
@@ -97,7 +98,17 @@ SheetMotion ParseSheetMotion(const std::string& name) {
   if (name == "roll") return SheetMotion::kRoll;
   if (name == "crease") return SheetMotion::kCrease;
   if (name == "wave_packet") return SheetMotion::kWavePacket;
-  throw std::invalid_argument("unknown motion '" + name + "' (bend, wave, rigid, mixed, roll, crease or wave_packet)");
+  if (name == "hanging") return SheetMotion::kHanging;
+  if (name == "flag") return SheetMotion::kFlag;
+  if (name == "fall") return SheetMotion::kFall;
+  if (name == "table") return SheetMotion::kTable;
+  throw std::invalid_argument("unknown motion '" + name +
+                              "' (bend, wave, rigid, mixed, roll, crease, wave_packet, hanging, flag, fall or table)");
+}
+
+bool IsSimulatedMotion(SheetMotion motion) {
+  return motion == SheetMotion::kHanging || motion == SheetMotion::kFlag || motion == SheetMotion::kFall ||
+         motion == SheetMotion::kTable;
 }
 
 std::string SheetSceneOptions::Validate() const {
@@ -112,6 +123,9 @@ std::string SheetSceneOptions::Validate() const {
     return "the principal point offset must be within a quarter of the image";
   }
   if (std::string p = imperfections.Validate(); !p.empty()) return "imperfections: " + p;
+  if (!(frame_rate > 0.0 && frame_rate <= 1000.0)) return "frame_rate must be in (0, 1000]";
+  if (!(wind_scale >= 0.0 && wind_scale <= 10.0)) return "wind_scale must be in [0, 10]";
+  if (std::string p = cloth.Validate(); !p.empty()) return "cloth: " + p;
   return {};
 }
 
@@ -208,6 +222,9 @@ Eigen::Vector3d BendAcross(double x, double curvature, double fold) {
 }  // namespace
 
 Eigen::Matrix3Xd SheetVerticesAt(const SheetSceneOptions& o, double tau) {
+  if (IsSimulatedMotion(o.motion)) {
+    throw std::invalid_argument("SheetVerticesAt: a simulated motion has no closed form (use SheetSequence)");
+  }
   const int nx = o.grid_x, ny = o.grid_y;
   Eigen::Matrix3Xd vertices(3, (nx + 1) * (ny + 1));
   const bool bend = o.motion == SheetMotion::kBend || o.motion == SheetMotion::kMixed;
@@ -324,13 +341,9 @@ void RenderHard(const TriangleMesh& mesh, const cv::Mat& texture, double fx, dou
   }
 }
 
-namespace {
-
-// The sheet at the first frame: a grid of nx by ny cells, two triangles
-// each, texture coordinates spanning [0, 1]^2 (v up).
-TriangleMesh MakeSheetTemplate(const SheetSceneOptions& o) {
+TriangleMesh MakeSheetMesh(const SheetSceneOptions& o, const Eigen::Matrix3Xd& vertices) {
   TriangleMesh sheet;
-  sheet.vertices = SheetVerticesAt(o, 0.0);
+  sheet.vertices = vertices;
   const int nx = o.grid_x, ny = o.grid_y;
   sheet.faces.resize(3, 2 * nx * ny);
   sheet.corner_texcoords.resize(2, 6 * nx * ny);
@@ -351,6 +364,18 @@ TriangleMesh MakeSheetTemplate(const SheetSceneOptions& o) {
   }
   return sheet;
 }
+
+std::vector<Eigen::Matrix3Xd> SheetSequence(const SheetSceneOptions& o, ClothMotionReport* report) {
+  if (IsSimulatedMotion(o.motion)) return SimulateClothMotion(o, report);
+  if (report != nullptr) *report = ClothMotionReport();
+  std::vector<Eigen::Matrix3Xd> frames;
+  for (int t = 0; t < o.frame_count; ++t) {
+    frames.push_back(SheetVerticesAt(o, o.frame_count > 1 ? static_cast<double>(t) / (o.frame_count - 1) : 0.0));
+  }
+  return frames;
+}
+
+namespace {
 
 // An OBJ with one texture coordinate per vertex (each vertex's is the same
 // at every corner on the grid).
@@ -383,11 +408,16 @@ const char* SheetMotionName(SheetMotion motion) {
     case SheetMotion::kMixed: return "mixed";
     case SheetMotion::kCrease: return "crease";
     case SheetMotion::kWavePacket: return "wave_packet";
+    case SheetMotion::kHanging: return "hanging";
+    case SheetMotion::kFlag: return "flag";
+    case SheetMotion::kFall: return "fall";
+    case SheetMotion::kTable: return "table";
   }
   return "mixed";
 }
 
-void WriteSceneJson(const SheetSceneOptions& o, const fs::path& dir, double cx, double cy) {
+void WriteSceneJson(const SheetSceneOptions& o, const ClothMotionReport& simulation, const fs::path& dir, double cx,
+                    double cy) {
   const FootageImperfections& f = o.imperfections;
   nlohmann::json scene = {{"camera",
                            {{"fx", o.focal_length},
@@ -421,6 +451,19 @@ void WriteSceneJson(const SheetSceneOptions& o, const fs::path& dir, double cx, 
                             {"blur", f.blur},
                             {"moving_background", f.moving_background}}}};
   if (o.write_masks) scene["masks"] = "masks/%06d.png";
+  if (IsSimulatedMotion(o.motion)) {
+    const auto mm = [](double metres) {
+      return std::isfinite(metres) ? nlohmann::json(1e3 * metres) : nlohmann::json();
+    };
+    scene["generator"]["simulation"] = {{"frame_rate", o.frame_rate},
+                                        {"wind_scale", o.wind_scale},
+                                        {"substeps", o.cloth.substeps},
+                                        {"bending_stiffness", o.cloth.bending_stiffness},
+                                        {"max_edge_strain", simulation.max_edge_strain},
+                                        {"thickness_mm", mm(simulation.thickness)},
+                                        {"min_self_distance_mm", mm(simulation.min_self_distance)},
+                                        {"min_obstacle_distance_mm", mm(simulation.min_obstacle_distance)}};
+  }
   WriteFileAtomically((dir / "scene.json").string(), [&](std::ostream& out) { out << scene.dump(2) << '\n'; });
 }
 
@@ -440,7 +483,9 @@ void GenerateSheetScene(const SheetSceneOptions& o, const std::string& directory
   const cv::Mat texture = MakeTexture(o.texture_size, rng);
   const cv::Mat background = MakeBackground(o.width, o.height, rng);
   WriteRgbPng((dir / "texture.png").string(), texture);
-  TriangleMesh sheet = MakeSheetTemplate(o);
+  ClothMotionReport simulation;
+  const std::vector<Eigen::Matrix3Xd> sequence = SheetSequence(o, &simulation);
+  TriangleMesh sheet = MakeSheetMesh(o, sequence.front());
   WriteTemplateObj((dir / "template.obj").string(), sheet);
 
   const double cx = (o.width - 1) / 2.0 + o.principal_offset_x, cy = (o.height - 1) / 2.0 + o.principal_offset_y;
@@ -454,7 +499,7 @@ void GenerateSheetScene(const SheetSceneOptions& o, const std::string& directory
   std::normal_distribution<float> noise(0.0f, static_cast<float>(o.noise_sigma));
   for (int t = 0; t < o.frame_count; ++t) {
     const double tau = o.frame_count > 1 ? static_cast<double>(t) / (o.frame_count - 1) : 0.0;
-    sheet.vertices = SheetVerticesAt(o, tau);
+    sheet.vertices = sequence[t];
     const std::vector<float> shade = FaceShading(sheet, imperfect.shading);
     cv::Mat color, coverage;
     RenderHard(sheet, texture, o.focal_length, o.focal_length * o.focal_ratio, cx, cy, o.supersampling,
@@ -474,7 +519,7 @@ void GenerateSheetScene(const SheetSceneOptions& o, const std::string& directory
     }
     WritePly((dir / Frame("gt/%06d.ply", t)).string(), sheet);
   }
-  WriteSceneJson(o, dir, cx, cy);
+  WriteSceneJson(o, simulation, dir, cx, cy);
 }
 
 }  // namespace polyfit

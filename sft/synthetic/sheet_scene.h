@@ -14,6 +14,7 @@
 #include <opencv2/core.hpp>
 
 #include "polyfit/mesh/triangle_mesh.h"
+#include "sft/synthetic/cloth_simulation.h"
 #include "sft/synthetic/footage_imperfections.h"
 
 namespace polyfit {
@@ -26,9 +27,18 @@ enum class SheetMotion {
   kRoll,        // rolled into three quarters of a cylinder, unrolling to half (no height field)
   kCrease,      // a sharp vertical fold closing from flat to a 60 degree dihedral, toward the camera
   kWavePacket,  // about two periods of a travelling wave under a drifting envelope, with rigid motion
+  // Simulated cloth (cloth_motion.h): near-inextensible, folds, gravity.
+  kHanging,  // hanging from two pins drawn together (a V-shaped sag), gusts toward and away from the camera
+  kFlag,     // pinned along one side to a pole, flapping in gusty wind
+  kFall,     // released flat above a sphere (not rendered), falling onto it and draping over it
+  kTable,    // lying on a table (not rendered), a corner lifted 17 cm and carried over it, folding it
 };
 
-// "bend", "wave", "rigid", "mixed", "roll", "crease", "wave_packet";
+// True for the motions that are simulated (no closed form in time).
+bool IsSimulatedMotion(SheetMotion motion);
+
+// "bend", "wave", "rigid", "mixed", "roll", "crease", "wave_packet",
+// "hanging", "flag", "fall", "table";
 // throws std::invalid_argument otherwise.
 SheetMotion ParseSheetMotion(const std::string& name);
 
@@ -69,6 +79,11 @@ struct SheetSceneOptions {
   std::uint64_t seed = 1;
   // Real footage's masks, lighting, blur and background (all off).
   FootageImperfections imperfections;
+  // Simulated motions: frames per second, the cloth's physics, and a
+  // factor on the motion's wind (cloth_motion.h).
+  double frame_rate = 30.0;
+  ClothSimulationOptions cloth;
+  double wind_scale = 1.0;
 
   std::string Validate() const;
   // This scene as real footage would show it: FootageImperfections::
@@ -81,8 +96,21 @@ struct SheetSceneOptions {
   static SheetSceneOptions Small(int width, int grid_x, int frame_count);
 };
 
-// The sheet's vertices (3 by #V, camera frame) at time tau in [0, 1].
+// The sheet's vertices (3 by #V, camera frame) at time tau in [0, 1], for
+// the motions in closed form; throws std::invalid_argument for a
+// simulated one.
 Eigen::Matrix3Xd SheetVerticesAt(const SheetSceneOptions& options, double tau);
+
+// The sheet's vertices at every frame (frame_count of 3 by #V; frame 0 is
+// the template), in closed form or simulated. `report`, if given, receives
+// the simulation's checks (zero for closed-form motions).
+struct ClothMotionReport;
+std::vector<Eigen::Matrix3Xd> SheetSequence(const SheetSceneOptions& options, ClothMotionReport* report = nullptr);
+
+// The sheet's grid (grid_x by grid_y cells, two triangles each, vertex
+// j (grid_x + 1) + i at column i and row j; texture coordinates spanning
+// [0, 1]^2, v up) with the given vertices (3 by #V).
+TriangleMesh MakeSheetMesh(const SheetSceneOptions& options, const Eigen::Matrix3Xd& vertices);
 
 // Renders a textured mesh (corner texture coordinates, OBJ convention) over
 // `background` (CV_32FC3 RGB) with ss x ss samples per pixel: colour and

@@ -2,7 +2,8 @@
 // generator.
 //
 //   polysft --scene DIR --out DIR [--config FILE] [--overlays]
-//   polysft generate --out DIR [--motion bend|wave|rigid|mixed|roll|crease|wave_packet] [--frames N] ...
+//   polysft generate --out DIR [--motion bend|wave|rigid|mixed|roll|crease|wave_packet|hanging|flag|fall|table]
+//                    [--frames N] ...
 //   polysft demo [--dir DIR]      generate the default scene, then solve it
 //
 // Defaults live in PolySftOptions and SheetSceneOptions; this file maps
@@ -84,7 +85,10 @@ CLI::App* AddGenerateCommand(CLI::App* app, GenerateFlags* f) {
   polyfit::SheetSceneOptions& o = f->options;
   CLI::App* generate = app->add_subcommand("generate", "Write a synthetic sheet scene with exact ground truth");
   generate->add_option("--out", f->out, "Scene directory to write")->required();
-  generate->add_option("--motion", f->motion, "bend, wave, rigid, mixed, roll, crease or wave_packet")
+  generate
+      ->add_option(
+          "--motion", f->motion,
+          "bend, wave, rigid, mixed, roll, crease, wave_packet, or simulated cloth: hanging, flag, fall, table")
       ->capture_default_str();
   generate->add_option("--frames", o.frame_count, "Frames")->capture_default_str();
   generate->add_option("--width", o.width, "Image width")->capture_default_str();
@@ -104,6 +108,12 @@ CLI::App* AddGenerateCommand(CLI::App* app, GenerateFlags* f) {
   generate->add_option("--noise", o.noise_sigma, "Pixel noise sigma")->capture_default_str();
   generate->add_option("--seed", o.seed, "Random seed")->capture_default_str();
   generate->add_flag("--no-masks", f->no_masks, "Write no masks");
+  // Simulated cloth (sft/synthetic/cloth_motion.h).
+  generate->add_option("--fps", o.frame_rate, "Simulated motions: frames per second")->capture_default_str();
+  generate->add_option("--wind", o.wind_scale, "Simulated motions: factor on the wind")->capture_default_str();
+  generate->add_option("--substeps", o.cloth.substeps, "Simulated motions: substeps per frame")->capture_default_str();
+  generate->add_option("--bending", o.cloth.bending_stiffness, "Simulated motions: bending stiffness (N m)")
+      ->capture_default_str();
   // Real footage's imperfections (sft/synthetic/footage_imperfections.h).
   polyfit::FootageImperfections& r = o.imperfections;
   generate->add_option("--fy-ratio", o.focal_ratio, "Camera fy / fx")->capture_default_str();
