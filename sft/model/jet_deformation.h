@@ -2,7 +2,12 @@
 // O = (s, R_O, T_O) and an n-jet alpha), each vertex has parameters
 // (u_i, v_i) on it, and a deformed mesh is
 //   X_i = s R_O (R_c phi(u_i + du_i, v_i + dv_i; alpha + dalpha) + T_c) + T_O,
-//   phi(u, v; alpha) = (u, v, z(u, v; alpha)).
+//   phi(u, v; alpha) = (u, v, z(u, v; alpha) + e_i).
+// e_i, the template's detail, is what the jet misses of vertex i at rest
+// (its height above the fitted jet, in the frame; 0 with keep_detail
+// off): the model is the template exactly at zero parameters however
+// far the template is from one n-jet (a sag between pins, a real scan's
+// wrinkles), and the detail is carried in the frame as the jet deforms.
 // The uv displacement is either a compact field (du, dv each an m-jet in
 // (u, v): 2 (NumJetCoefficients(m) - 1) numbers; the constant is T_c's) or
 // per vertex (2 #V numbers). dalpha covers orders 2..n (orders 0 and 1 are
@@ -52,6 +57,8 @@ struct JetDeformationOptions {
   int uv_order = 3;
   // Use the texture-space field even for a height-field template.
   bool texture_space = false;
+  // Keep what the jet misses of the template as per-vertex detail e_i.
+  bool keep_detail = true;
 
   std::string Validate() const;
 };
@@ -90,8 +97,12 @@ class JetDeformationModel {
   const JetPatch& patch() const { return patch_; }
   // 2 by #V template parameters.
   const Eigen::Matrix2Xd& uv() const { return uv_; }
-  // RMS distance between the template and the model at zero parameters.
+  // RMS distance between the template and its jet (what the detail holds;
+  // the model at zero parameters is that far from the template without
+  // keep_detail, and exact with it).
   double template_rms_error() const { return template_rms_error_; }
+  // #V heights e_i (empty without keep_detail or in texture space).
+  const Eigen::VectorXd& detail() const { return detail_; }
 
   // The atlas. #V patch indices.
   const std::vector<int>& vertex_patches() const { return vertex_patch_; }
@@ -141,6 +152,7 @@ class JetDeformationModel {
   int num_dalpha_ = 0;
   int num_duv_ = 0;
   double template_rms_error_ = 0.0;
+  Eigen::VectorXd detail_;
   // The atlas: each vertex's patch, each patch's centre (frame coordinates).
   std::vector<int> vertex_patch_;
   std::vector<Eigen::Vector3d> centres_;
@@ -166,7 +178,7 @@ void JetDeformationModel::VertexOnPatch(int i, int p, const T* block, T* x, T* n
   const T u = T(uv_(0, i)) + du, v = T(uv_(1, i)) + dv;
   const JetHeightDerivatives<T> d = EvaluateJetDerivatives(order, alpha, u, v);
   const Eigen::Vector3d& c = centres_[p];
-  const T phi[3] = {u - c.x(), v - c.y(), d.z - c.z()};
+  const T phi[3] = {u - c.x(), v - c.y(), d.z + (detail_.size() > 0 ? detail_[i] : 0.0) - c.z()};
   T local_normal[3], moved[3], turned[3];
   JetNormal(d, local_normal);
   ceres::AngleAxisRotatePoint(block + rotation_offset(), phi, moved);

@@ -248,9 +248,10 @@ class PolySftController {
           "the template is not a height field over one plane: it is deformed by a texture-space field instead of "
           "its patch's jet");
     }
-    if (model_.template_rms_error() > 1e-3 * BoundingBoxDiagonal(scene_.template_mesh.vertices)) {
+    if (!options_.deformation.keep_detail &&
+        model_.template_rms_error() > 1e-3 * BoundingBoxDiagonal(scene_.template_mesh.vertices)) {
       char buffer[160];
-      std::snprintf(buffer, sizeof(buffer), "the template's jet deviates from it by %.2e m RMS",
+      std::snprintf(buffer, sizeof(buffer), "the template's jet deviates from it by %.2e m RMS (keep_detail holds it)",
                     model_.template_rms_error());
       summary_.warnings.emplace_back(buffer);
     }

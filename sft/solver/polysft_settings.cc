@@ -54,6 +54,7 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("jet_order", deformation.jet_order),
         POLYFIT_SETTING("uv_order", deformation.uv_order),
         POLYFIT_SETTING("texture_space", deformation.texture_space),
+        POLYFIT_SETTING("keep_detail", deformation.keep_detail),
         POLYFIT_SETTING("window_size", window_size),
         POLYFIT_SETTING("pyramid_levels", pyramid_levels),
         POLYFIT_SETTING("max_image_width", max_image_width),
