@@ -1,5 +1,7 @@
 #include "sft/render/mask_distance.h"
 
+#include <vector>
+
 #include <opencv2/imgproc.hpp>
 
 namespace polyfit {
@@ -16,6 +18,17 @@ cv::Mat SignedBorderDistance(const cv::Mat& inside) {
     }
   }
   return d;
+}
+
+cv::Mat OutsideDistance(const cv::Mat& mask) {
+  cv::Mat inside = mask.depth() == CV_8U ? mask > 127 : mask > 0.5;
+  std::vector<std::vector<cv::Point>> outlines;
+  cv::findContours(inside.clone(), outlines, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  cv::drawContours(inside, outlines, -1, cv::Scalar(255), cv::FILLED);
+  cv::Mat distance;
+  cv::distanceTransform(inside == 0, distance, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  cv::max(distance - 0.5, 0.0, distance);
+  return distance;
 }
 
 }  // namespace polyfit

@@ -11,6 +11,13 @@ namespace polyfit {
 // -0.5 and +0.5 on the pixels either side of a straight border.
 cv::Mat SignedBorderDistance(const cv::Mat& inside);
 
+// Distance (CV_32F, px) from each pixel's centre to the object's
+// silhouette: 0 inside, d - 0.5 outside (d: to the nearest inside pixel's
+// centre). The silhouette is `mask` (CV_8U above 127, or CV_32F above
+// 0.5) with its holes filled: every point of a surface projects inside its
+// outline, hidden or not, but a segmentation's holes say nothing.
+cv::Mat OutsideDistance(const cv::Mat& mask);
+
 }  // namespace polyfit
 
 #endif  // POLYFIT_SFT_RENDER_MASK_DISTANCE_H_

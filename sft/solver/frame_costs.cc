@@ -486,4 +486,63 @@ ceres::CostFunction* CreateSharedUvCost(const JetDeformationModel* model, double
   return new SharedUv(model, weight);
 }
 
+double SampleOutsideDistance(const cv::Mat& distance, double x, double y, Eigen::Vector2d* gradient) {
+  const double max_x = distance.cols - 1.0, max_y = distance.rows - 1.0;
+  const double cx = std::clamp(x, 0.0, max_x), cy = std::clamp(y, 0.0, max_y);
+  const int x0 = std::min(static_cast<int>(cx), std::max(0, distance.cols - 2));
+  const int y0 = std::min(static_cast<int>(cy), std::max(0, distance.rows - 2));
+  const int x1 = std::min(x0 + 1, distance.cols - 1), y1 = std::min(y0 + 1, distance.rows - 1);
+  const double ax = cx - x0, ay = cy - y0;
+  const double d00 = distance.at<float>(y0, x0), d01 = distance.at<float>(y0, x1);
+  const double d10 = distance.at<float>(y1, x0), d11 = distance.at<float>(y1, x1);
+  double value = (1 - ay) * ((1 - ax) * d00 + ax * d01) + ay * ((1 - ax) * d10 + ax * d11);
+  Eigen::Vector2d g((1 - ay) * (d01 - d00) + ay * (d11 - d10), (1 - ax) * (d10 - d00) + ax * (d11 - d01));
+  // Beyond the image: straight out.
+  const Eigen::Vector2d beyond(x - cx, y - cy);
+  if (beyond.x() != 0.0) g.x() = beyond.x() > 0.0 ? 1.0 : -1.0;
+  if (beyond.y() != 0.0) g.y() = beyond.y() > 0.0 ? 1.0 : -1.0;
+  value += std::abs(beyond.x()) + std::abs(beyond.y());
+  if (gradient != nullptr) *gradient = g;
+  return value;
+}
+
+SilhouetteReachCost::SilhouetteReachCost(const JetDeformationModel* model, int patch, const PinholeCamera& camera,
+                                         const cv::Mat& outside_distance, double tolerance, double weight)
+    : model_(model),
+      patch_(patch),
+      camera_(camera),
+      distance_(outside_distance),
+      tolerance_(tolerance),
+      weight_(weight / std::sqrt(static_cast<double>(model->num_vertices()))) {
+  for (int i = 0; i < model->num_vertices(); ++i) {
+    if (model->patch_of_vertex(i) == patch) vertices_.push_back(i);
+  }
+  set_num_residuals(static_cast<int>(vertices_.size()));
+  mutable_parameter_block_sizes()->push_back(model->block_size());
+}
+
+bool SilhouetteReachCost::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+  const int b = model_->block_size();
+  double* jacobian = jacobians != nullptr ? jacobians[0] : nullptr;
+  Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::RowMajor> d_position(3, b);
+  for (size_t k = 0; k < vertices_.size(); ++k) {
+    Eigen::Vector3d x;
+    model_->EvaluateVertex(vertices_[k], patch_, parameters[0], x.data(),
+                           jacobian != nullptr ? d_position.data() : nullptr);
+    Eigen::Vector2d pixel, gradient;
+    Eigen::Matrix3d d_pixel;
+    if (!camera_.ProjectWithJacobian(x, &pixel, &d_pixel)) return false;
+    const double outside = SampleOutsideDistance(distance_, pixel.x(), pixel.y(), &gradient) - tolerance_;
+    residuals[k] = weight_ * std::max(0.0, outside);
+    if (jacobian == nullptr) continue;
+    Eigen::Map<Eigen::RowVectorXd> row(jacobian + k * b, b);
+    if (outside <= 0.0) {
+      row.setZero();
+      continue;
+    }
+    row.noalias() = (weight_ * gradient.transpose() * d_pixel.topRows<2>()) * d_position;
+  }
+  return true;
+}
+
 }  // namespace polyfit

@@ -5,10 +5,12 @@
 
 #include <ceres/jet.h>
 #include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 
 #include "polyfit/mesh/mesh_topology.h"
 #include "polyfit/mesh/unique_edges.h"
 #include "polyfit/util/scoped_temp_dir.h"
+#include "sft/render/mask_distance.h"
 #include "sft/scene/scene.h"
 #include "sft/solver/patch_atlas.h"
 #include "sft/solver/silhouette_band.h"
@@ -250,6 +252,45 @@ TEST_F(FrameCostsTest, InextensibilityAndTemporalJacobiansMatchFiniteDifferences
   const Eigen::Matrix3Xd previous = scene_.template_mesh.vertices;
   const TemporalCost temporal(model_.get(), 0, 0.3, 1.5, &previous);
   EXPECT_LT(RelativeJacobianError(temporal, theta_, 1e-7), 1e-5);
+}
+
+// The outline's distance: 0 inside (holes filled), the distance to the
+// nearest inside pixel less half a pixel outside, and straight on beyond
+// the image.
+TEST(OutsideDistanceTest, FillsHolesAndMeasuresPixels) {
+  cv::Mat mask(40, 60, CV_8U, cv::Scalar(0));
+  cv::rectangle(mask, cv::Rect(20, 10, 20, 20), cv::Scalar(255), cv::FILLED);
+  cv::rectangle(mask, cv::Rect(27, 17, 5, 5), cv::Scalar(0), cv::FILLED);  // a hole
+  const cv::Mat d = OutsideDistance(mask);
+  EXPECT_EQ(d.at<float>(19, 29), 0.0f);  // in the hole
+  EXPECT_NEAR(d.at<float>(20, 45), 5.5, 1e-3);
+  Eigen::Vector2d gradient;
+  EXPECT_NEAR(SampleOutsideDistance(d, 45.5, 20.0, &gradient), 6.0, 1e-3);
+  EXPECT_NEAR(gradient.x(), 1.0, 1e-3);
+  EXPECT_NEAR(SampleOutsideDistance(d, 62.0, 20.0, &gradient), d.at<float>(20, 59) + 3.0, 1e-3);
+  EXPECT_EQ(gradient.x(), 1.0);
+}
+
+// The reach pulls the vertices that project outside the mask's outline,
+// with an exact Jacobian, and costs nothing while the surface is inside.
+TEST_F(FrameCostsTest, SilhouetteReachIsZeroInsideAndExactOutside) {
+  const SftFrame frame = LoadFrame(scene_, 0);
+  const cv::Mat outside = OutsideDistance(frame.mask);
+  const SilhouetteReachCost reach(model_.get(), 0, scene_.camera, outside, 0.5, 20.0);
+  ASSERT_EQ(reach.num_residuals(), model_->num_vertices());
+  std::vector<double> theta(model_->num_parameters(), 0.0), r(reach.num_residuals());
+  const double* blocks[] = {theta.data()};
+  ASSERT_TRUE(reach.Evaluate(blocks, r.data(), nullptr));
+  EXPECT_LT(Eigen::Map<Eigen::VectorXd>(r.data(), r.size()).cwiseAbs().maxCoeff(), 1e-9);
+  // Moved along the frame's u by a third of the sheet (the frame's units
+  // span it as [-1, 1]), tilted and bent: part of it is outside.
+  theta = theta_;
+  theta[model_->translation_offset()] += 0.7;
+  ASSERT_TRUE(reach.Evaluate(blocks, r.data(), nullptr));
+  int outside_count = 0;
+  for (double v : r) outside_count += v > 0.0;
+  EXPECT_GT(outside_count, model_->num_vertices() / 5);
+  EXPECT_LT(RelativeJacobianError(reach, theta, 1e-7), 1e-5);
 }
 
 // The atlas: the sheet split in four by ACVD, each child inheriting the

@@ -19,6 +19,7 @@
 #include "polyfit/util/atomic_file.h"
 #include "polyfit/util/json_number.h"
 #include "polyfit/util/parallel_for.h"
+#include "sft/render/mask_distance.h"
 #include "sft/scene/sft_metrics.h"
 #include "sft/solver/brightness.h"
 #include "sft/solver/frame_costs.h"
@@ -37,6 +38,9 @@ struct FrameData {
   SftFrame frame;
   // The silhouette's bounds per level (MaskBounds; equal without a band).
   std::vector<cv::Mat> images, masks, masks_upper;
+  // Per level, the distance outside the mask's outline (OutsideDistance;
+  // coarse levels only, with the silhouette's reach).
+  std::vector<cv::Mat> outside;
   bool mask_empty = false;
   // The frame's lighting, last matched (PolySftOptions::match_brightness),
   // and per level the frame mapped to the texture's lighting: matched in
@@ -223,6 +227,8 @@ class PolySftController {
     use_inextensibility_ = o.inextensibility_weight > 0.0;
     if (use_photometric_) summary_.terms.emplace_back("photometric", o.photometric_weight);
     if (use_masks_) summary_.terms.emplace_back("silhouette", o.silhouette_weight);
+    if (use_masks_ && o.silhouette_reach_weight > 0.0)
+      summary_.terms.emplace_back("silhouette_reach", o.silhouette_reach_weight);
     if (use_inextensibility_) summary_.terms.emplace_back("inextensibility", o.inextensibility_weight);
     if (use_temporal_) summary_.terms.emplace_back("temporal", o.temporal_weight);
     // Data terms are normalised to about 1 per unit weight: the regularisers
@@ -439,6 +445,10 @@ class PolySftController {
         }
       }
     }
+    if (options_.silhouette_reach_weight > 0.0 && !upper.empty()) {
+      data->outside.resize(levels);
+      for (int l = 0; l + 1 < levels; ++l) data->outside[l] = OutsideDistance(data->masks_upper[l]);
+    }
     if (!data->frame.mask.empty() && cv::countNonZero(data->frame.mask) == 0) {
       data->mask_empty = true;
       summary_.warnings.emplace_back("frame " + std::to_string(data->frame.index) +
@@ -456,7 +466,23 @@ class PolySftController {
     if (!ImageTerm(l, frame, window_.size() > 1, &d)) return false;
     if (d.roi.area() <= 0) return true;
     problem->AddResidualBlock(new CompressedRenderCost(std::move(d)), nullptr, Blocks(frame.theta));
+    AddSilhouetteReach(l, frame, problem);
     return true;
+  }
+
+  // The silhouette's long reach on a coarse level (SilhouetteReachCost).
+  void AddSilhouetteReach(int l, FrameData& frame, ceres::Problem* problem) {
+    if (!use_masks_ || options_.silhouette_reach_weight <= 0.0 || l + 1 >= static_cast<int>(levels_.size()) ||
+        static_cast<int>(frame.outside.size()) <= l || frame.outside[l].empty()) {
+      return;
+    }
+    const std::vector<double*> blocks = Blocks(frame.theta);
+    for (int p = 0; p < model_.num_patches(); ++p) {
+      problem->AddResidualBlock(
+          new CompressedCost(new SilhouetteReachCost(&model_, p, levels_[l].camera, frame.outside[l], 0.5,
+                                                     options_.silhouette_reach_weight)),
+          nullptr, blocks[p]);
+    }
   }
 
   // The image terms' data as the solve sees them: the frame mapped to the

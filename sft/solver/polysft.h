@@ -68,6 +68,14 @@ struct PolySftOptions {
   // (the template is registered to that frame; MaskBorderOffset), so that
   // exact masks keep their precision.
   double silhouette_band = -1.0;
+  // The silhouette's long reach (SilhouetteReachCost) on the pyramid's
+  // coarse levels: every vertex is pulled inside the mask's outline from
+  // wherever it is, so that a surface that moved further than the
+  // coverage term sees is brought back; the finest level is left to the
+  // coverage term (and a segmentation's few pixels of error). Its cost is
+  // w^2 / 2 times the mean squared distance (px) of the vertices outside.
+  // 0: off.
+  double silhouette_reach_weight = 2.0;
   // Map each frame to the texture's lighting (per-channel gain and bias,
   // sft/solver/brightness.h) before the photometric term compares them.
   bool match_brightness = true;

@@ -66,6 +66,7 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("inextensibility_weight", inextensibility_weight),
         POLYFIT_SETTING("temporal_weight", temporal_weight),
         POLYFIT_SETTING("silhouette_band", silhouette_band),
+        POLYFIT_SETTING("silhouette_reach_weight", silhouette_reach_weight),
         POLYFIT_SETTING("match_brightness", match_brightness),
         POLYFIT_SETTING("predict_motion", predict_motion),
         POLYFIT_SETTING("max_patches", atlas.max_patches),
