@@ -20,8 +20,9 @@ cv::Mat SignedBorderDistance(const cv::Mat& inside) {
   return d;
 }
 
-cv::Mat OutsideDistance(const cv::Mat& mask) {
+cv::Mat OutsideDistance(const cv::Mat& mask, int margin) {
   cv::Mat inside = mask.depth() == CV_8U ? mask > 127 : mask > 0.5;
+  if (margin > 0) cv::copyMakeBorder(inside, inside, margin, margin, margin, margin, cv::BORDER_REPLICATE);
   std::vector<std::vector<cv::Point>> outlines;
   cv::findContours(inside.clone(), outlines, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
   cv::drawContours(inside, outlines, -1, cv::Scalar(255), cv::FILLED);

@@ -15,8 +15,11 @@ cv::Mat SignedBorderDistance(const cv::Mat& inside);
 // silhouette: 0 inside, d - 0.5 outside (d: to the nearest inside pixel's
 // centre). The silhouette is `mask` (CV_8U above 127, or CV_32F above
 // 0.5) with its holes filled: every point of a surface projects inside its
-// outline, hidden or not, but a segmentation's holes say nothing.
-cv::Mat OutsideDistance(const cv::Mat& mask);
+// outline, hidden or not, but a segmentation's holes say nothing. The
+// result is `margin` pixels larger on every side (pixel (x, y) of the mask
+// is (x + margin, y + margin)), the mask continued beyond the image by its
+// border's pixels: an object that the image cuts off goes on past it.
+cv::Mat OutsideDistance(const cv::Mat& mask, int margin = 0);
 
 }  // namespace polyfit
 

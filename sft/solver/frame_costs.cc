@@ -507,11 +507,12 @@ double SampleOutsideDistance(const cv::Mat& distance, double x, double y, Eigen:
 }
 
 SilhouetteReachCost::SilhouetteReachCost(const JetDeformationModel* model, int patch, const PinholeCamera& camera,
-                                         const cv::Mat& outside_distance, double tolerance, double weight)
+                                         const cv::Mat& outside_distance, int margin, double tolerance, double weight)
     : model_(model),
       patch_(patch),
       camera_(camera),
       distance_(outside_distance),
+      margin_(margin),
       tolerance_(tolerance),
       weight_(weight / std::sqrt(static_cast<double>(model->num_vertices()))) {
   for (int i = 0; i < model->num_vertices(); ++i) {
@@ -532,7 +533,8 @@ bool SilhouetteReachCost::Evaluate(double const* const* parameters, double* resi
     Eigen::Vector2d pixel, gradient;
     Eigen::Matrix3d d_pixel;
     if (!camera_.ProjectWithJacobian(x, &pixel, &d_pixel)) return false;
-    const double outside = SampleOutsideDistance(distance_, pixel.x(), pixel.y(), &gradient) - tolerance_;
+    const double outside =
+        SampleOutsideDistance(distance_, pixel.x() + margin_, pixel.y() + margin_, &gradient) - tolerance_;
     residuals[k] = weight_ * std::max(0.0, outside);
     if (jacobian == nullptr) continue;
     Eigen::Map<Eigen::RowVectorXd> row(jacobian + k * b, b);

@@ -158,8 +158,7 @@ class InextensibilityCost : public ceres::CostFunction {
 // The silhouette's long reach: every vertex of patch p projects inside the
 // object's outline,
 //   r_i = w max(0, D(pi(X_i)) - tolerance) / sqrt(#V),
-// D = OutsideDistance(mask) (px), sampled bilinearly, continued beyond the
-// image by the distance to its border. Zero while the surface is inside
+// D = OutsideDistance(mask, margin) (px), sampled bilinearly. Zero while the surface is inside
 // the outline; it pulls a surface the coverage term no longer sees (that
 // term's gradient lives within the soft rasterizer's blur of the
 // silhouette) from anywhere in the image. The 1 / sqrt(#V) makes the cost
@@ -167,8 +166,9 @@ class InextensibilityCost : public ceres::CostFunction {
 // One parameter block: patch p's.
 class SilhouetteReachCost : public ceres::CostFunction {
  public:
+  // outside_distance: OutsideDistance(mask, margin).
   SilhouetteReachCost(const JetDeformationModel* model, int patch, const PinholeCamera& camera,
-                      const cv::Mat& outside_distance, double tolerance, double weight);
+                      const cv::Mat& outside_distance, int margin, double tolerance, double weight);
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
  private:
@@ -177,11 +177,12 @@ class SilhouetteReachCost : public ceres::CostFunction {
   std::vector<int> vertices_;
   PinholeCamera camera_;
   cv::Mat distance_;  // CV_32F
+  int margin_;
   double tolerance_, weight_;
 };
 
-// D at pixel (x, y) (pixel centres at integers), bilinear, and its
-// gradient; beyond the image, the border's value plus the distance to it.
+// D at pixel (x, y) of `distance` (pixel centres at integers), bilinear,
+// and its gradient; beyond it, the border's value plus the distance to it.
 double SampleOutsideDistance(const cv::Mat& distance, double x, double y, Eigen::Vector2d* gradient);
 
 // Temporal consistency of patch p's vertices between two frames

@@ -269,14 +269,22 @@ TEST(OutsideDistanceTest, FillsHolesAndMeasuresPixels) {
   EXPECT_NEAR(gradient.x(), 1.0, 1e-3);
   EXPECT_NEAR(SampleOutsideDistance(d, 62.0, 20.0, &gradient), d.at<float>(20, 59) + 3.0, 1e-3);
   EXPECT_EQ(gradient.x(), 1.0);
+  // An object the image cuts off goes on past it; one that stays inside
+  // does not.
+  cv::Mat cut(40, 60, CV_8U, cv::Scalar(0));
+  cv::rectangle(cut, cv::Rect(40, 10, 20, 20), cv::Scalar(255), cv::FILLED);
+  const cv::Mat padded = OutsideDistance(cut, 8);
+  ASSERT_EQ(padded.cols, 76);
+  EXPECT_EQ(padded.at<float>(20 + 8, 63 + 8), 0.0f);
+  EXPECT_NEAR(padded.at<float>(20 + 8, -4 + 8), 43.5, 1e-3);
 }
 
 // The reach pulls the vertices that project outside the mask's outline,
 // with an exact Jacobian, and costs nothing while the surface is inside.
 TEST_F(FrameCostsTest, SilhouetteReachIsZeroInsideAndExactOutside) {
   const SftFrame frame = LoadFrame(scene_, 0);
-  const cv::Mat outside = OutsideDistance(frame.mask);
-  const SilhouetteReachCost reach(model_.get(), 0, scene_.camera, outside, 0.5, 20.0);
+  const cv::Mat outside = OutsideDistance(frame.mask, 10);
+  const SilhouetteReachCost reach(model_.get(), 0, scene_.camera, outside, 10, 0.5, 20.0);
   ASSERT_EQ(reach.num_residuals(), model_->num_vertices());
   std::vector<double> theta(model_->num_parameters(), 0.0), r(reach.num_residuals());
   const double* blocks[] = {theta.data()};

@@ -447,7 +447,9 @@ class PolySftController {
     }
     if (options_.silhouette_reach_weight > 0.0 && !upper.empty()) {
       data->outside.resize(levels);
-      for (int l = 0; l + 1 < levels; ++l) data->outside[l] = OutsideDistance(data->masks_upper[l]);
+      for (int l = 0; l + 1 < levels; ++l) {
+        data->outside[l] = OutsideDistance(data->masks_upper[l], ReachMargin(l));
+      }
     }
     if (!data->frame.mask.empty() && cv::countNonZero(data->frame.mask) == 0) {
       data->mask_empty = true;
@@ -470,6 +472,10 @@ class PolySftController {
     return true;
   }
 
+  // How far the reach's distance map continues the mask past the image
+  // at level l (half the image: a surface the image cuts off may go on).
+  int ReachMargin(int l) const { return std::max(levels_[l].camera.width, levels_[l].camera.height) / 2; }
+
   // The silhouette's long reach on a coarse level (SilhouetteReachCost).
   void AddSilhouetteReach(int l, FrameData& frame, ceres::Problem* problem) {
     if (!use_masks_ || options_.silhouette_reach_weight <= 0.0 || l + 1 >= static_cast<int>(levels_.size()) ||
@@ -479,8 +485,8 @@ class PolySftController {
     const std::vector<double*> blocks = Blocks(frame.theta);
     for (int p = 0; p < model_.num_patches(); ++p) {
       problem->AddResidualBlock(
-          new CompressedCost(new SilhouetteReachCost(&model_, p, levels_[l].camera, frame.outside[l], 0.5,
-                                                     options_.silhouette_reach_weight)),
+          new CompressedCost(new SilhouetteReachCost(&model_, p, levels_[l].camera, frame.outside[l], ReachMargin(l),
+                                                     0.5, options_.silhouette_reach_weight)),
           nullptr, blocks[p]);
     }
   }
