@@ -96,5 +96,23 @@ TEST(PolySftStressTest, ABlackFrame) {
   EXPECT_LT(summary.frames.back().rmse_mm, 5.0);
 }
 
+// Simulated cloth (issue "PolySfT on cloth that moves under gravity and
+// wind"): falling onto a sphere faster than the pyramid reaches (about 4
+// cm per frame at frame 4), and a corner lifted past the image's edge and
+// folded over the rest (layers hide each other). A defined outcome:
+// finite vertices, no failure, and a warning that tracking was lost.
+TEST(PolySftStressTest, ClothFallingFasterThanThePyramidReachesAndFoldingOverItself) {
+  for (const SheetMotion motion : {SheetMotion::kFall, SheetMotion::kTable}) {
+    ScopedTempDir dir("polyfit_sft_cloth");
+    SheetSceneOptions o = SheetSceneOptions::Small(160, 12, 40);
+    o.motion = motion;
+    GenerateSheetScene(o, dir.path().string());
+    const PolySftSummary summary = Solve(dir.path().string());
+    Report(motion == SheetMotion::kFall ? "fall" : "table", summary);
+    ExpectFiniteEverywhere(summary, 40);
+    EXPECT_FALSE(summary.warnings.empty());
+  }
+}
+
 }  // namespace
 }  // namespace polyfit
