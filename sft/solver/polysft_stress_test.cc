@@ -1,7 +1,8 @@
 // PolySfT at the extremes real footage reaches (CTest label "stress",
 // docs/reliability.md): a sheet turning edge-on to the camera, a sheet that
-// leaves the image entirely and comes back, and a black frame (a dropped
-// frame: no picture, an empty mask). Each must give finite vertices in
+// leaves the image entirely and comes back, a black frame (a dropped
+// frame: no picture, an empty mask), and simulated cloth that falls faster
+// than the pyramid reaches or folds over itself. Each must give finite vertices in
 // every frame and say what happened in its warnings. How well it tracks
 // again is measured, not required: today it finds the sheet again where
 // it returns near where it was lost (the recovery of large motion is the
