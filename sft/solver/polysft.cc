@@ -203,6 +203,7 @@ class PolySftController {
       int iterations = 0;
       if (!SolveWindow(&cost, &iterations)) break;
       if (RefineAtlas(t) && !SolveWindow(&cost, &iterations)) break;
+      RecoverLostFrame(t, &cost, &iterations);
       frame_time_[t] = Seconds(frame_start);
       frame_cost_[t] = cost;
       frame_iterations_[t] = iterations;
@@ -662,6 +663,7 @@ class PolySftController {
       row.frame = window_.back()->frame.index;
       row.window = window_.front()->frame.index;
       row.patches = model_.num_patches();
+      row.recovery = recovering_ ? 1 : 0;
       std::function<double()> e3d;
       if (scene_.ground_truth_kind == GroundTruthKind::kVertices) {
         FrameData* newest = window_.back().get();
@@ -785,6 +787,69 @@ class PolySftController {
     return std::max(0.0, -(g.dot(step) + 0.5 * step.dot(jtj * step)));
   }
 
+  // PolySftOptions::recover_lost_frames: a newest frame that fits far
+  // worse than the first is moved onto its mask and its window solved
+  // again; the better of the two is kept.
+  void RecoverLostFrame(int t, double* cost, int* iterations) {
+    FrameData& newest = *window_.back();
+    if (!options_.recover_lost_frames || t == 0 || !use_masks_ || newest.mask_empty || newest.frame.mask.empty() ||
+        !(*cost > 4.0 * std::max(frame_cost_[0], 1e-12))) {
+      return;
+    }
+    std::vector<std::vector<double>> before;
+    for (const auto& frame : window_) before.push_back(frame->theta);
+    if (!MoveOntoMask(&newest)) return;
+    const PolySftSummary kept = summary_;  // a failed attempt leaves no trace but its rows
+    recovering_ = true;
+    double again = 0.0;
+    int more = 0;
+    const bool solved = SolveWindow(&again, &more);
+    recovering_ = false;
+    char buffer[200];
+    if (solved && again < *cost) {
+      std::snprintf(buffer, sizeof(buffer),
+                    "frame %d: lost (cost %.0f times the first frame's); moved onto its mask and solved again: "
+                    "cost %.3g -> %.3g",
+                    newest.frame.index, *cost / std::max(frame_cost_[0], 1e-12), *cost, again);
+      summary_.warnings.emplace_back(buffer);
+      *cost = again;
+      *iterations += more;
+      return;
+    }
+    std::vector<SftIterationSummary> trace = std::move(summary_.trace);
+    summary_ = kept;
+    summary_.trace = std::move(trace);
+    for (size_t k = 0; k < window_.size(); ++k) window_[k]->theta = before[k];
+  }
+
+  // Translates the frame's surface parallel to the image, at its mean
+  // depth, so that its vertices' projected centroid is the mask's.
+  bool MoveOntoMask(FrameData* frame) const {
+    const cv::Moments m = cv::moments(frame->frame.mask > 0.5, true);
+    if (m.m00 <= 0.0) return false;
+    Eigen::Matrix3Xd vertices;
+    model_.Evaluate(frame->theta.data(), &vertices);
+    Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
+    for (int i = 0; i < vertices.cols(); ++i) centroid += scene_.camera.Project(vertices.col(i));
+    centroid /= static_cast<double>(vertices.cols());
+    const double depth = vertices.row(2).mean();
+    const Eigen::Vector3d shift((m.m10 / m.m00 - centroid.x()) * depth / scene_.camera.fx,
+                                (m.m01 / m.m00 - centroid.y()) * depth / scene_.camera.fy, 0.0);
+    if (!shift.allFinite() || !(depth > 0.0)) return false;
+    // X = s R_O (... + T_p) + T_O for the patch jet; X = ... + T_c in
+    // texture space.
+    const Eigen::Vector3d step =
+        model_.texture_space()
+            ? shift
+            : Eigen::Vector3d(model_.patch().frame.rotation.transpose() * shift / model_.patch().frame.scale);
+    for (int p = 0; p < model_.num_patches(); ++p) {
+      double* translation =
+          frame->theta.data() + static_cast<size_t>(p) * model_.block_size() + model_.translation_offset();
+      for (int k = 0; k < 3; ++k) translation[k] += step[k];
+    }
+    return true;
+  }
+
   bool Fail(const std::string& message) {
     summary_.termination_type = TerminationType::kFailure;
     summary_.message = message + "; frames before the window are kept";
@@ -889,6 +954,7 @@ class PolySftController {
   Eigen::Matrix3Xd previous_final_;  // the frame before the window, once there is one
   std::vector<double> previous_final_theta_;
   bool has_previous_final_ = false;
+  bool recovering_ = false;  // solving a lost frame again (RecoverLostFrame)
   std::vector<double> frame_time_, frame_cost_;
   std::vector<int> frame_iterations_;
   int solves_ = 0, unconverged_solves_ = 0;
@@ -935,12 +1001,13 @@ void WriteSftOutputs(const std::string& directory, const SftScene& scene, const 
     WritePly((fs::path(directory) / "meshes" / name).string(), mesh);
   }
   WriteFileAtomically((fs::path(directory) / "trace.csv").string(), [&](std::ostream& trace) {
-    // The scene format's columns first; the atlas's patches last.
-    trace << "frame,window,iteration,time_s,cost,e3d,patches\n";
+    // The scene format's columns first; then the atlas's patches and
+    // whether the row re-solves a lost frame.
+    trace << "frame,window,iteration,time_s,cost,e3d,patches,recovery\n";
     for (const SftIterationSummary& r : summary.trace) {
       trace << r.frame << ',' << r.window << ',' << r.iteration << ',' << r.time_s << ',' << r.cost << ',';
       if (std::isfinite(r.e3d)) trace << r.e3d;
-      trace << ',' << r.patches << '\n';
+      trace << ',' << r.patches << ',' << r.recovery << '\n';
     }
   });
   nlohmann::json frames = nlohmann::json::array();

@@ -89,6 +89,14 @@ struct PolySftOptions {
   // Off by default: a sheet turning edge-on is still carried past where
   // it can be found again (docs/benchmarks.md).
   bool predict_motion = false;
+  // A newest frame that fits far worse than the first (cost over 4 times
+  // frame 0's) is moved onto its mask (the surface translated parallel to
+  // the image so that its projected centroid is the mask's), its window
+  // solved again from there, and the better of the two kept; said in a
+  // warning and in trace.csv's `recovery` column. Off by default: on the
+  // simulated flag it re-solved 26 frames and ended worse (docs/
+  // benchmarks.md).
+  bool recover_lost_frames = false;
   // Per-pixel robust loss of the photometric residual (real video).
   RobustLoss robust_loss = RobustLoss::kNone;
   double robust_scale = 0.1;
@@ -130,6 +138,9 @@ struct SftIterationSummary {
   double cost = 0.0;
   int patches = 1;
   double e3d = std::numeric_limits<double>::quiet_NaN();
+  // 1 on the re-solve of a lost frame moved onto its mask
+  // (PolySftOptions::recover_lost_frames).
+  int recovery = 0;
 };
 
 // A patch of the atlas split after `frame` was solved: it fit `ratio` times

@@ -69,6 +69,7 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("silhouette_reach_weight", silhouette_reach_weight),
         POLYFIT_SETTING("match_brightness", match_brightness),
         POLYFIT_SETTING("predict_motion", predict_motion),
+        POLYFIT_SETTING("recover_lost_frames", recover_lost_frames),
         POLYFIT_SETTING("max_patches", atlas.max_patches),
         POLYFIT_SETTING("split_ratio", atlas.split_ratio),
         POLYFIT_SETTING("split_significance", atlas.split_significance),

@@ -17,6 +17,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.deformation.texture_space = true;
   changed.deformation.keep_detail = false;
   changed.silhouette_reach_weight = 0.5;
+  changed.recover_lost_frames = true;
   changed.window_size = 5;
   changed.pyramid_levels = 2;
   changed.max_image_width = 640;

@@ -59,7 +59,7 @@ TEST(PolySftTest, RecoversAMixedSequenceFarBetterThanTheTemplate) {
   std::ifstream trace(out.path() / "trace.csv");
   std::string header;
   std::getline(trace, header);
-  EXPECT_EQ(header, "frame,window,iteration,time_s,cost,e3d,patches");
+  EXPECT_EQ(header, "frame,window,iteration,time_s,cost,e3d,patches,recovery");
 }
 
 // A crease no single 4-jet holds: with the atlas on, the sheet splits
