@@ -39,7 +39,7 @@ struct FrameData {
   // The silhouette's bounds per level (MaskBounds; equal without a band).
   std::vector<cv::Mat> images, masks, masks_upper;
   // Per level, the distance outside the mask's outline (OutsideDistance;
-  // coarse levels only, with the silhouette's reach).
+  // the coarsest level only, with the silhouette's reach).
   std::vector<cv::Mat> outside;
   bool mask_empty = false;
   // The frame's lighting, last matched (PolySftOptions::match_brightness),
@@ -448,9 +448,7 @@ class PolySftController {
     }
     if (options_.silhouette_reach_weight > 0.0 && !upper.empty()) {
       data->outside.resize(levels);
-      for (int l = 0; l + 1 < levels; ++l) {
-        data->outside[l] = OutsideDistance(data->masks_upper[l], ReachMargin(l));
-      }
+      if (levels > 1) data->outside[0] = OutsideDistance(data->masks_upper[0], ReachMargin(0));
     }
     if (!data->frame.mask.empty() && cv::countNonZero(data->frame.mask) == 0) {
       data->mask_empty = true;
@@ -477,9 +475,9 @@ class PolySftController {
   // at level l (half the image: a surface the image cuts off may go on).
   int ReachMargin(int l) const { return std::max(levels_[l].camera.width, levels_[l].camera.height) / 2; }
 
-  // The silhouette's long reach on a coarse level (SilhouetteReachCost).
+  // The silhouette's long reach on the coarsest level (SilhouetteReachCost).
   void AddSilhouetteReach(int l, FrameData& frame, ceres::Problem* problem) {
-    if (!use_masks_ || options_.silhouette_reach_weight <= 0.0 || l + 1 >= static_cast<int>(levels_.size()) ||
+    if (!use_masks_ || options_.silhouette_reach_weight <= 0.0 || l != 0 || levels_.size() < 2 ||
         static_cast<int>(frame.outside.size()) <= l || frame.outside[l].empty()) {
       return;
     }

@@ -69,13 +69,17 @@ struct PolySftOptions {
   // exact masks keep their precision.
   double silhouette_band = -1.0;
   // The silhouette's long reach (SilhouetteReachCost) on the pyramid's
-  // coarse levels: every vertex is pulled inside the mask's outline from
+  // coarsest level: every vertex is pulled inside the mask's outline from
   // wherever it is, so that a surface that moved further than the
-  // coverage term sees is brought back; the finest level is left to the
-  // coverage term (and a segmentation's few pixels of error). Its cost is
+  // coverage term sees is brought back; the finer levels are left to the
+  // coverage term (and a segmentation's few pixels of error), so that a
+  // surface the outline cannot tell from its mirror image (a sheet
+  // turning back from edge-on) is placed by the texture. Its cost is
   // w^2 / 2 times the mean squared distance (px) of the vertices outside.
-  // 0: off.
-  double silhouette_reach_weight = 2.0;
+  // 0: off, the default. At 2 it helps the simulated flag and table a
+  // little, but it pulled a sheet leaving the image and coming back to a
+  // wrong place (polysft_stress_test; docs/benchmarks.md).
+  double silhouette_reach_weight = 0.0;
   // Map each frame to the texture's lighting (per-channel gain and bias,
   // sft/solver/brightness.h) before the photometric term compares them.
   bool match_brightness = true;

@@ -16,7 +16,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.deformation.uv_order = 2;
   changed.deformation.texture_space = true;
   changed.deformation.keep_detail = false;
-  changed.silhouette_reach_weight = 0.5;
+  changed.silhouette_reach_weight = 2.0;
   changed.recover_lost_frames = true;
   changed.window_size = 5;
   changed.pyramid_levels = 2;
