@@ -22,7 +22,8 @@ CXX=clang++ cmake -S . -B build-fuzz "${generator[@]}" -DCMAKE_BUILD_TYPE=Releas
       ${POLYFIT_CMAKE_ARGS:-}
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then
-  mapfile -t targets < <(ls tests/fuzz/corpus)
+  # Targets with a tracked corpus, and those whose seeds CMake writes.
+  mapfile -t targets < <(ls tests/fuzz/corpus build-fuzz/tests/fuzz/generated | grep -v -e '^$' -e ':$' | sort -u)
 fi
 cmake --build build-fuzz -j2 --target "${targets[@]}"
 export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1:abort_on_error=1"
@@ -39,11 +40,14 @@ for t in "${targets[@]}"; do
   dict=()
   [ -f "tests/fuzz/dict/$t.dict" ] && dict=(-dict="tests/fuzz/dict/$t.dict")
   log=build-fuzz/findings/$t.log
-  # Real clips as further seeds, read where they are (as the CTest does).
-  shared=()
-  [ "$t" = bvh_fuzzer ] && [ -d ../shared/data/drape/motion ] && shared=(../shared/data/drape/motion)
+  # Real clips as further seeds, read where they are (as the CTest does),
+  # and the seeds tests/fuzz/CMakeLists.txt writes.
+  seeds=()
+  [ "$t" = bvh_fuzzer ] && [ -d ../shared/data/drape/motion ] && seeds=(../shared/data/drape/motion)
+  [ -d "tests/fuzz/corpus/$t" ] && seeds+=("tests/fuzz/corpus/$t")
+  [ -d "build-fuzz/tests/fuzz/generated/$t" ] && seeds+=("build-fuzz/tests/fuzz/generated/$t")
   if build-fuzz/bin/$t -runs="$runs" -timeout=1 -rss_limit_mb=2048 -malloc_limit_mb=512 -print_final_stats=1 \
-      -artifact_prefix="$findings/" "${dict[@]}" "$new" "tests/fuzz/corpus/$t" "${shared[@]}" > "$log" 2>&1; then
+      -artifact_prefix="$findings/" "${dict[@]}" "$new" "${seeds[@]}" > "$log" 2>&1; then
     result=clean
   else
     result="FINDING in $findings (see $log)"

@@ -107,32 +107,6 @@ def ply_vertices_seeds(target):
         "property double y\nproperty double z\nproperty float confidence\nend_header\n0 0 0 1\n1 2 3 0.5\n")
 
 
-def bvh_seeds(target):
-    """A three-joint rig of our own (names and offsets invented here)."""
-    hierarchy = (
-        "HIERARCHY\nROOT pelvis\n{\n  OFFSET 0.5 17.25 -0.75\n"
-        "  CHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation\n"
-        "  JOINT thigh\n  {\n    OFFSET 1.5 -1.25 0.25\n    CHANNELS 3 Zrotation Yrotation Xrotation\n"
-        "    JOINT shin\n    {\n      OFFSET 0.0 -7.5 0.5\n      CHANNELS 3 Zrotation Yrotation Xrotation\n"
-        "      End Site\n      {\n        OFFSET 0.0 -7.0 1.0\n      }\n    }\n  }\n"
-        "  JOINT chest\n  {\n    OFFSET 0.0 2.5 0.0\n    CHANNELS 3 Zrotation Yrotation Xrotation\n"
-        "    End Site\n    {\n      OFFSET 0.0 3.0 0.0\n    }\n  }\n}\n")
-    motion = "MOTION\nFrames: 3\nFrame Time: 0.04\n"
-    for t in range(3):
-        motion += "0.1 %g 0 %g 0 0 %g 0 0 0 0 %g 0 0 0\n" % (17 + t * 0.1, 5 * t, -10 * t, 20 * t)
-    put(target, "three_joints.bvh", hierarchy + motion)
-    # The degenerate motions are written by tests/fuzz/CMakeLists.txt.
-
-
-def mhclo_seeds(target):
-    head = ("# a seed binding\nname seed\nuuid 00000000-0000-0000-0000-000000000000\nobj_file seed.obj\n"
-            "x_scale 5399 11998 1.4800\ny_scale 791 881 2.4614\nz_scale 962 5320 1.9221\n")
-    put(target, "nine_numbers.mhclo", head + "verts 0\n10 20 30 0.5 0.25 0.25 0.01 -0.02 0.03\n"
-        "11 21 31 0.2 0.3 0.5 0 0 0\n")
-    put(target, "one_number.mhclo", head + "verts 0\n100\n101\n102\n")
-    put(target, "no_scale.mhclo", "name seed\nobj_file seed.obj\nverts 0\n1\n")
-
-
 def body_seeds(target):
     put(target, "0_groups.obj", b"\0" + b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\ng body\nf 1 2 3\n"
         b"g joint-hips\nf 1 2 4\nf 1/1/1 3/3/3 4/4/4\n")
@@ -191,8 +165,7 @@ def main():
         seeds("mesh_%s_fuzzer" % fmt)
     obj_seeds("obj_template_fuzzer")
     ply_vertices_seeds("ply_vertices_fuzzer")
-    bvh_seeds("bvh_fuzzer")
-    mhclo_seeds("mhclo_fuzzer")
+    # The BVH and .mhclo seeds are written by tests/fuzz/CMakeLists.txt.
     body_seeds("makehuman_body_fuzzer")
     generated_seeds(build)
 
