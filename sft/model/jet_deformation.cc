@@ -88,7 +88,7 @@ JetDeformationModel::JetDeformationModel(const JetDeformationOptions& options,
   centres_.assign(1, Eigen::Vector3d::Zero());
   uv_.resize(2, num_vertices);
   double sum2 = 0.0;
-  if (options.keep_detail) detail_.resize(num_vertices);
+  detail_.setZero(num_vertices);
   for (int i = 0; i < num_vertices; ++i) {
     const Eigen::Vector3d p = patch_.frame.PointToPatch(template_vertices.col(i));
     uv_.col(i) = p.head<2>();
@@ -254,7 +254,7 @@ void JetDeformationModel::EvaluatePatchJet(int i, int p, const double* theta, do
   const double u = uv_(0, i) + du, v = uv_(1, i) + dv;
   const JetHeightDerivatives<double> d = EvaluateJetDerivatives(order, alpha, u, v);
   const Eigen::Vector3d& centre = centres_[p];
-  const Eigen::Vector3d phi = Eigen::Vector3d(u, v, d.z + (detail_.size() > 0 ? detail_[i] : 0.0)) - centre;
+  const Eigen::Vector3d phi = Eigen::Vector3d(u, v, d.z + detail_[i]) - centre;
   // d(R(omega) phi)/d omega by forward-mode differentiation.
   using J3 = ceres::Jet<double, 3>;
   const J3 w[3] = {J3(omega[0], 0), J3(omega[1], 1), J3(omega[2], 2)};

@@ -101,8 +101,6 @@ class JetDeformationModel {
   // the model at zero parameters is that far from the template without
   // keep_detail, and exact with it).
   double template_rms_error() const { return template_rms_error_; }
-  // #V heights e_i (empty without keep_detail or in texture space).
-  const Eigen::VectorXd& detail() const { return detail_; }
 
   // The atlas. #V patch indices.
   const std::vector<int>& vertex_patches() const { return vertex_patch_; }
@@ -152,7 +150,7 @@ class JetDeformationModel {
   int num_dalpha_ = 0;
   int num_duv_ = 0;
   double template_rms_error_ = 0.0;
-  Eigen::VectorXd detail_;
+  Eigen::VectorXd detail_;  // #V heights e_i (zero without keep_detail; empty in texture space)
   // The atlas: each vertex's patch, each patch's centre (frame coordinates).
   std::vector<int> vertex_patch_;
   std::vector<Eigen::Vector3d> centres_;
@@ -178,7 +176,7 @@ void JetDeformationModel::VertexOnPatch(int i, int p, const T* block, T* x, T* n
   const T u = T(uv_(0, i)) + du, v = T(uv_(1, i)) + dv;
   const JetHeightDerivatives<T> d = EvaluateJetDerivatives(order, alpha, u, v);
   const Eigen::Vector3d& c = centres_[p];
-  const T phi[3] = {u - c.x(), v - c.y(), d.z + (detail_.size() > 0 ? detail_[i] : 0.0) - c.z()};
+  const T phi[3] = {u - c.x(), v - c.y(), d.z + detail_[i] - c.z()};
   T local_normal[3], moved[3], turned[3];
   JetNormal(d, local_normal);
   ceres::AngleAxisRotatePoint(block + rotation_offset(), phi, moved);

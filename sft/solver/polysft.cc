@@ -38,9 +38,9 @@ struct FrameData {
   SftFrame frame;
   // The silhouette's bounds per level (MaskBounds; equal without a band).
   std::vector<cv::Mat> images, masks, masks_upper;
-  // Per level, the distance outside the mask's outline (OutsideDistance;
-  // the coarsest level only, with the silhouette's reach).
-  std::vector<cv::Mat> outside;
+  // The distance outside the mask's outline at the coarsest level
+  // (OutsideDistance; with the silhouette's reach only).
+  cv::Mat outside;
   bool mask_empty = false;
   // The frame's lighting, last matched (PolySftOptions::match_brightness),
   // and per level the frame mapped to the texture's lighting: matched in
@@ -410,8 +410,12 @@ class PolySftController {
   // FinalizeFrame warns): its motion is no motion to carry on.
   bool Lost(const FrameData& data) const {
     const int t = data.frame.index - scene_.first_frame;
-    return t > 0 && frame_cost_[t] > 4.0 * std::max(frame_cost_[0], 1e-12);
+    return t > 0 && CostRatio(frame_cost_[t]) > kLostCostRatio;
   }
+
+  // A frame's cost against the first frame's.
+  static constexpr double kLostCostRatio = 4.0;
+  double CostRatio(double cost) const { return cost / std::max(frame_cost_[0], 1e-12); }
 
   // A solved frame whose motion may be carried on: seen, fitting about as
   // well as the first, in the texture's colours.
@@ -446,9 +450,8 @@ class PolySftController {
         }
       }
     }
-    if (options_.silhouette_reach_weight > 0.0 && !upper.empty()) {
-      data->outside.resize(levels);
-      if (levels > 1) data->outside[0] = OutsideDistance(data->masks_upper[0], ReachMargin(0));
+    if (options_.silhouette_reach_weight > 0.0 && !upper.empty() && levels > 1) {
+      data->outside = OutsideDistance(data->masks_upper[0], ReachMargin(0));
     }
     if (!data->frame.mask.empty() && cv::countNonZero(data->frame.mask) == 0) {
       data->mask_empty = true;
@@ -477,15 +480,12 @@ class PolySftController {
 
   // The silhouette's long reach on the coarsest level (SilhouetteReachCost).
   void AddSilhouetteReach(int l, FrameData& frame, ceres::Problem* problem) {
-    if (!use_masks_ || options_.silhouette_reach_weight <= 0.0 || l != 0 || levels_.size() < 2 ||
-        static_cast<int>(frame.outside.size()) <= l || frame.outside[l].empty()) {
-      return;
-    }
+    if (l != 0 || !use_masks_ || frame.outside.empty()) return;
     const std::vector<double*> blocks = Blocks(frame.theta);
     for (int p = 0; p < model_.num_patches(); ++p) {
       problem->AddResidualBlock(
-          new CompressedCost(new SilhouetteReachCost(&model_, p, levels_[l].camera, frame.outside[l], ReachMargin(l),
-                                                     0.5, options_.silhouette_reach_weight)),
+          new CompressedCost(new SilhouetteReachCost(&model_, p, levels_[l].camera, frame.outside, ReachMargin(l), 0.5,
+                                                     options_.silhouette_reach_weight)),
           nullptr, blocks[p]);
     }
   }
@@ -791,13 +791,16 @@ class PolySftController {
   void RecoverLostFrame(int t, double* cost, int* iterations) {
     FrameData& newest = *window_.back();
     if (!options_.recover_lost_frames || t == 0 || !use_masks_ || newest.mask_empty || newest.frame.mask.empty() ||
-        !(*cost > 4.0 * std::max(frame_cost_[0], 1e-12))) {
+        !(CostRatio(*cost) > kLostCostRatio)) {
       return;
     }
     std::vector<std::vector<double>> before;
     for (const auto& frame : window_) before.push_back(frame->theta);
     if (!MoveOntoMask(&newest)) return;
-    const PolySftSummary kept = summary_;  // a failed attempt leaves no trace but its rows
+    // A failed attempt leaves no trace but its rows (SolveWindow fails the
+    // run only through Fail).
+    const TerminationType termination = summary_.termination_type;
+    const std::string message = summary_.message;
     recovering_ = true;
     double again = 0.0;
     int more = 0;
@@ -808,15 +811,14 @@ class PolySftController {
       std::snprintf(buffer, sizeof(buffer),
                     "frame %d: lost (cost %.0f times the first frame's); moved onto its mask and solved again: "
                     "cost %.3g -> %.3g",
-                    newest.frame.index, *cost / std::max(frame_cost_[0], 1e-12), *cost, again);
+                    newest.frame.index, CostRatio(*cost), *cost, again);
       summary_.warnings.emplace_back(buffer);
       *cost = again;
       *iterations += more;
       return;
     }
-    std::vector<SftIterationSummary> trace = std::move(summary_.trace);
-    summary_ = kept;
-    summary_.trace = std::move(trace);
+    summary_.termination_type = termination;
+    summary_.message = message;
     for (size_t k = 0; k < window_.size(); ++k) window_[k]->theta = before[k];
   }
 
@@ -869,7 +871,7 @@ class PolySftController {
       std::snprintf(buffer, sizeof(buffer),
                     "frame %d: cost %.3g is %.0f times the first frame's: tracking may be lost (motion too large "
                     "between frames?)",
-                    data.frame.index, cost, cost / std::max(frame_cost_[0], 1e-12));
+                    data.frame.index, cost, CostRatio(cost));
       summary_.warnings.emplace_back(buffer);
     }
     // Matched at the finest level from the frame's nearly final estimate.

@@ -61,12 +61,6 @@ Eigen::Vector3d Away(double pitch) { return Eigen::Vector3d(0.0, -std::sin(pitch
 
 int GridVertex(const SheetSceneOptions& o, int i, int j) { return j * (o.grid_x + 1) + i; }
 
-Eigen::Vector2d GridPoint(const SheetSceneOptions& o, int v) {
-  const int i = v % (o.grid_x + 1), j = v / (o.grid_x + 1);
-  return Eigen::Vector2d((static_cast<double>(i) / o.grid_x - 0.5) * o.sheet_width,
-                         (static_cast<double>(j) / o.grid_y - 0.5) * o.sheet_height);
-}
-
 // Hanging from its top corners, which are drawn together to 3/4 of the
 // width while it settles (a sag between them; the sheet starts bowed 1 cm
 // away from the camera so that it sags that way), then gusts along the
@@ -163,7 +157,7 @@ Eigen::Matrix3Xd LayOut(const SheetSceneOptions& o, const ClothScript& s) {
   const Eigen::Vector3d normal = s.across.cross(s.down);
   Eigen::Matrix3Xd x(3, n);
   for (int v = 0; v < n; ++v) {
-    const Eigen::Vector2d p = GridPoint(o, v);
+    const Eigen::Vector2d p = SheetGridPoint(o, v);
     x.col(v) = s.origin + p.x() * s.across + p.y() * s.down + (s.offset ? s.offset(p.x(), p.y()) : 0.0) * normal;
   }
   return x;

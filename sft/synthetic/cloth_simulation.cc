@@ -113,9 +113,9 @@ ClothSimulation::ClothSimulation(const TriangleMesh& rest, const ClothSimulation
   const int n = rest.num_vertices();
   v_ = previous_ = Eigen::Matrix3Xd::Zero(3, n);
   pin_from_ = pin_to_ = x_;
-  mass_ = options.areal_density * VertexAreas(rest);
+  const Eigen::VectorXd mass = options.areal_density * VertexAreas(rest);
   inverse_mass_.resize(n);
-  for (int v = 0; v < n; ++v) inverse_mass_[v] = mass_[v] > 0.0 ? 1.0 / mass_[v] : 0.0;
+  for (int v = 0; v < n; ++v) inverse_mass_[v] = mass[v] > 0.0 ? 1.0 / mass[v] : 0.0;
   edges_ = UniqueEdges(rest);
   rest_length_.resize(edges_.cols());
   for (int e = 0; e < edges_.cols(); ++e) {
@@ -166,14 +166,13 @@ void ClothSimulation::AddAirForces(Eigen::Matrix3Xd* force) const {
 void ClothSimulation::Predict(double h) {
   positions_by_row_ = x_.transpose();
   bending_force_.noalias() = bending_ * positions_by_row_;
-  Eigen::Matrix3Xd& force = force_;
-  force = -bending_force_.transpose();
-  AddAirForces(&force);
+  force_ = -bending_force_.transpose();
+  AddAirForces(&force_);
   const double keep = std::max(0.0, 1.0 - options_.damping * h);
   previous_ = x_;
   for (int v = 0; v < x_.cols(); ++v) {
     if (inverse_mass_[v] == 0.0) continue;
-    v_.col(v) = keep * (v_.col(v) + h * (options_.gravity + inverse_mass_[v] * force.col(v)));
+    v_.col(v) = keep * (v_.col(v) + h * (options_.gravity + inverse_mass_[v] * force_.col(v)));
     x_.col(v) += h * v_.col(v);
   }
 }

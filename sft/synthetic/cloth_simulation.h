@@ -118,7 +118,6 @@ class ClothSimulation {
   Eigen::Matrix2Xi edges_;               // 2 by #E
   Eigen::VectorXd rest_length_;          // #E
   Eigen::VectorXd inverse_mass_;         // #V (0: pinned)
-  Eigen::VectorXd mass_;                 // #V
   Eigen::SparseMatrix<double> bending_;  // #V by #V: force = -bending_ * x (per coordinate)
   Eigen::Matrix3Xd rest_;
   Eigen::Matrix3Xd x_, v_, previous_;

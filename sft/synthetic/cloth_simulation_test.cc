@@ -13,12 +13,7 @@ namespace {
 // The default sheet's grid, flat in the plane z = 0.4 (x right, y down).
 TriangleMesh FlatSheet(const SheetSceneOptions& o) {
   Eigen::Matrix3Xd x(3, (o.grid_x + 1) * (o.grid_y + 1));
-  for (int j = 0; j <= o.grid_y; ++j) {
-    for (int i = 0; i <= o.grid_x; ++i) {
-      x.col(j * (o.grid_x + 1) + i) = Eigen::Vector3d((static_cast<double>(i) / o.grid_x - 0.5) * o.sheet_width,
-                                                      (static_cast<double>(j) / o.grid_y - 0.5) * o.sheet_height, 0.4);
-    }
-  }
+  for (int v = 0; v < x.cols(); ++v) x.col(v) << SheetGridPoint(o, v), 0.4;
   return MakeSheetMesh(o, x);
 }
 

@@ -221,6 +221,12 @@ Eigen::Vector3d BendAcross(double x, double curvature, double fold) {
 
 }  // namespace
 
+Eigen::Vector2d SheetGridPoint(const SheetSceneOptions& o, int vertex) {
+  const int i = vertex % (o.grid_x + 1), j = vertex / (o.grid_x + 1);
+  return Eigen::Vector2d((static_cast<double>(i) / o.grid_x - 0.5) * o.sheet_width,
+                         (static_cast<double>(j) / o.grid_y - 0.5) * o.sheet_height);
+}
+
 Eigen::Matrix3Xd SheetVerticesAt(const SheetSceneOptions& o, double tau) {
   if (IsSimulatedMotion(o.motion)) {
     throw std::invalid_argument("SheetVerticesAt: a simulated motion has no closed form (use SheetSequence)");
@@ -248,8 +254,8 @@ Eigen::Matrix3Xd SheetVerticesAt(const SheetSceneOptions& o, double tau) {
   const std::optional<ArcLengthProfile> profile = HeightProfile(o, tau);
   for (int j = 0; j <= ny; ++j) {
     for (int i = 0; i <= nx; ++i) {
-      const double x = (static_cast<double>(i) / nx - 0.5) * o.sheet_width;
-      const double y = (static_cast<double>(j) / ny - 0.5) * o.sheet_height;
+      const Eigen::Vector2d flat = SheetGridPoint(o, j * (nx + 1) + i);
+      const double x = flat.x(), y = flat.y();
       Eigen::Vector3d p = BendAcross(x, curvature, fold);
       p.y() = y;
       if (profile) {

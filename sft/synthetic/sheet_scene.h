@@ -96,6 +96,10 @@ struct SheetSceneOptions {
   static SheetSceneOptions Small(int width, int grid_x, int frame_count);
 };
 
+// Grid vertex v's place on the flat sheet, (x, y) about its centre (m):
+// column i = v mod (grid_x + 1) across, row j down.
+Eigen::Vector2d SheetGridPoint(const SheetSceneOptions& options, int vertex);
+
 // The sheet's vertices (3 by #V, camera frame) at time tau in [0, 1], for
 // the motions in closed form; throws std::invalid_argument for a
 // simulated one.
