@@ -243,9 +243,24 @@ struct DrapeSolver::Impl {
   std::vector<double> PackedPatchParameters(const std::vector<double>& strided) const;
   // Each patch's warp set to the least-squares fit of its points' slides.
   void FitWarpsToSlides(const PolyFitModel& model, std::vector<double>* packed) const;
-  // dE/d(warp) of each patch, added into its packed gradient, from
-  // dE/d(slide) per membership.
-  void ChainSlideGradient(const PolyFitModel& model, const double* slide_gradient, double* packed_gradient) const;
+  // d(Ceres' parameters)/d(packed parameters), Ceres' layout being alpha,
+  // s, T per patch, then with warps each membership's slide (a linear map
+  // of its patch's warp), built once: Ceres' parameter c is the sum over
+  // i in [chain_begin[c], chain_begin[c + 1]) of chain[i].weight times
+  // packed parameter chain[i].packed. (Eigen's sparse module is not used:
+  // its templates, instantiated here with our alignment, would replace
+  // Ceres' own at link time.)
+  struct ChainEntry {
+    int packed;
+    double weight;
+  };
+  std::vector<int> chain_begin;
+  std::vector<ChainEntry> chain;
+  void BuildChain(const PolyFitModel& model);
+  // (J C)^T (J C), J Ceres' Jacobian (rows of a few entries), dense.
+  void AccumulateGaussNewton(const ceres::CRSMatrix& jacobian, int num_packed, Eigen::MatrixXd* out) const;
+  double EvaluatePacked(const PolyFitModel& model, const std::vector<double>& packed, std::vector<double>* gradient,
+                        Eigen::MatrixXd* gauss_newton, std::vector<double>* residuals);
 
   double stretch_weight() const { return options.physics.weights.inextensibility * options.physics.stretch_base; }
 };
@@ -648,15 +663,23 @@ void DrapeSolver::Impl::FitWarpsToSlides(const PolyFitModel& model, std::vector<
   }
 }
 
-void DrapeSolver::Impl::ChainSlideGradient(const PolyFitModel& model, const double* slide_gradient,
-                                           double* packed_gradient) const {
-  const int stride = packed_stride();
-  for (int k = 0; k < model.num_memberships(); ++k) {
-    double* g = packed_gradient + model.membership_patch[k] * stride + num_coefficients + 4;
+void DrapeSolver::Impl::BuildChain(const PolyFitModel& model) {
+  const int stride = packed_stride(), block = num_coefficients + 4, num_patches = model.num_patches();
+  chain_begin.assign(1, 0);
+  chain.clear();
+  for (int p = 0; p < num_patches; ++p) {
+    for (int c = 0; c < block; ++c) {
+      chain.push_back({p * stride + c, 1.0});
+      chain_begin.push_back(static_cast<int>(chain.size()));
+    }
+  }
+  // slide_k = (sum_i a_i phi_ki, sum_i b_i phi_ki) over its patch's warp.
+  for (int k = 0; num_warp > 0 && k < model.num_memberships(); ++k) {
+    const int warp = model.membership_patch[k] * stride + block;
     const double* phi = warp_monomials(k);
-    for (int i = 0; i < num_warp; ++i) {
-      g[i] += slide_gradient[2 * k] * phi[i];
-      g[num_warp + i] += slide_gradient[2 * k + 1] * phi[i];
+    for (int direction = 0; direction < 2; ++direction) {
+      for (int i = 0; i < num_warp; ++i) chain.push_back({warp + direction * num_warp + i, phi[i]});
+      chain_begin.push_back(static_cast<int>(chain.size()));
     }
   }
 }
@@ -832,45 +855,90 @@ Eigen::Matrix3Xd DrapeSolver::PositionsAt(const std::vector<double>& patch_param
   return PositionsOf(patch_parameters);
 }
 
-double DrapeSolver::Evaluate(const std::vector<double>& patch_parameters, std::vector<double>* gradient) {
-  Impl& m = *impl_;
+void DrapeSolver::Impl::AccumulateGaussNewton(const ceres::CRSMatrix& jacobian, int num_packed,
+                                              Eigen::MatrixXd* out) const {
+  out->setZero(num_packed, num_packed);
+  // Each row of J C, gathered densely over the packed parameters it touches.
+  Eigen::VectorXd row = Eigen::VectorXd::Zero(num_packed);
+  std::vector<char> marked(num_packed, 0);
+  std::vector<int> touched;
+  for (int r = 0; r < jacobian.num_rows; ++r) {
+    for (int e = jacobian.rows[r]; e < jacobian.rows[r + 1]; ++e) {
+      const int c = jacobian.cols[e];
+      for (int i = chain_begin[c]; i < chain_begin[c + 1]; ++i) {
+        if (!marked[chain[i].packed]) {
+          marked[chain[i].packed] = 1;
+          touched.push_back(chain[i].packed);
+        }
+        row[chain[i].packed] += chain[i].weight * jacobian.values[e];
+      }
+    }
+    for (int a : touched) {
+      for (int b : touched) (*out)(a, b) += row[a] * row[b];
+    }
+    for (int a : touched) {
+      row[a] = 0.0;
+      marked[a] = 0;
+    }
+    touched.clear();
+  }
+}
+
+double DrapeSolver::Impl::EvaluatePacked(const PolyFitModel& model, const std::vector<double>& packed,
+                                         std::vector<double>* gradient, Eigen::MatrixXd* gauss_newton,
+                                         std::vector<double>* residuals) {
   // The solver's state is kept; priors vanish (their means set to the
   // evaluated point); slides follow the warps (zero without).
-  const std::vector<double> saved_params = m.params, saved_previous = m.previous_params, saved_slides = m.slides,
-                            saved_previous_slides = m.previous_slides;
-  m.SetPatchParameters(model_, patch_parameters);
-  m.previous_params = m.params;
-  m.previous_slides = m.slides;
-  Eigen::Matrix3Xd x(3, positions_.cols());
-  m.Positions(model_, &x);
-  m.QueryContacts(x);
-  m.LinearizeCollisions(model_);
+  const std::vector<double> kept_params = params, kept_previous = previous_params, kept_slides = slides,
+                            kept_previous_slides = previous_slides;
+  SetPatchParameters(model, packed);
+  previous_params = params;
+  previous_slides = slides;
+  Eigen::Matrix3Xd x(3, static_cast<Eigen::Index>(mass.size()));
+  Positions(model, &x);
+  QueryContacts(x);
+  LinearizeCollisions(model);
   ceres::Problem::EvaluateOptions evaluate;
-  for (int p = 0; p < model_.num_patches(); ++p) {
-    evaluate.parameter_blocks.insert(evaluate.parameter_blocks.end(), {m.alpha(p), m.scale(p), m.translation(p)});
+  for (int p = 0; p < model.num_patches(); ++p) {
+    evaluate.parameter_blocks.insert(evaluate.parameter_blocks.end(), {alpha(p), scale(p), translation(p)});
   }
-  // The slides' gradient follows the patches' (chained onto the warps).
-  const bool warped = m.num_warp > 0;
-  for (int k = 0; warped && k < model_.num_memberships(); ++k) evaluate.parameter_blocks.push_back(m.slide(k));
-  evaluate.num_threads = m.options.num_threads;
+  for (int k = 0; num_warp > 0 && k < model.num_memberships(); ++k) evaluate.parameter_blocks.push_back(slide(k));
+  evaluate.num_threads = options.num_threads;
   double cost = 0.0;
   std::vector<double> raw;
-  const bool ok = m.problem->Evaluate(evaluate, &cost, nullptr, gradient != nullptr ? &raw : nullptr, nullptr);
-  if (ok && gradient != nullptr) {
-    // Ceres' layout is alpha, s, T per patch (then the slides): the packed
-    // layout adds each patch's warp.
-    const int stride = m.packed_stride(), block = m.num_coefficients + 4;
-    gradient->assign(static_cast<size_t>(model_.num_patches()) * stride, 0.0);
-    for (int p = 0; p < model_.num_patches(); ++p) {
-      std::copy(raw.begin() + p * block, raw.begin() + (p + 1) * block, gradient->begin() + p * stride);
-    }
-    if (warped) m.ChainSlideGradient(model_, raw.data() + model_.num_patches() * block, gradient->data());
-  }
-  m.params = saved_params;
-  m.previous_params = saved_previous;
-  m.slides = saved_slides;
-  m.previous_slides = saved_previous_slides;
+  ceres::CRSMatrix jacobian;
+  const bool ok = problem->Evaluate(evaluate, &cost, residuals, gradient != nullptr ? &raw : nullptr,
+                                    gauss_newton != nullptr ? &jacobian : nullptr);
+  params = kept_params;
+  previous_params = kept_previous;
+  slides = kept_slides;
+  previous_slides = kept_previous_slides;
   if (!ok) throw std::runtime_error("DrapeSolver::Evaluate: a term could not be evaluated");
+  // Ceres' parameters are a linear map of the packed ones (the warps set
+  // the slides): J_packed = J C, gradient = C^T (J^T r).
+  if (chain_begin.empty()) BuildChain(model);
+  const int num_ceres = static_cast<int>(chain_begin.size()) - 1, num_packed = model.num_patches() * packed_stride();
+  if (gradient != nullptr) {
+    gradient->assign(num_packed, 0.0);
+    for (int c = 0; c < num_ceres; ++c) {
+      for (int i = chain_begin[c]; i < chain_begin[c + 1]; ++i)
+        (*gradient)[chain[i].packed] += chain[i].weight * raw[c];
+    }
+  }
+  if (gauss_newton != nullptr) AccumulateGaussNewton(jacobian, num_packed, gauss_newton);
+  return cost;
+}
+
+double DrapeSolver::Evaluate(const std::vector<double>& patch_parameters, std::vector<double>* gradient) {
+  return impl_->EvaluatePacked(model_, patch_parameters, gradient, nullptr, nullptr);
+}
+
+double DrapeSolver::EvaluateGaussNewton(const std::vector<double>& patch_parameters, std::vector<double>* gradient,
+                                        Eigen::MatrixXd* gauss_newton, std::vector<double>* residuals) {
+  if (gauss_newton == nullptr) throw std::invalid_argument("DrapeSolver::EvaluateGaussNewton: no matrix to fill");
+  std::vector<double> r;
+  const double cost = impl_->EvaluatePacked(model_, patch_parameters, gradient, gauss_newton, &r);
+  if (residuals != nullptr) *residuals = std::move(r);
   return cost;
 }
 

@@ -196,6 +196,14 @@ class DrapeSolver {
   // Not thread-safe: use one solver per thread.
   void Pose(const std::vector<Eigen::Isometry3d>& rest_to_posed, double epoch = 0.0);
   double Evaluate(const std::vector<double>& patch_parameters, std::vector<double>* gradient);
+  // The same energy and gradient with the Gauss-Newton approximation of
+  // its Hessian, J^T J (num_patch_parameters() #patches square, dense), J
+  // the residuals' Jacobian in the patch parameters' layout (the energy is
+  // half their squared norm): what a second-order step on a network's
+  // output layer needs (OneFitTrainer::PolishOutputLayer). residuals
+  // (when not null): r, in a fixed order.
+  double EvaluateGaussNewton(const std::vector<double>& patch_parameters, std::vector<double>* gradient,
+                             Eigen::MatrixXd* gauss_newton, std::vector<double>* residuals = nullptr);
   int num_patch_parameters() const;
   // The rest patch parameters (the fit; no warp), the current ones (the
   // last Step; warps fitted to the slides by least squares), and the

@@ -168,6 +168,55 @@ TEST_P(DrapeSolverEvaluateTest, GivesTheEnergyAndItsGradientAtGivenPatchParamete
   for (size_t i = 0; i < theta.size(); ++i) EXPECT_NEAR(recovered[i], theta[i], 1e-9) << i;
 }
 
+// J^T J and J^T r in the packed layout: J d against central differences
+// of the residuals (so d^T J^T J d = |J d|^2), the gradient Evaluate's.
+TEST_P(DrapeSolverEvaluateTest, GivesTheGaussNewtonMatrixOfItsResiduals) {
+  const SkinnedBody body = MakeProceduralBody();
+  const TriangleMesh shirt = MakeTube(0.138, 0.1, 0.4, 24, 8);
+  DrapeSolverOptions options;
+  options.patching.patch_area = 0.04;
+  options.slide.warp_order = GetParam();
+  DrapeSolver solver(body, shirt, SingleJointWeights(shirt.num_vertices(), 1), options);
+  std::vector<Eigen::Isometry3d> pose(body.skeleton.num_joints(), Eigen::Isometry3d::Identity());
+  for (auto& t : pose) t.translation() = Eigen::Vector3d(0.0, -0.01, 0.005);
+  solver.Pose(pose);
+  std::vector<double> theta = solver.RestPatchParameters();
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> normal(0.0, 1e-3);
+  for (double& t : theta) t += normal(rng);
+  std::vector<double> gradient, expected_gradient, residuals;
+  Eigen::MatrixXd jtj;
+  const double energy = solver.EvaluateGaussNewton(theta, &gradient, &jtj, &residuals);
+  EXPECT_NEAR(solver.Evaluate(theta, &expected_gradient), energy, 1e-12 * energy);
+  EXPECT_NEAR(0.5 * Eigen::Map<const Eigen::VectorXd>(residuals.data(), residuals.size()).squaredNorm(), energy,
+              1e-12 * energy);
+  ASSERT_EQ(jtj.rows(), static_cast<Eigen::Index>(theta.size()));
+  EXPECT_LT((jtj - jtj.transpose()).cwiseAbs().maxCoeff(), 1e-9 * jtj.cwiseAbs().maxCoeff());
+  for (size_t i = 0; i < theta.size(); ++i) {
+    EXPECT_NEAR(gradient[i], expected_gradient[i], 1e-9 * (1.0 + std::abs(expected_gradient[i]))) << i;
+  }
+  for (int trial = 0; trial < 4; ++trial) {
+    Eigen::VectorXd direction(theta.size());
+    std::vector<double> plus = theta, minus = theta, r_plus, r_minus;
+    const double h = 1e-7;
+    for (size_t i = 0; i < theta.size(); ++i) {
+      direction[i] = normal(rng) * 1e3;
+      plus[i] += h * direction[i];
+      minus[i] -= h * direction[i];
+    }
+    Eigen::MatrixXd unused;
+    solver.EvaluateGaussNewton(plus, nullptr, &unused, &r_plus);
+    solver.EvaluateGaussNewton(minus, nullptr, &unused, &r_minus);
+    ASSERT_EQ(r_plus.size(), residuals.size());
+    const Eigen::VectorXd j_d = (Eigen::Map<const Eigen::VectorXd>(r_plus.data(), r_plus.size()) -
+                                 Eigen::Map<const Eigen::VectorXd>(r_minus.data(), r_minus.size())) /
+                                (2.0 * h);
+    const double quadratic = direction.dot(jtj * direction);
+    EXPECT_GT(quadratic, 0.0);
+    EXPECT_NEAR(quadratic, j_d.squaredNorm(), 1e-5 * quadratic) << "trial " << trial;
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(WarpOrders, DrapeSolverEvaluateTest, ::testing::Values(-1, 0, 1, 2));
 
 TEST(DrapeSolverTest, StiffWeightRatiosStayFinite) {
