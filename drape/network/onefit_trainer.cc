@@ -10,6 +10,7 @@
 #include <ceres/gradient_problem.h>
 #include <ceres/gradient_problem_solver.h>
 
+#include "drape/network/onefit_trainer_garment.h"
 #include "polyfit/util/parallel_for.h"
 
 namespace polyfit {
@@ -48,8 +49,11 @@ class BatchLoss : public ceres::FirstOrderFunction {
 std::string OneFitTrainerOptions::Validate() const {
   if (std::string p = network.Validate(); !p.empty()) return "network: " + p;
   if (std::string p = drape.Validate(); !p.empty()) return "drape: " + p;
-  if (batch_size < 1 || iterations_per_batch < 1 || num_batches < 1) {
-    return "batch_size, iterations_per_batch and num_batches must be >= 1";
+  if (batch_size < 1 || iterations_per_batch < 1 || num_batches < 0 || (num_batches == 0 && polish.iterations == 0)) {
+    return "batch_size and iterations_per_batch must be >= 1, num_batches >= 1 (0 with a polish)";
+  }
+  if (polish.iterations < 0 || polish.samples < 1 || !(polish.initial_damping > 0.0)) {
+    return "polish: iterations must be >= 0, samples >= 1 and initial_damping > 0";
   }
   if (lbfgs_rank < 1) return "lbfgs_rank must be >= 1";
   if (!(weight_step > 0.0)) return "weight_step must be > 0";
@@ -76,18 +80,6 @@ std::string OneFitTrainingSummary::BriefReport() const {
   if (!message.empty()) report += " (" + message + ")";
   return report;
 }
-
-// Per garment (and body): one drape (the loss) per thread, and what the
-// network reads.
-struct OneFitTrainer::GarmentData {
-  std::string name;
-  int body = 0;
-  std::vector<std::unique_ptr<DrapeSolver>> solvers;  // per thread
-  std::vector<double> rest;                           // patch parameters at rest
-  std::vector<Eigen::Matrix3d> frames;                // R_0 per patch
-  Eigen::MatrixXd raw_features, features;             // per patch: raw, normalised
-  Eigen::MatrixXd joint_weights;                      // #joints by #patches
-};
 
 namespace {
 
@@ -243,8 +235,8 @@ std::vector<double> OneFitTrainer::Predict(const double* weights, int garment, i
   return PatchParametersFromOutputs(g.rest, g.frames, outputs, network_.num_coefficients());
 }
 
-double OneFitTrainer::SampleLoss(const double* weights, const OneFitSample& sample, int thread, double* gradient,
-                                 double epoch) {
+void OneFitTrainer::PrepareSample(const double* weights, const OneFitSample& sample, int thread, double epoch,
+                                  Eigen::MatrixXd* outputs, OneFitNetwork::Cache* cache) {
   GarmentData& g = *garments_[sample.garment];
   DrapeSolver& solver = *g.solvers[thread];
   const OneFitTrainingClip& clip = clips_[sample.clip];
@@ -258,13 +250,19 @@ double OneFitTrainer::SampleLoss(const double* weights, const OneFitSample& samp
   }
   solver.SetHistory(history[0], history[1]);
   solver.Pose(pose(sample.frame), epoch);
+  network_.Forward(weights, g.features, NormalizedBodyFeatures(sample.clip, sample.frame), &g.joint_weights, outputs,
+                   cache);
+}
+
+double OneFitTrainer::SampleLoss(const double* weights, const OneFitSample& sample, int thread, double* gradient,
+                                 double epoch) {
+  GarmentData& g = *garments_[sample.garment];
   Eigen::MatrixXd outputs;
   OneFitNetwork::Cache cache;
-  network_.Forward(weights, g.features, NormalizedBodyFeatures(sample.clip, sample.frame), &g.joint_weights, &outputs,
-                   gradient != nullptr ? &cache : nullptr);
+  PrepareSample(weights, sample, thread, epoch, &outputs, gradient != nullptr ? &cache : nullptr);
   const std::vector<double> params = PatchParametersFromOutputs(g.rest, g.frames, outputs, network_.num_coefficients());
   std::vector<double> d_params;
-  const double energy = solver.Evaluate(params, gradient != nullptr ? &d_params : nullptr);
+  const double energy = g.solvers[thread]->Evaluate(params, gradient != nullptr ? &d_params : nullptr);
   if (gradient != nullptr) {
     network_.Backward(weights, cache,
                       ChainPatchParameterGradient(g.rest, g.frames, outputs, network_.num_coefficients(), d_params),
@@ -402,6 +400,15 @@ void OneFitTrainer::ValidationDrape(const double* weights, int garment, int clip
   }
 }
 
+OneFitSample OneFitTrainer::DrawSample(std::mt19937_64* rng) const {
+  OneFitSample s;
+  s.garment = std::uniform_int_distribution<int>(0, static_cast<int>(garments_.size()) - 1)(*rng);
+  const std::vector<int>& clips = body_clips_[garments_[s.garment]->body];
+  s.clip = clips[std::uniform_int_distribution<int>(0, static_cast<int>(clips.size()) - 1)(*rng)];
+  s.frame = std::uniform_int_distribution<int>(0, static_cast<int>(clips_[s.clip].poses.size()) - 1)(*rng);
+  return s;
+}
+
 OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights, int first_batch, const BatchCallback& on_batch,
                                            OneFitAdamState* adam_state) {
   const auto start = Clock::now();
@@ -416,12 +423,7 @@ OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights, int fir
   AdamState local_adam;
   AdamState& adam = adam_state != nullptr ? *adam_state : local_adam;
   for (int b = 0; b < options_.num_batches; ++b) {
-    for (OneFitSample& s : batch) {
-      s.garment = std::uniform_int_distribution<int>(0, static_cast<int>(garments_.size()) - 1)(rng);
-      const std::vector<int>& clips = body_clips_[garments_[s.garment]->body];
-      s.clip = clips[std::uniform_int_distribution<int>(0, static_cast<int>(clips.size()) - 1)(rng)];
-      s.frame = std::uniform_int_distribution<int>(0, static_cast<int>(clips_[s.clip].poses.size()) - 1)(rng);
-    }
+    for (OneFitSample& s : batch) s = DrawSample(&rng);
     if (b < first_batch) continue;
     epoch_ = options_.kext_final_epoch * b / options_.num_batches;
     const OneFitBatchSummary record = options_.optimizer == OneFitOptimizer::kAdam ? AdamBatch(batch, b, &adam, weights)

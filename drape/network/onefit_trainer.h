@@ -16,6 +16,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -70,6 +71,22 @@ struct OneFitDistribution {
   std::function<void(double* values, int count)> all_reduce;
 };
 
+// The second-order polish of a trained network: its features frozen, the
+// decoder's last layer (weights and biases: num_outputs() by width + 1,
+// about 4k values) fitted by Levenberg-Marquardt on a fixed set of
+// samples, with exact Gauss-Newton blocks. The layer is linear in its
+// weights, so J^T J over them is each sample's J^T J in the patch
+// parameters (DrapeSolver::EvaluateGaussNewton) chained through the output
+// bounds and the patches' last hidden activations: no dense Jacobian over
+// the weights is ever formed.
+struct OneFitPolishOptions {
+  int iterations = 0;  // Levenberg-Marquardt iterations (0: no polish)
+  int samples = 128;   // drawn once, seeded, as batches are
+  // lambda in (H + lambda diag(H)) step = -g: divided by 3 after a step
+  // that lowers the loss, multiplied by 4 after one that does not.
+  double initial_damping = 1e-3;
+};
+
 struct OneFitTrainerOptions {
   OneFitNetworkOptions network;
   // The loss: the reference drape's terms, weights and patches.
@@ -99,6 +116,7 @@ struct OneFitTrainerOptions {
   int validation_frames = 30;
   int num_threads = 2;  // per process
   OneFitDistribution distribution;
+  OneFitPolishOptions polish;
 
   std::string Validate() const;
 };
@@ -124,6 +142,26 @@ struct OneFitTrainingSummary {
   TerminationType termination_type = TerminationType::kConvergence;
   std::string message;
   std::vector<OneFitBatchSummary> batches;
+  double total_time_s = 0.0;
+
+  std::string BriefReport() const;
+};
+
+struct OneFitPolishStep {
+  double loss = 0.0;     // J, mean over the polish's samples, after the step (kept or not)
+  double damping = 0.0;  // the step's lambda
+  bool accepted = false;
+  double time_s = 0.0;  // since the polish started
+};
+
+struct OneFitPolishSummary {
+  TerminationType termination_type = TerminationType::kNoConvergence;
+  std::string message;
+  double initial_loss = 0.0, final_loss = 0.0;  // J, mean over the samples
+  std::vector<OneFitPolishStep> steps;
+  // The validation drape (as in OneFitBatchSummary) before and after.
+  double validation_inside_before = 0.0, validation_strain_before = 0.0, validation_loss_before = 0.0;
+  double validation_inside_after = 0.0, validation_strain_after = 0.0, validation_loss_after = 0.0;
   double total_time_s = 0.0;
 
   std::string BriefReport() const;
@@ -177,6 +215,20 @@ class OneFitTrainer {
   OneFitTrainingSummary Train(std::vector<double>* weights, int first_batch = 0,
                               const BatchCallback& on_batch = nullptr, OneFitAdamState* adam = nullptr);
 
+  // The second-order polish (OneFitPolishOptions) of `weights`, in place:
+  // only the decoder's last layer changes, and only by steps that lower
+  // the mean loss over the polish's samples. With a distribution, every
+  // process must call it (the blocks are summed over processes).
+  OneFitPolishSummary PolishOutputLayer(std::vector<double>* weights);
+  // The mean loss over `samples` and its Gauss-Newton blocks over the
+  // output layer's weights (num_output_layer_parameters() square, and the
+  // gradient), at k_ext's current epoch.
+  double OutputLayerGaussNewton(const double* weights, const std::vector<OneFitSample>& samples,
+                                Eigen::MatrixXd* gauss_newton, Eigen::VectorXd* gradient);
+  // The output layer's offset in the weights, and its size.
+  int output_layer_offset() const;
+  int num_output_layer_parameters() const;
+
   // A clip the validation drape runs on instead of the first training
   // clip, never trained on (nor read by the feature normalisers): a motion
   // held out, so that validation measures what training does to unseen
@@ -204,7 +256,16 @@ class OneFitTrainer {
                   const DrapeSolverOptions& drape);
   Eigen::MatrixXd ClipBodyFeatures(int clip) const;
   Eigen::VectorXd NormalizedBodyFeatures(int clip, int frame) const;
+  OneFitSample DrawSample(std::mt19937_64* rng) const;
+  // A sample's history and pose set on its thread's drape, and the
+  // network's outputs (num_outputs() by #patches) for its frame.
+  void PrepareSample(const double* weights, const OneFitSample& sample, int thread, double epoch,
+                     Eigen::MatrixXd* outputs, OneFitNetwork::Cache* cache);
   double SampleLoss(const double* weights, const OneFitSample& sample, int thread, double* gradient, double epoch);
+  // The polish's Gauss-Newton blocks of one sample over the output layer
+  // (onefit_polish.cc), added into *gauss_newton and *gradient.
+  double SampleGaussNewton(const double* weights, const OneFitSample& sample, int thread, Eigen::MatrixXd* gauss_newton,
+                           Eigen::VectorXd* gradient);
 
   // Per body: its rig (the features read it) and its training clips.
   std::vector<Skeleton> skeletons_;

@@ -122,6 +122,93 @@ TEST_F(OneFitTrainerTest, TrainingLowersTheLossDeterministically) {
 
 // Two body shapes: a second, thicker torso (the shirt's rest drape
 // collides more with it) whose clips carry its shape values.
+// The polish's blocks against their definition: per sample, (dp/dTheta)^T
+// (J_p^T J_p) (dp/dTheta) with J_p^T J_p from a drape posed as the trainer
+// poses it and dp/dTheta by central differences of the network's
+// prediction; the gradient is the loss gradient's output-layer part.
+TEST_F(OneFitTrainerTest, TheOutputLayersGaussNewtonBlocksChainTheDrapes) {
+  std::vector<double> weights = trainer_->InitialWeights();
+  std::mt19937_64 rng(6);
+  std::normal_distribution<double> normal(0.0, 0.05);
+  for (double& w : weights) w += normal(rng);
+  const std::vector<OneFitSample> samples = {{0, 0, 2}, {0, 0, 5}};
+  Eigen::MatrixXd blocks;
+  Eigen::VectorXd gradient;
+  const double loss = trainer_->OutputLayerGaussNewton(weights.data(), samples, &blocks, &gradient);
+  std::vector<double> full(trainer_->num_parameters());
+  EXPECT_NEAR(trainer_->Loss(weights.data(), samples, full.data()), loss, 1e-12 * loss);
+  const int offset = trainer_->output_layer_offset(), t = trainer_->num_output_layer_parameters();
+  EXPECT_EQ(t, trainer_->network().decoder().num_parameters() - trainer_->network().decoder().weight_offset(2));
+  ASSERT_EQ(blocks.rows(), t);
+  for (int i = 0; i < t; ++i) EXPECT_NEAR(gradient[i], full[offset + i], 1e-9 * (1.0 + std::abs(full[offset + i])));
+
+  const OneFitTrainingClip clip = Bob(body_, 8);
+  const TriangleMesh mesh = MakeTube(0.145, 0.1, 0.4, 20, 6);
+  DrapeSolverOptions drape = options_.drape;
+  drape.num_threads = 1;
+  DrapeSolver solver(body_, mesh, SingleJointWeights(mesh.num_vertices(), 1), drape);
+  Eigen::MatrixXd expected = Eigen::MatrixXd::Zero(t, t);
+  for (const OneFitSample& sample : samples) {
+    Eigen::Matrix3Xd history[2];
+    for (int back = 1; back <= 2; ++back) {
+      const int f = std::max(sample.frame - back, 0);
+      history[back - 1] = solver.PositionsAt(trainer_->Predict(weights.data(), 0, 0, f), clip.poses[f]);
+    }
+    solver.SetHistory(history[0], history[1]);
+    solver.Pose(clip.poses[sample.frame]);
+    const std::vector<double> params = trainer_->Predict(weights.data(), 0, 0, sample.frame);
+    Eigen::MatrixXd h_p;
+    std::vector<double> unused;
+    solver.EvaluateGaussNewton(params, &unused, &h_p);
+    Eigen::MatrixXd dp(params.size(), t);
+    const double h = 1e-6;
+    for (int i = 0; i < t; ++i) {
+      std::vector<double> plus = weights, minus = weights;
+      plus[offset + i] += h;
+      minus[offset + i] -= h;
+      const std::vector<double> p_plus = trainer_->Predict(plus.data(), 0, 0, sample.frame);
+      const std::vector<double> p_minus = trainer_->Predict(minus.data(), 0, 0, sample.frame);
+      for (size_t r = 0; r < params.size(); ++r) dp(r, i) = (p_plus[r] - p_minus[r]) / (2.0 * h);
+    }
+    expected += dp.transpose() * h_p * dp / static_cast<double>(samples.size());
+  }
+  EXPECT_LT((blocks - expected).cwiseAbs().maxCoeff(), 1e-6 * expected.cwiseAbs().maxCoeff());
+}
+
+TEST_F(OneFitTrainerTest, ThePolishLowersTheLossChangingOnlyTheOutputLayer) {
+  OneFitTrainerOptions options = options_;
+  options.polish.iterations = 4;
+  options.polish.samples = 6;
+  options.validation_frames = 4;
+  OneFitTrainer trainer(body_, {{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), SingleJointWeights(20 * 7, 1)}},
+                        {Bob(body_, 8)}, options);
+  std::vector<double> weights = trainer.InitialWeights();
+  trainer.Train(&weights);
+  const std::vector<double> trained = weights;
+  const OneFitPolishSummary summary = trainer.PolishOutputLayer(&weights);
+  ASSERT_EQ(summary.steps.size(), 4u);
+  EXPECT_LT(summary.final_loss, 0.9 * summary.initial_loss) << summary.BriefReport();
+  EXPECT_TRUE(std::any_of(summary.steps.begin(), summary.steps.end(),
+                          [](const OneFitPolishStep& step) { return step.accepted; }));
+  // Kept steps only ever lower the loss.
+  double kept = summary.initial_loss;
+  for (const OneFitPolishStep& step : summary.steps) {
+    if (!step.accepted) continue;
+    EXPECT_LT(step.loss, kept);
+    kept = step.loss;
+  }
+  EXPECT_EQ(kept, summary.final_loss);
+  const int offset = trainer.output_layer_offset(), t = trainer.num_output_layer_parameters();
+  EXPECT_EQ(offset + t, trainer.num_parameters());  // the last layer is the weights' tail
+  for (int i = 0; i < offset; ++i) ASSERT_EQ(weights[i], trained[i]) << i;
+  EXPECT_NE(weights, trained);
+  EXPECT_TRUE(std::isfinite(summary.validation_loss_after));
+  // Deterministic.
+  std::vector<double> again = trained;
+  trainer.PolishOutputLayer(&again);
+  EXPECT_EQ(again, weights);
+}
+
 TEST_F(OneFitTrainerTest, SeveralBodiesPairTheirOwnGarmentsAndClipsAndTheShapeIsRead) {
   OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
   shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
