@@ -29,25 +29,33 @@ double Seconds(Clock::time_point start) { return std::chrono::duration<double>(C
 
 using StridedMap = Eigen::Map<Eigen::MatrixXd, 0, Eigen::Stride<Eigen::Dynamic, Eigen::Dynamic>>;
 
-// H_y = D^T H_p D, D the output bounds' Jacobian, applied as the gradient's
-// chain (ChainPatchParameterGradient computes D^T g) to each column of H_p
-// and then of (D^T H_p)^T: the bounds' derivatives live in one place.
-Eigen::MatrixXd ChainGaussNewton(const std::vector<double>& rest, const std::vector<Eigen::Matrix3d>& frames,
-                                 const Eigen::MatrixXd& outputs, int num_coefficients, const Eigen::MatrixXd& h_p) {
-  const Eigen::Index n = h_p.rows();
-  Eigen::MatrixXd half(n, n), h_y(n, n);
-  std::vector<double> column(n);
-  for (int pass = 0; pass < 2; ++pass) {
-    const Eigen::MatrixXd& in = pass == 0 ? h_p : half;
-    Eigen::MatrixXd& out = pass == 0 ? half : h_y;
-    for (Eigen::Index c = 0; c < n; ++c) {
-      // (D^T H_p)^T's columns are D^T H_p's rows.
-      for (Eigen::Index r = 0; r < n; ++r) column[r] = pass == 0 ? in(r, c) : in(c, r);
-      const Eigen::MatrixXd chained = ChainPatchParameterGradient(rest, frames, outputs, num_coefficients, column);
-      out.col(c) = Eigen::Map<const Eigen::VectorXd>(chained.data(), n);
+// H_p := D^T H_p D in place, D = dp/dy block-diagonal per patch (stride
+// by stride). D_p^T's columns come from the gradient's chain
+// (ChainPatchParameterGradient computes D^T g), fed one unit vector per
+// parameter, at every patch at once: the bounds' derivatives live in one
+// place.
+void ChainGaussNewton(const std::vector<double>& rest, const std::vector<Eigen::Matrix3d>& frames,
+                      const Eigen::MatrixXd& outputs, int num_coefficients, Eigen::MatrixXd* h) {
+  const Eigen::Index stride = outputs.rows(), num_patches = outputs.cols();
+  std::vector<Eigen::MatrixXd> d_t(num_patches, Eigen::MatrixXd(stride, stride));  // D_p^T
+  std::vector<double> unit(stride * num_patches);
+  for (Eigen::Index j = 0; j < stride; ++j) {
+    for (Eigen::Index p = 0; p < num_patches; ++p) {
+      for (Eigen::Index c = 0; c < stride; ++c) unit[p * stride + c] = c == j ? 1.0 : 0.0;
     }
+    const Eigen::MatrixXd column = ChainPatchParameterGradient(rest, frames, outputs, num_coefficients, unit);
+    for (Eigen::Index p = 0; p < num_patches; ++p) d_t[p].col(j) = column.col(p);
   }
-  return h_y;
+  Eigen::MatrixXd rows;
+  for (Eigen::Index p = 0; p < num_patches; ++p) {
+    rows.noalias() = d_t[p] * h->middleRows(p * stride, stride);
+    h->middleRows(p * stride, stride) = rows;
+  }
+  Eigen::MatrixXd columns;
+  for (Eigen::Index p = 0; p < num_patches; ++p) {
+    columns.noalias() = h->middleCols(p * stride, stride) * d_t[p].transpose();
+    h->middleCols(p * stride, stride) = columns;
+  }
 }
 
 }  // namespace
@@ -78,7 +86,8 @@ int OneFitTrainer::num_output_layer_parameters() const {
 }
 
 double OneFitTrainer::SampleGaussNewton(const double* weights, const OneFitSample& sample, int thread,
-                                        Eigen::MatrixXd* gauss_newton, Eigen::VectorXd* gradient) {
+                                        PolishScratch* scratch, Eigen::MatrixXd* gauss_newton,
+                                        Eigen::VectorXd* gradient) {
   GarmentData& g = *garments_[sample.garment];
   Eigen::MatrixXd outputs;
   OneFitNetwork::Cache cache;
@@ -86,31 +95,30 @@ double OneFitTrainer::SampleGaussNewton(const double* weights, const OneFitSampl
   const int k = network_.num_coefficients();
   const std::vector<double> params = PatchParametersFromOutputs(g.rest, g.frames, outputs, k);
   std::vector<double> d_params;
-  Eigen::MatrixXd h_p;
-  const double energy = g.solvers[thread]->EvaluateGaussNewton(params, &d_params, &h_p);
-  const Eigen::MatrixXd h_y = ChainGaussNewton(g.rest, g.frames, outputs, k, h_p);
+  Eigen::MatrixXd& h_y = scratch->h_y;
+  const double energy = g.solvers[thread]->EvaluateGaussNewton(params, &d_params, &h_y);
+  ChainGaussNewton(g.rest, g.frames, outputs, k, &h_y);
   const Eigen::MatrixXd g_y = ChainPatchParameterGradient(g.rest, g.frames, outputs, k, d_params);  // O by P
   // h~ (I + 1 by P).
   const Eigen::MatrixXd& last_input = cache.decoder.inputs.back();
-  const Eigen::Index width = last_input.rows(), num_patches = last_input.cols(), o_size = outputs.rows();
-  const Eigen::Index n = o_size * num_patches, t = o_size * (width + 1);
-  Eigen::MatrixXd h(width + 1, num_patches);
-  h.topRows(width) = last_input;
-  h.row(width).setOnes();
-  Eigen::Map<Eigen::MatrixXd>(gradient->data(), o_size, width + 1) += g_y * h.transpose();
-  // Output o' of every patch: columns o', o' + O, ... of H_y.
-  Eigen::MatrixXd by_output(n, width + 1);
+  const Eigen::Index width = last_input.rows() + 1, num_patches = last_input.cols(), o_size = outputs.rows();
+  const Eigen::Index n = o_size * num_patches;
+  Eigen::MatrixXd h(width, num_patches);
+  h.topRows(width - 1) = last_input;
+  h.row(width - 1).setOnes();
+  Eigen::Map<Eigen::MatrixXd>(gradient->data(), o_size, width) += g_y * h.transpose();
+  // Blocks are summed output-major, (o, i) at o width + i: contiguous
+  // products; OutputLayerGaussNewton reorders the sum once.
+  Eigen::MatrixXd& by_patch = scratch->by_patch;
+  by_patch.resize(num_patches, width);
   for (Eigen::Index o2 = 0; o2 < o_size; ++o2) {
+    // Output o' of every patch: columns o', o' + O, ... of H_y.
     const Eigen::Map<const Eigen::MatrixXd, 0, Eigen::OuterStride<>> columns(h_y.data() + o2 * n, n, num_patches,
                                                                              Eigen::OuterStride<>(o_size * n));
-    by_output.noalias() = columns * h.transpose();
+    scratch->by_output.noalias() = columns * h.transpose();  // n by width
     for (Eigen::Index o = 0; o < o_size; ++o) {
-      const Eigen::Map<const Eigen::MatrixXd, 0, Eigen::Stride<Eigen::Dynamic, Eigen::Dynamic>> rows(
-          by_output.data() + o, num_patches, width + 1, Eigen::Stride<Eigen::Dynamic, Eigen::Dynamic>(n, o_size));
-      // Theta's (o, i) is weight o + O i.
-      StridedMap block(gauss_newton->data() + o + o2 * t, width + 1, width + 1,
-                       Eigen::Stride<Eigen::Dynamic, Eigen::Dynamic>(o_size * t, o_size));
-      block.noalias() += h * rows;
+      for (Eigen::Index p = 0; p < num_patches; ++p) by_patch.row(p) = scratch->by_output.row(p * o_size + o);
+      gauss_newton->block(o * width, o2 * width, width, width).noalias() += h * by_patch;
     }
   }
   return energy;
@@ -125,14 +133,15 @@ double OneFitTrainer::OutputLayerGaussNewton(const double* weights, const std::v
   const int t = num_output_layer_parameters();
   const Eigen::VectorXd aligned = Eigen::Map<const Eigen::VectorXd>(weights, num_parameters());
   std::vector<Eigen::MatrixXd> blocks(threads, Eigen::MatrixXd::Zero(t, t));
+  std::vector<PolishScratch> scratch(threads);
   std::vector<Eigen::VectorXd> gradients(threads, Eigen::VectorXd::Zero(t));
   std::vector<double> energies(samples.size(), 0.0);
   ParallelFor(
       threads, threads,
       [&](int, int thread) {
         for (size_t k = thread; k < mine.size(); k += threads) {
-          energies[mine[k]] =
-              SampleGaussNewton(aligned.data(), samples[mine[k]], thread, &blocks[thread], &gradients[thread]);
+          energies[mine[k]] = SampleGaussNewton(aligned.data(), samples[mine[k]], thread, &scratch[thread],
+                                                &blocks[thread], &gradients[thread]);
         }
       },
       1);
@@ -148,7 +157,16 @@ double OneFitTrainer::OutputLayerGaussNewton(const double* weights, const std::v
   }
   if (d.num_processes > 1) d.all_reduce(sums.data(), static_cast<int>(sums.size()));
   *gradient = g;
-  *gauss_newton = h;
+  // Output-major (o width + i) to the weights' order (o + O i).
+  const Eigen::Index o_size = network_.num_outputs(), width = t / o_size;
+  std::vector<Eigen::Index> order(t);
+  for (Eigen::Index o = 0; o < o_size; ++o) {
+    for (Eigen::Index i = 0; i < width; ++i) order[o * width + i] = o + o_size * i;
+  }
+  gauss_newton->resize(t, t);
+  for (int c = 0; c < t; ++c) {
+    for (int r = 0; r < t; ++r) (*gauss_newton)(order[r], order[c]) = h(r, c);
+  }
   return sums[0];
 }
 
@@ -180,7 +198,11 @@ OneFitPolishSummary OneFitTrainer::PolishOutputLayer(std::vector<double>* weight
     Eigen::MatrixXd damped = h;
     const double floor = 1e-12 * std::max(1e-300, h.diagonal().maxCoeff());
     damped.diagonal() += damping * h.diagonal().cwiseMax(floor);
-    const Eigen::VectorXd step = damped.ldlt().solve(-g);
+    // Cholesky (blocked; Eigen's LDLT is not); LDLT where rounding leaves
+    // the damped matrix short of positive definite.
+    const Eigen::LLT<Eigen::MatrixXd> llt(damped);
+    const Eigen::VectorXd step =
+        llt.info() == Eigen::Success ? Eigen::VectorXd(llt.solve(-g)) : Eigen::VectorXd(damped.ldlt().solve(-g));
     OneFitPolishStep record;
     record.damping = damping;
     if (step.allFinite()) {

@@ -78,6 +78,7 @@ std::string OneFitTrainingSummary::BriefReport() const {
                 TerminationTypeToString(termination_type), batches.size(), first, last, total_time_s);
   std::string report = line;
   if (!message.empty()) report += " (" + message + ")";
+  if (!polish.steps.empty()) report += "\n" + polish.BriefReport();
   return report;
 }
 

@@ -138,15 +138,6 @@ struct OneFitBatchSummary {
   double validation_loss = std::numeric_limits<double>::quiet_NaN();
 };
 
-struct OneFitTrainingSummary {
-  TerminationType termination_type = TerminationType::kConvergence;
-  std::string message;
-  std::vector<OneFitBatchSummary> batches;
-  double total_time_s = 0.0;
-
-  std::string BriefReport() const;
-};
-
 struct OneFitPolishStep {
   double loss = 0.0;     // J, mean over the polish's samples, after the step (kept or not)
   double damping = 0.0;  // the step's lambda
@@ -163,6 +154,16 @@ struct OneFitPolishSummary {
   double validation_inside_before = 0.0, validation_strain_before = 0.0, validation_loss_before = 0.0;
   double validation_inside_after = 0.0, validation_strain_after = 0.0, validation_loss_after = 0.0;
   double total_time_s = 0.0;
+
+  std::string BriefReport() const;
+};
+
+struct OneFitTrainingSummary {
+  TerminationType termination_type = TerminationType::kConvergence;
+  std::string message;
+  std::vector<OneFitBatchSummary> batches;
+  double total_time_s = 0.0;
+  OneFitPolishSummary polish;  // its steps empty without a polish
 
   std::string BriefReport() const;
 };
@@ -264,8 +265,12 @@ class OneFitTrainer {
   double SampleLoss(const double* weights, const OneFitSample& sample, int thread, double* gradient, double epoch);
   // The polish's Gauss-Newton blocks of one sample over the output layer
   // (onefit_polish.cc), added into *gauss_newton and *gradient.
-  double SampleGaussNewton(const double* weights, const OneFitSample& sample, int thread, Eigen::MatrixXd* gauss_newton,
-                           Eigen::VectorXd* gradient);
+  // scratch: per thread, its large matrices' allocations reused.
+  struct PolishScratch {
+    Eigen::MatrixXd h_y, by_output, by_patch;
+  };
+  double SampleGaussNewton(const double* weights, const OneFitSample& sample, int thread, PolishScratch* scratch,
+                           Eigen::MatrixXd* gauss_newton, Eigen::VectorXd* gradient);
 
   // Per body: its rig (the features read it) and its training clips.
   std::vector<Skeleton> skeletons_;

@@ -253,6 +253,17 @@ std::string ProgressRow(const OneFitBatchSummary& batch) {
   return row.str();
 }
 
+// MODEL.polish.csv: the start, then a row per step (rejected ones too).
+void WritePolishProgress(const OneFitPolishSummary& polish, std::ostream& out) {
+  out.precision(8);
+  out << "step,loss_J,damping,accepted,time_s\n0," << polish.initial_loss << ",,1,0\n";
+  for (size_t i = 0; i < polish.steps.size(); ++i) {
+    const OneFitPolishStep& step = polish.steps[i];
+    out << i + 1 << ',' << step.loss << ',' << step.damping << ',' << (step.accepted ? 1 : 0) << ',' << step.time_s
+        << '\n';
+  }
+}
+
 }  // namespace
 
 OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options, const OneFitProgress& progress) {
@@ -283,6 +294,14 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
   };
   OneFitTrainingSummary summary = trainer->Train(&weights, resume.first_batch, checkpoint, &resume.adam);
   if (resume.first_batch > 0) summary.message += "; resumed at batch " + std::to_string(resume.first_batch);
+  if (options.trainer.polish.iterations > 0 && summary.termination_type != TerminationType::kFailure) {
+    summary.polish = trainer->PolishOutputLayer(&weights);
+    if (writer) {
+      SaveOneFitModel(options.model_path, trainer->MakeModel(weights));
+      WriteFileAtomically(options.model_path + ".polish.csv",
+                          [&](std::ostream& out) { WritePolishProgress(summary.polish, out); });
+    }
+  }
   if (options.shape_samples > 0) {
     summary.message += "; body shapes";
     for (const BodyShape& shape : TrainingShapes(options)) summary.message += " {" + shape.ToString() + "}";

@@ -7,6 +7,8 @@
 //                and the validation loss (J)
 //   MODEL.best   with a validation motion: the model at the lowest
 //                validation loss so far (early stopping without stopping)
+//   MODEL.polish.csv  with a polish (OneFitPolishOptions), its steps; MODEL
+//                is then the polished network
 // Every input is checked before anything is written.
 #ifndef POLYFIT_DRAPE_NETWORK_ONEFIT_TRAINING_RUN_H_
 #define POLYFIT_DRAPE_NETWORK_ONEFIT_TRAINING_RUN_H_

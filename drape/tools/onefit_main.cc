@@ -240,6 +240,14 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
   train->add_option("--learning-rate", t.learning_rate, "Adam's step size")->capture_default_str();
   train->add_option("--warmup", t.warmup_batches, "Adam's step size ramps up linearly over this many batches")
       ->capture_default_str();
+  train
+      ->add_option("--polish", t.polish.iterations,
+                   "then this many Levenberg-Marquardt iterations on the output layer, features frozen (with "
+                   "--batches 0: a polish of --init's model); progress in MODEL.polish.csv")
+      ->capture_default_str();
+  train->add_option("--polish-samples", t.polish.samples, "samples the polish fits")->capture_default_str();
+  train->add_option("--polish-damping", t.polish.initial_damping, "the polish's initial Marquardt lambda")
+      ->capture_default_str();
   return train;
 }
 
