@@ -170,7 +170,7 @@ double OneFitTrainer::OutputLayerGaussNewton(const double* weights, const std::v
   return sums[0];
 }
 
-OneFitPolishSummary OneFitTrainer::PolishOutputLayer(std::vector<double>* weights) {
+OneFitPolishSummary OneFitTrainer::PolishOutputLayer(std::vector<double>* weights, const PolishCallback& on_step) {
   const auto start = Clock::now();
   const OneFitPolishOptions& o = options_.polish;
   OneFitPolishSummary summary;
@@ -223,6 +223,7 @@ OneFitPolishSummary OneFitTrainer::PolishOutputLayer(std::vector<double>* weight
     }
     record.time_s = Seconds(start);
     summary.steps.push_back(record);
+    if (on_step) on_step(it + 1, record);
   }
   summary.final_loss = loss;
   if (validate) {

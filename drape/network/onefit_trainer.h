@@ -220,7 +220,9 @@ class OneFitTrainer {
   // only the decoder's last layer changes, and only by steps that lower
   // the mean loss over the polish's samples. With a distribution, every
   // process must call it (the blocks are summed over processes).
-  OneFitPolishSummary PolishOutputLayer(std::vector<double>* weights);
+  // on_step (when given) sees each step as it ends.
+  using PolishCallback = std::function<void(int step, const OneFitPolishStep&)>;
+  OneFitPolishSummary PolishOutputLayer(std::vector<double>* weights, const PolishCallback& on_step = nullptr);
   // The mean loss over `samples` and its Gauss-Newton blocks over the
   // output layer's weights (num_output_layer_parameters() square, and the
   // gradient), at k_ext's current epoch.

@@ -266,7 +266,8 @@ void WritePolishProgress(const OneFitPolishSummary& polish, std::ostream& out) {
 
 }  // namespace
 
-OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options, const OneFitProgress& progress) {
+OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options, const OneFitProgress& progress,
+                                        const OneFitPolishProgress& polish_progress) {
   if (const std::string problem = options.Validate(); !problem.empty()) {
     throw Error(ErrorKind::kInvalidArgument, "onefit train: " + problem);
   }
@@ -295,7 +296,7 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
   OneFitTrainingSummary summary = trainer->Train(&weights, resume.first_batch, checkpoint, &resume.adam);
   if (resume.first_batch > 0) summary.message += "; resumed at batch " + std::to_string(resume.first_batch);
   if (options.trainer.polish.iterations > 0 && summary.termination_type != TerminationType::kFailure) {
-    summary.polish = trainer->PolishOutputLayer(&weights);
+    summary.polish = trainer->PolishOutputLayer(&weights, writer ? polish_progress : nullptr);
     if (writer) {
       SaveOneFitModel(options.model_path, trainer->MakeModel(weights));
       WriteFileAtomically(options.model_path + ".polish.csv",

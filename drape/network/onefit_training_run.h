@@ -64,11 +64,14 @@ struct OneFitTrainingRunOptions {
 
 // Called after every batch with its summary.
 using OneFitProgress = std::function<void(const OneFitBatchSummary&)>;
+// Called after every polish step (its number from 1) with it.
+using OneFitPolishProgress = std::function<void(int, const OneFitPolishStep&)>;
 
 // Throws an Error naming the file or option (kInput, kInvalidArgument)
 // before anything is written; kOutput when the model cannot be written.
 OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
-                                        const OneFitProgress& progress = nullptr);
+                                        const OneFitProgress& progress = nullptr,
+                                        const OneFitPolishProgress& polish_progress = nullptr);
 
 }  // namespace polyfit
 

@@ -254,8 +254,9 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
 // Every rank of an MPI job (`mpirun -n N onefit train`) trains the same
 // weights on its share of each mini-batch; rank 0 prints and writes.
 int RunTrainOn(TrainFlags& f, bool quiet) {
-  const polyfit::OneFitTrainingSummary summary =
-      polyfit::RunOneFitTraining(f.options, [quiet](const polyfit::OneFitBatchSummary& b) {
+  const polyfit::OneFitTrainingSummary summary = polyfit::RunOneFitTraining(
+      f.options,
+      [quiet](const polyfit::OneFitBatchSummary& b) {
         if (quiet) return;
         std::printf("batch %4d  loss %.5g -> %.5g J  %2d it  %7.1f s", b.batch, b.initial_loss, b.final_loss,
                     b.iterations, b.time_s);
@@ -264,6 +265,12 @@ int RunTrainOn(TrainFlags& f, bool quiet) {
                       b.validation_edge_strain_percent, b.validation_loss);
         }
         std::printf("\n");
+        std::fflush(stdout);
+      },
+      [quiet](int step, const polyfit::OneFitPolishStep& s) {
+        if (quiet) return;
+        std::printf("polish step %2d  loss %.5g J  lambda %.3g  %s  %7.1f s\n", step, s.loss, s.damping,
+                    s.accepted ? "kept" : "rejected", s.time_s);
         std::fflush(stdout);
       });
   if (!quiet) {
