@@ -313,6 +313,10 @@ struct RenderScratch {
 
 }  // namespace
 
+double SoftnessToGamma(double softness, double depth, double depth_near, double depth_far) {
+  return softness / (depth * depth * (1.0 / depth_near - 1.0 / depth_far));
+}
+
 std::vector<std::uint8_t> MeshBoundaryEdgeFlags(const Eigen::Matrix3Xi& faces) {
   TriangleMesh mesh;
   mesh.faces = faces;

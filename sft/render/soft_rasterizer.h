@@ -69,6 +69,11 @@ struct ScreenMesh {
   std::vector<std::uint8_t> boundary_edges;
 };
 
+// The gamma under which a surface `softness` metres behind another at
+// `depth` weighs e times less: z's slope there is 1 / (depth^2 (1/near -
+// 1/far)) per metre.
+double SoftnessToGamma(double softness, double depth, double depth_near, double depth_far);
+
 // The boundary_edges flags of a mesh's faces (an edge used by one face only).
 std::vector<std::uint8_t> MeshBoundaryEdgeFlags(const Eigen::Matrix3Xi& faces);
 

@@ -1,5 +1,6 @@
 #include "sft/render/soft_rasterizer.h"
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -139,6 +140,101 @@ TEST(SoftRasterizerTest, NearerSurfaceWinsTheBlend) {
   rasterizer.Render(mesh, kWidth, kHeight, cv::Mat(), false, &out);
   // Where the quad hides the third triangle the colour is the texture's.
   EXPECT_NEAR(out.color.at<cv::Vec3f>(12, 14)[0], 1.0f, 1e-3);
+}
+
+// A cloth folded over itself: two layers with the same outline, the
+// hidden one `gap` metres behind at 0.4 m, the depth range the solver
+// takes for a 0.3 m template there. The front layer samples the texture's
+// red half, the hidden one its blue half.
+ScreenMesh FoldedLayers(double gap) {
+  ScreenMesh mesh;
+  mesh.pixels.resize(2, 8);
+  mesh.pixels << 4, 20, 20, 4, 4, 20, 20, 4,  //
+      4, 4, 20, 20, 4, 4, 20, 20;
+  mesh.depths.resize(8);
+  mesh.depths << 0.4, 0.4, 0.4, 0.4, 0.4 + gap, 0.4 + gap, 0.4 + gap, 0.4 + gap;
+  mesh.faces.resize(3, 4);
+  mesh.faces << 0, 0, 4, 4,  //
+      1, 2, 5, 6,            //
+      2, 3, 6, 7;
+  // Each layer spans its half of the texture (u in [0.05, 0.45] or
+  // [0.55, 0.95]), corners in the faces' order.
+  mesh.corner_texcoords.resize(2, 12);
+  const double u[4] = {0.05, 0.45, 0.45, 0.05}, v[4] = {0.1, 0.1, 0.9, 0.9};
+  for (int f = 0; f < 4; ++f) {
+    for (int c = 0; c < 3; ++c) {
+      const int corner = mesh.faces(c, f) % 4;
+      mesh.corner_texcoords.col(3 * f + c) = Eigen::Vector2d(u[corner] + (f < 2 ? 0.0 : 0.5), v[corner]);
+    }
+  }
+  mesh.depth_near = 0.1;
+  mesh.depth_far = 0.4 + gap + 0.3;
+  mesh.boundary_edges = MeshBoundaryEdgeFlags(mesh.faces);
+  return mesh;
+}
+
+// Red ramps along v on the left half, blue on the right: each layer's
+// colour moves with it, and shows which layer a pixel sees.
+cv::Mat RedBlueTexture() {
+  cv::Mat texture(32, 32, CV_32FC3, cv::Scalar(0, 0, 0));
+  for (int y = 0; y < 32; ++y) {
+    const float ramp = 0.5f + 0.4f * std::sin(0.2f * y);
+    for (int x = 0; x < 32; ++x) texture.at<cv::Vec3f>(y, x) = x < 16 ? cv::Vec3f(ramp, 0, 0) : cv::Vec3f(0, 0, ramp);
+  }
+  return texture;
+}
+
+// The hidden layer's share of a pixel's colour, and the largest colour
+// derivative with respect to a hidden and to a front vertex's pixel
+// position over the layers' interior: the photometric pull that drags a
+// layer across the image.
+struct FoldRender {
+  double hidden_share = 0.0, hidden_derivative = 0.0, front_derivative = 0.0;
+};
+
+FoldRender RenderFold(double gap, double gamma) {
+  SoftRasterizerOptions options;
+  options.gamma = gamma;
+  options.num_threads = 1;
+  const cv::Mat texture = RedBlueTexture();
+  SoftRenderOutput out;
+  SoftRasterizer(options, texture).Render(FoldedLayers(gap), kWidth, kHeight, cv::Mat(), true, &out);
+  FoldRender r;
+  const cv::Vec3f centre = out.color.at<cv::Vec3f>(12, 12);
+  r.hidden_share = centre[2] / (centre[0] + centre[2]);
+  for (int y = 7; y <= 17; ++y) {
+    for (int x = 7; x <= 17; ++x) {
+      const int pixel = y * kWidth + x;
+      for (int k = out.begin[pixel]; k < out.end[pixel]; ++k) {
+        double largest = 0.0;
+        for (int c = 0; c < 3; ++c) {
+          for (int v = 0; v < 2; ++v) largest = std::max(largest, std::abs(double(out.gradients[k].d[c][v])));
+        }
+        double& slot = out.gradients[k].vertex >= 4 ? r.hidden_derivative : r.front_derivative;
+        slot = std::max(slot, largest);
+      }
+    }
+  }
+  return r;
+}
+
+TEST(SoftRasterizerTest, AFoldOverShowsItsNearLayerOnceTheSoftnessIsInMetres) {
+  const double gap = 5e-3, near = 0.1, far = 0.4 + gap + 0.3;
+  // gamma 0.01 of this depth range is 14 mm at 0.4 m: a hidden layer 5 mm
+  // behind still gives 41% of the colour and pulls on its vertices.
+  const FoldRender soft = RenderFold(gap, 1e-2);
+  EXPECT_GT(soft.hidden_share, 0.35);
+  EXPECT_GT(soft.hidden_derivative, 0.1 * soft.front_derivative);
+  // A softness of 1 mm: the near layer wins, the hidden one gets
+  // exp(-5) / (1 + exp(-5)) of the colour and almost no pull.
+  const FoldRender metric = RenderFold(gap, SoftnessToGamma(1e-3, 0.4, near, far));
+  EXPECT_NEAR(metric.hidden_share, std::exp(-5.0) / (1.0 + std::exp(-5.0)), 1e-3);
+  EXPECT_LT(metric.hidden_derivative, 0.02 * metric.front_derivative);
+  EXPECT_GT(metric.front_derivative, 0.0);
+  // The softness's meaning: a layer 1 mm behind weighs e times less
+  // (exactly so to first order in the gap).
+  const double one = RenderFold(1e-3, SoftnessToGamma(1e-3, 0.4, near, 0.4 + 1e-3 + 0.3)).hidden_share;
+  EXPECT_NEAR(one, 1.0 / (1.0 + std::exp(1.0)), 3e-3);
 }
 
 }  // namespace

@@ -151,8 +151,8 @@ std::string PolySftOptions::Validate() const {
   if (max_image_width < 0) return "max_image_width must be >= 0";
   if (max_iterations_per_level < 1) return "max_iterations_per_level must be >= 1";
   if (patience < 1) return "patience must be >= 1";
-  for (double w :
-       {photometric_weight, silhouette_weight, silhouette_reach_weight, inextensibility_weight, temporal_weight}) {
+  for (double w : {photometric_weight, silhouette_weight, silhouette_reach_weight, inextensibility_weight,
+                   temporal_weight, depth_softness}) {
     if (!(w >= 0.0) || !std::isfinite(w)) return "term weights must be finite and >= 0";
   }
   if (!(robust_scale > 0.0)) return "robust_scale must be > 0";
@@ -304,6 +304,11 @@ class PolySftController {
       template_pixels_ += 0.5 * std::abs((b - a).x() * (c - a).y() - (b - a).y() * (c - a).x());
     }
     template_pixels_ = std::max(template_pixels_, 16.0);
+    rasterizer_options_ = options_.rasterizer;
+    if (options_.depth_softness > 0.0) {
+      rasterizer_options_.gamma = SoftnessToGamma(options_.depth_softness, mesh.vertices.row(2).mean(),
+                                                  mesh_template_.depth_near, mesh_template_.depth_far);
+    }
     if (scene_.ground_truth_kind == GroundTruthKind::kVertices) summary_.template_e3d = summary_.template_rmse_mm = 0.0;
   }
 
@@ -351,8 +356,8 @@ class PolySftController {
                             std::max(2, static_cast<int>(std::lround(full.rows * factor)))),
                    0, 0, cv::INTER_AREA);
       }
-      level.rasterizer = std::make_unique<SoftRasterizer>(options_.rasterizer, texture);
-      SoftRasterizerOptions serial = options_.rasterizer;
+      level.rasterizer = std::make_unique<SoftRasterizer>(rasterizer_options_, texture);
+      SoftRasterizerOptions serial = rasterizer_options_;
       serial.num_threads = 1;
       level.serial_rasterizer = std::make_unique<SoftRasterizer>(serial, texture);
     }
@@ -367,7 +372,7 @@ class PolySftController {
     ScreenMesh screen = mesh_template_;
     if (!ProjectVertices(level.camera, scene_.template_mesh.vertices, &screen, nullptr)) return;
     // Nearly hard: the soft silhouette's 1/2 level lies outside the edge.
-    SoftRasterizerOptions hard = options_.rasterizer;
+    SoftRasterizerOptions hard = rasterizer_options_;
     hard.sigma = 1e-3;
     SoftRenderOutput render;
     SoftRasterizer(hard, scene_.texture)
@@ -946,7 +951,8 @@ class PolySftController {
   PolySftSummary summary_;
   bool use_masks_ = false, use_temporal_ = false, use_photometric_ = false, use_inextensibility_ = false;
   ScreenMesh mesh_template_;
-  double size_ = 0.0;  // the template's bounding-box diagonal
+  double size_ = 0.0;                         // the template's bounding-box diagonal
+  SoftRasterizerOptions rasterizer_options_;  // options_.rasterizer, gamma from depth_softness
   std::vector<Eigen::Vector2i> edges_;
   std::vector<double> rest_lengths_;
   double template_pixels_ = 0.0;
