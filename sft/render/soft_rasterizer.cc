@@ -237,7 +237,9 @@ PixelBlend BlendPixel(const std::vector<TriangleTerm>& terms, const cv::Vec3f& b
 // d(I, S)/d(screen variables) of a pixel, per vertex, appended to `grads`
 // (a vertex's entries summed over its triangles).
 void AppendPixelGradients(const std::vector<TriangleTerm>& terms, const PixelBlend& blend, double gamma,
-                          std::vector<VertexGradient>* grads) {
+                          bool depth_gradient, std::vector<VertexGradient>* grads) {
+  // Without the depth gradient the blend's weights move with coverage only.
+  const double depth_scale = depth_gradient ? 1.0 / gamma : 0.0;
   const int first = static_cast<int>(grads->size());
   const int n = static_cast<int>(terms.size());
   for (int j = 0; j < n; ++j) {
@@ -252,7 +254,7 @@ void AppendPixelGradients(const std::vector<TriangleTerm>& terms, const PixelBle
     Eigen::Matrix<double, 4, 9> local;
     for (int ch = 0; ch < 3; ++ch) {
       const double to_e = (term.color[ch].a - blend.color[ch]) / blend.e_sum;
-      local.row(ch) = (to_e * (exp_j * term.coverage.v + blend.e[j] / gamma * term.depth.v) +
+      local.row(ch) = (to_e * (exp_j * term.coverage.v + blend.e[j] * depth_scale * term.depth.v) +
                        blend.e[j] / blend.e_sum * term.color[ch].v)
                           .transpose();
     }
@@ -413,7 +415,7 @@ void SoftRasterizer::Render(const ScreenMesh& mesh, int width, int height, const
             if (!with_gradients) continue;
             const int pixel = py * width + px;
             out->begin[pixel] = static_cast<int>(grads.size());  // tile-local; made global below
-            AppendPixelGradients(s.terms, blend, o.gamma, &grads);
+            AppendPixelGradients(s.terms, blend, o.gamma, o.depth_gradient, &grads);
             out->end[pixel] = static_cast<int>(grads.size());
           }
         }

@@ -37,6 +37,13 @@ struct SoftRasterizerOptions {
   double sigma = 0.5;
   // gamma: the depth blending temperature (smaller: harder z-buffer).
   double gamma = 1e-2;
+  // Whether the colour's derivatives include the blend weights' change
+  // with depth (exact when true). False: which layer shows is left to
+  // the geometry, so that the photometric term cannot pull a layer in
+  // front of another or push it behind (with a hard z-buffer that pull
+  // is 1/gamma strong); the derivatives are then those of the blend with
+  // its depth weights frozen.
+  bool depth_gradient = true;
   // eps: the background's normalised depth.
   double background_depth = 1e-3;
   // Coverage below sigmoid(-cutoff) is ignored.

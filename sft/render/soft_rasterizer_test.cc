@@ -190,11 +190,13 @@ cv::Mat RedBlueTexture() {
 // layer across the image.
 struct FoldRender {
   double hidden_share = 0.0, hidden_derivative = 0.0, front_derivative = 0.0;
+  double hidden_depth_derivative = 0.0;  // the colour's, with respect to a hidden vertex's depth
 };
 
-FoldRender RenderFold(double gap, double gamma) {
+FoldRender RenderFold(double gap, double gamma, bool depth_gradient = true) {
   SoftRasterizerOptions options;
   options.gamma = gamma;
+  options.depth_gradient = depth_gradient;
   options.num_threads = 1;
   const cv::Mat texture = RedBlueTexture();
   SoftRenderOutput out;
@@ -212,6 +214,9 @@ FoldRender RenderFold(double gap, double gamma) {
         }
         double& slot = out.gradients[k].vertex >= 4 ? r.hidden_derivative : r.front_derivative;
         slot = std::max(slot, largest);
+        for (int c = 0; c < 3 && out.gradients[k].vertex >= 4; ++c) {
+          r.hidden_depth_derivative = std::max(r.hidden_depth_derivative, std::abs(double(out.gradients[k].d[c][2])));
+        }
       }
     }
   }
@@ -235,6 +240,20 @@ TEST(SoftRasterizerTest, AFoldOverShowsItsNearLayerOnceTheSoftnessIsInMetres) {
   // (exactly so to first order in the gap).
   const double one = RenderFold(1e-3, SoftnessToGamma(1e-3, 0.4, near, 0.4 + 1e-3 + 0.3)).hidden_share;
   EXPECT_NEAR(one, 1.0 / (1.0 + std::exp(1.0)), 3e-3);
+}
+
+// The hard blend's weights change fast with depth: a hidden layer 5 mm
+// behind, at 1 mm of softness, still has a colour derivative of several
+// units per metre of its depth (the photometric term could pull it in
+// front). Without the depth gradient that pull is gone, and the image
+// is the same.
+TEST(SoftRasterizerTest, WithoutTheDepthGradientAHiddenLayerGetsNoDepthPull) {
+  const double gamma = SoftnessToGamma(1e-3, 0.4, 0.1, 0.705);
+  const FoldRender exact = RenderFold(5e-3, gamma, true), frozen = RenderFold(5e-3, gamma, false);
+  EXPECT_GT(exact.hidden_depth_derivative, 1.0);
+  EXPECT_LT(frozen.hidden_depth_derivative, 1e-3 * exact.hidden_depth_derivative);
+  EXPECT_EQ(frozen.hidden_share, exact.hidden_share);
+  EXPECT_GT(frozen.front_derivative, 0.5 * exact.front_derivative);
 }
 
 }  // namespace
