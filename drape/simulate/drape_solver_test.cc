@@ -1,6 +1,7 @@
 #include "drape/simulate/drape_solver.h"
 
 #include <cmath>
+#include <memory>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -116,20 +117,29 @@ TEST(DrapeSolverTest, PushesAShirtStartingInsideTheBodyOut) {
 
 // Without warps (slides zero) and with each patch's warp of order 0..2
 // setting the slides.
-class DrapeSolverEvaluateTest : public ::testing::TestWithParam<int> {};
+// A shirt of radius 0.138 m, 2 mm inside the torso (collisions are on),
+// posed with a small drop.
+class DrapeSolverEvaluateTest : public ::testing::TestWithParam<int> {
+ protected:
+  void SetUp() override {
+    body_ = MakeProceduralBody();
+    const TriangleMesh shirt = MakeTube(0.138, 0.1, 0.4, 24, 8);
+    DrapeSolverOptions options;
+    options.patching.patch_area = 0.04;
+    options.slide.warp_order = GetParam();
+    solver_ = std::make_unique<DrapeSolver>(body_, shirt, SingleJointWeights(shirt.num_vertices(), 1), options);
+    std::vector<Eigen::Isometry3d> pose(body_.skeleton.num_joints(), Eigen::Isometry3d::Identity());
+    for (auto& t : pose) t.translation() = Eigen::Vector3d(0.0, -0.01, 0.005);
+    solver_->Pose(pose);
+  }
+
+  SkinnedBody body_;
+  std::unique_ptr<DrapeSolver> solver_;
+};
 
 TEST_P(DrapeSolverEvaluateTest, GivesTheEnergyAndItsGradientAtGivenPatchParameters) {
-  const SkinnedBody body = MakeProceduralBody();
-  // Radius 0.138 m: 2 mm inside the torso, so collisions are on.
-  const TriangleMesh shirt = MakeTube(0.138, 0.1, 0.4, 24, 8);
-  DrapeSolverOptions options;
-  options.patching.patch_area = 0.04;
-  options.slide.warp_order = GetParam();
-  DrapeSolver solver(body, shirt, SingleJointWeights(shirt.num_vertices(), 1), options);
+  DrapeSolver& solver = *solver_;
   EXPECT_EQ(solver.num_patch_parameters(), 15 + 4 + 2 * NumJetCoefficients(GetParam()));
-  std::vector<Eigen::Isometry3d> pose(body.skeleton.num_joints(), Eigen::Isometry3d::Identity());
-  for (auto& t : pose) t.translation() = Eigen::Vector3d(0.0, -0.01, 0.005);  // a small drop
-  solver.Pose(pose);
   std::vector<double> theta = solver.RestPatchParameters();
   ASSERT_EQ(static_cast<int>(theta.size()), solver.num_patches() * solver.num_patch_parameters());
   std::mt19937_64 rng(9);
@@ -171,15 +181,7 @@ TEST_P(DrapeSolverEvaluateTest, GivesTheEnergyAndItsGradientAtGivenPatchParamete
 // J^T J and J^T r in the packed layout: J d against central differences
 // of the residuals (so d^T J^T J d = |J d|^2), the gradient Evaluate's.
 TEST_P(DrapeSolverEvaluateTest, GivesTheGaussNewtonMatrixOfItsResiduals) {
-  const SkinnedBody body = MakeProceduralBody();
-  const TriangleMesh shirt = MakeTube(0.138, 0.1, 0.4, 24, 8);
-  DrapeSolverOptions options;
-  options.patching.patch_area = 0.04;
-  options.slide.warp_order = GetParam();
-  DrapeSolver solver(body, shirt, SingleJointWeights(shirt.num_vertices(), 1), options);
-  std::vector<Eigen::Isometry3d> pose(body.skeleton.num_joints(), Eigen::Isometry3d::Identity());
-  for (auto& t : pose) t.translation() = Eigen::Vector3d(0.0, -0.01, 0.005);
-  solver.Pose(pose);
+  DrapeSolver& solver = *solver_;
   std::vector<double> theta = solver.RestPatchParameters();
   std::mt19937_64 rng(11);
   std::normal_distribution<double> normal(0.0, 1e-3);
