@@ -33,16 +33,27 @@ struct PolySftOptions {
   // The template starts as one patch and splits where one jet cannot
   // hold the frames (sft/solver/patch_atlas.h); max_patches 1: never.
   PatchAtlasOptions atlas;
-  // sigma is in pixels squared at every pyramid level.
-  SoftRasterizerOptions rasterizer;
+  // sigma is in pixels squared at every pyramid level. Without the depth
+  // gradient (SoftRasterizerOptions::depth_gradient) by default: with a
+  // z-buffer hard enough to hide a fold's far layer (1 cm), its pull on
+  // depth drove the hanging cloth 5.6 -> 36.8 mm off (docs/benchmarks.md).
+  SoftRasterizerOptions rasterizer = [] {
+    SoftRasterizerOptions o;
+    o.depth_gradient = false;
+    return o;
+  }();
   // The soft z-buffer's softness in metres at the template's mean depth
   // Z: the rasterizer's gamma becomes depth_softness / (Z^2 (1/near -
   // 1/far)), so that a layer this far behind another weighs e times less,
   // whatever the scene's scale and the depth range the normalised inverse
-  // depth spans. 0: rasterizer.gamma as given (a fraction of that range:
-  // at 0.01, about 14 mm at 0.4 m for a 0.3 m template, so a cloth folded
-  // over itself 5 mm apart blends its hidden layer at 41%).
-  double depth_softness = 0.0;
+  // depth spans (the template's depth +- its size, its near end clamped
+  // at 1 mm: gamma 0.01 was 42 mm for a sheet 0.4 m away and 1.6 m, no
+  // z-buffer at all, for a cloth 0.39 m across). 0: rasterizer.gamma as
+  // given. At 3 cm (without the depth gradient) every simulated cloth and
+  // sheet scene but the hanging cloth (+0.2 mm) has a lower RMSE than
+  // with gamma 0.01; at 1-2 cm a sheet turning edge-on, or leaving the
+  // image, was lost (polysft_stress_test; docs/benchmarks.md).
+  double depth_softness = 0.03;
   // Frames solved together; the oldest leaves the window (and is written)
   // when a new one enters.
   int window_size = 3;

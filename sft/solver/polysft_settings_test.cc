@@ -34,7 +34,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.rasterizer.sigma = 2.5;
   changed.rasterizer.gamma = 0.2;
   changed.depth_softness = 2e-3;
-  changed.rasterizer.depth_gradient = false;
+  changed.rasterizer.depth_gradient = true;
   changed.robust_loss = RobustLoss::kCauchy;
   changed.robust_scale = 0.3;
   changed.max_frames = 7;
