@@ -91,7 +91,7 @@ double OneFitTrainer::SampleGaussNewton(const double* weights, const OneFitSampl
   GarmentData& g = *garments_[sample.garment];
   Eigen::MatrixXd outputs;
   OneFitNetwork::Cache cache;
-  PrepareSample(weights, sample, thread, epoch_, &outputs, &cache);
+  PrepareSample(weights, weights, sample, thread, epoch_, &outputs, &cache);
   const int k = network_.num_coefficients();
   const std::vector<double> params = PatchParametersFromOutputs(g.rest, g.frames, outputs, k);
   std::vector<double> d_params;
@@ -207,7 +207,9 @@ OneFitPolishSummary OneFitTrainer::PolishOutputLayer(std::vector<double>* weight
     record.damping = damping;
     if (step.allFinite()) {
       for (int i = 0; i < t; ++i) candidate[offset + i] = (*weights)[offset + i] + step[i];
-      record.loss = Loss(candidate.data(), samples, nullptr);
+      // The loss the Gauss-Newton model describes: the frames before
+      // predicted by the current weights, held as data as in training.
+      record.loss = LossWithHistory(candidate.data(), weights->data(), samples, nullptr);
     } else {
       record.loss = std::numeric_limits<double>::infinity();
     }
@@ -215,8 +217,10 @@ OneFitPolishSummary OneFitTrainer::PolishOutputLayer(std::vector<double>* weight
     if (record.accepted) {
       *weights = candidate;
       damping = std::max(damping / 3.0, 1e-9);
-      if (it + 1 < o.iterations) loss = OutputLayerGaussNewton(weights->data(), samples, &h, &g);
-      loss = record.loss;
+      // The frames before follow the new weights: the next model starts
+      // from the loss with them.
+      loss = it + 1 < o.iterations ? OutputLayerGaussNewton(weights->data(), samples, &h, &g)
+                                   : Loss(weights->data(), samples, nullptr);
     } else {
       candidate = *weights;
       damping *= 4.0;

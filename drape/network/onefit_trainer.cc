@@ -236,8 +236,8 @@ std::vector<double> OneFitTrainer::Predict(const double* weights, int garment, i
   return PatchParametersFromOutputs(g.rest, g.frames, outputs, network_.num_coefficients());
 }
 
-void OneFitTrainer::PrepareSample(const double* weights, const OneFitSample& sample, int thread, double epoch,
-                                  Eigen::MatrixXd* outputs, OneFitNetwork::Cache* cache) {
+void OneFitTrainer::PrepareSample(const double* weights, const double* history_weights, const OneFitSample& sample,
+                                  int thread, double epoch, Eigen::MatrixXd* outputs, OneFitNetwork::Cache* cache) {
   GarmentData& g = *garments_[sample.garment];
   DrapeSolver& solver = *g.solvers[thread];
   const OneFitTrainingClip& clip = clips_[sample.clip];
@@ -247,7 +247,7 @@ void OneFitTrainer::PrepareSample(const double* weights, const OneFitSample& sam
   Eigen::Matrix3Xd history[2];
   for (int back = 1; back <= 2; ++back) {
     const int f = std::max(sample.frame - back, 0);
-    history[back - 1] = solver.PositionsAt(Predict(weights, sample.garment, sample.clip, f), pose(f));
+    history[back - 1] = solver.PositionsAt(Predict(history_weights, sample.garment, sample.clip, f), pose(f));
   }
   solver.SetHistory(history[0], history[1]);
   solver.Pose(pose(sample.frame), epoch);
@@ -255,12 +255,12 @@ void OneFitTrainer::PrepareSample(const double* weights, const OneFitSample& sam
                    cache);
 }
 
-double OneFitTrainer::SampleLoss(const double* weights, const OneFitSample& sample, int thread, double* gradient,
-                                 double epoch) {
+double OneFitTrainer::SampleLoss(const double* weights, const double* history_weights, const OneFitSample& sample,
+                                 int thread, double* gradient, double epoch) {
   GarmentData& g = *garments_[sample.garment];
   Eigen::MatrixXd outputs;
   OneFitNetwork::Cache cache;
-  PrepareSample(weights, sample, thread, epoch, &outputs, gradient != nullptr ? &cache : nullptr);
+  PrepareSample(weights, history_weights, sample, thread, epoch, &outputs, gradient != nullptr ? &cache : nullptr);
   const std::vector<double> params = PatchParametersFromOutputs(g.rest, g.frames, outputs, network_.num_coefficients());
   std::vector<double> d_params;
   const double energy = g.solvers[thread]->Evaluate(params, gradient != nullptr ? &d_params : nullptr);
@@ -273,6 +273,11 @@ double OneFitTrainer::SampleLoss(const double* weights, const OneFitSample& samp
 }
 
 double OneFitTrainer::Loss(const double* weights, const std::vector<OneFitSample>& samples, double* gradient) {
+  return LossWithHistory(weights, weights, samples, gradient);
+}
+
+double OneFitTrainer::LossWithHistory(const double* weights, const double* history_weights,
+                                      const std::vector<OneFitSample>& samples, double* gradient) {
   const OneFitDistribution& d = options_.distribution;
   std::vector<size_t> mine;  // this process's share of the samples
   for (size_t i = d.process; i < samples.size(); i += d.num_processes) mine.push_back(i);
@@ -282,7 +287,10 @@ double OneFitTrainer::Loss(const double* weights, const std::vector<OneFitSample
   // the arrays they read, so the weights and the gradients are copied to
   // Eigen's (always aligned) storage: the same weights, the same bits.
   const Eigen::VectorXd aligned = Eigen::Map<const Eigen::VectorXd>(weights, n);
+  const Eigen::VectorXd aligned_history = Eigen::Map<const Eigen::VectorXd>(history_weights, n);
+  const bool same_history = history_weights == weights;
   weights = aligned.data();
+  history_weights = same_history ? weights : aligned_history.data();
   std::vector<Eigen::VectorXd> gradients(threads);
   std::vector<double> energies(samples.size(), 0.0);
   if (gradient != nullptr) {
@@ -294,8 +302,8 @@ double OneFitTrainer::Loss(const double* weights, const std::vector<OneFitSample
       threads, threads,
       [&](int, int t) {
         for (size_t k = t; k < mine.size(); k += threads) {
-          energies[mine[k]] =
-              SampleLoss(weights, samples[mine[k]], t, gradient != nullptr ? gradients[t].data() : nullptr, epoch_);
+          energies[mine[k]] = SampleLoss(weights, history_weights, samples[mine[k]], t,
+                                         gradient != nullptr ? gradients[t].data() : nullptr, epoch_);
         }
       },
       1);
@@ -396,7 +404,7 @@ void OneFitTrainer::ValidationDrape(const double* weights, int garment, int clip
   if (loss != nullptr) {
     double sum = 0.0;
     for (int f = 0; f < count; ++f)
-      sum += SampleLoss(weights, {garment, clip, f}, 0, nullptr, options_.kext_final_epoch);
+      sum += SampleLoss(weights, weights, {garment, clip, f}, 0, nullptr, options_.kext_final_epoch);
     *loss = sum / count;
   }
 }

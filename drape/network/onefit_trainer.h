@@ -139,7 +139,10 @@ struct OneFitBatchSummary {
 };
 
 struct OneFitPolishStep {
-  double loss = 0.0;     // J, mean over the polish's samples, after the step (kept or not)
+  // J, mean over the polish's samples after the step (kept or not), with
+  // the frames before predicted as at its start (as its model holds them):
+  // kept when lower than the loss there.
+  double loss = 0.0;
   double damping = 0.0;  // the step's lambda
   bool accepted = false;
   double time_s = 0.0;  // since the polish started
@@ -223,6 +226,10 @@ class OneFitTrainer {
   // on_step (when given) sees each step as it ends.
   using PolishCallback = std::function<void(int step, const OneFitPolishStep&)>;
   OneFitPolishSummary PolishOutputLayer(std::vector<double>* weights, const PolishCallback& on_step = nullptr);
+  // Loss with the frames before predicted by other weights: the loss a
+  // gradient (or a Gauss-Newton model) describes, which holds them as data.
+  double LossWithHistory(const double* weights, const double* history_weights, const std::vector<OneFitSample>& samples,
+                         double* gradient);
   // The mean loss over `samples` and its Gauss-Newton blocks over the
   // output layer's weights (num_output_layer_parameters() square, and the
   // gradient), at k_ext's current epoch.
@@ -262,9 +269,12 @@ class OneFitTrainer {
   OneFitSample DrawSample(std::mt19937_64* rng) const;
   // A sample's history and pose set on its thread's drape, and the
   // network's outputs (num_outputs() by #patches) for its frame.
-  void PrepareSample(const double* weights, const OneFitSample& sample, int thread, double epoch,
-                     Eigen::MatrixXd* outputs, OneFitNetwork::Cache* cache);
-  double SampleLoss(const double* weights, const OneFitSample& sample, int thread, double* gradient, double epoch);
+  // history_weights: the network that predicts the frames before (the
+  // inertia's data), usually `weights` itself.
+  void PrepareSample(const double* weights, const double* history_weights, const OneFitSample& sample, int thread,
+                     double epoch, Eigen::MatrixXd* outputs, OneFitNetwork::Cache* cache);
+  double SampleLoss(const double* weights, const double* history_weights, const OneFitSample& sample, int thread,
+                    double* gradient, double epoch);
   // The polish's Gauss-Newton blocks of one sample over the output layer
   // (onefit_polish.cc), added into *gauss_newton and *gradient.
   // scratch: per thread, its large matrices' allocations reused.
