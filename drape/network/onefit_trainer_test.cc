@@ -75,8 +75,10 @@ TEST_F(OneFitTrainerTest, ANewNetworkPredictsAboutTheRestPatches) {
 }
 
 // The trainer's loss gradient against central differences along random
-// directions, at weights moved away from the start's symmetries.
-void ExpectGradientMatchesCentralDifferences(OneFitTrainer* trainer, int trials) {
+// directions, at weights moved away from the start's symmetries. With
+// hold_history, of the loss with the frames before predicted by the
+// unmoved weights (LossWithHistory): the loss the gradient is exactly of.
+void ExpectGradientMatchesCentralDifferences(OneFitTrainer* trainer, int trials, bool hold_history = false) {
   std::vector<double> weights = trainer->InitialWeights();
   std::mt19937_64 rng(4);
   std::normal_distribution<double> normal(0.0, 0.05);
@@ -95,36 +97,20 @@ void ExpectGradientMatchesCentralDifferences(OneFitTrainer* trainer, int trials)
       minus[i] -= h * direction[i];
       slope += gradient[i] * direction[i];
     }
-    const double numeric =
-        (trainer->Loss(plus.data(), samples, nullptr) - trainer->Loss(minus.data(), samples, nullptr)) / (2.0 * h);
-    EXPECT_NEAR(numeric, slope, 1e-4 * std::abs(slope) + 1e-8) << "trial " << trial;
+    const double* history_plus = hold_history ? weights.data() : plus.data();
+    const double* history_minus = hold_history ? weights.data() : minus.data();
+    const double numeric = (trainer->LossWithHistory(plus.data(), history_plus, samples, nullptr) -
+                            trainer->LossWithHistory(minus.data(), history_minus, samples, nullptr)) /
+                           (2.0 * h);
+    EXPECT_NEAR(numeric, slope, (hold_history ? 1e-5 : 1e-4) * std::abs(slope) + 1e-8) << "trial " << trial;
   }
+  EXPECT_NEAR(trainer->LossWithHistory(weights.data(), weights.data(), samples, nullptr), loss, 1e-12 * loss);
 }
 
 // The gradient holds the frames before as data: it is the derivative of
-// the loss with their weights fixed, which LossWithHistory evaluates.
+// the loss with their weights fixed.
 TEST_F(OneFitTrainerTest, TheGradientIsTheLossWithItsHistoryHeld) {
-  std::vector<double> weights = trainer_->InitialWeights();
-  std::mt19937_64 rng(5);
-  std::normal_distribution<double> normal(0.0, 0.05);
-  for (double& w : weights) w += normal(rng);
-  const std::vector<OneFitSample> samples = {{0, 0, 3}, {0, 0, 6}};
-  std::vector<double> gradient(trainer_->num_parameters());
-  const double loss = trainer_->Loss(weights.data(), samples, gradient.data());
-  EXPECT_EQ(trainer_->LossWithHistory(weights.data(), weights.data(), samples, nullptr), loss);
-  std::vector<double> direction(weights.size()), plus = weights, minus = weights;
-  double slope = 0.0;
-  const double h = 1e-6;
-  for (size_t i = 0; i < weights.size(); ++i) {
-    direction[i] = normal(rng);
-    plus[i] += h * direction[i];
-    minus[i] -= h * direction[i];
-    slope += gradient[i] * direction[i];
-  }
-  const double held = (trainer_->LossWithHistory(plus.data(), weights.data(), samples, nullptr) -
-                       trainer_->LossWithHistory(minus.data(), weights.data(), samples, nullptr)) /
-                      (2.0 * h);
-  EXPECT_NEAR(held, slope, 1e-5 * std::abs(slope) + 1e-8);
+  ExpectGradientMatchesCentralDifferences(trainer_.get(), 2, true);
 }
 
 TEST_F(OneFitTrainerTest, TheLossGradientMatchesCentralDifferences) {
