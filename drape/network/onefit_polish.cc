@@ -27,8 +27,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double Seconds(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
-using StridedMap = Eigen::Map<Eigen::MatrixXd, 0, Eigen::Stride<Eigen::Dynamic, Eigen::Dynamic>>;
-
 // H_p := D^T H_p D in place, D = dp/dy block-diagonal per patch (stride
 // by stride). D_p^T's columns come from the gradient's chain
 // (ChainPatchParameterGradient computes D^T g), fed one unit vector per

@@ -287,8 +287,10 @@ double OneFitTrainer::LossWithHistory(const double* weights, const double* histo
   // the arrays they read, so the weights and the gradients are copied to
   // Eigen's (always aligned) storage: the same weights, the same bits.
   const Eigen::VectorXd aligned = Eigen::Map<const Eigen::VectorXd>(weights, n);
-  const Eigen::VectorXd aligned_history = Eigen::Map<const Eigen::VectorXd>(history_weights, n);
+  // The history's weights are copied only when they are others.
   const bool same_history = history_weights == weights;
+  const Eigen::VectorXd aligned_history =
+      same_history ? Eigen::VectorXd() : Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(history_weights, n));
   weights = aligned.data();
   history_weights = same_history ? weights : aligned_history.data();
   std::vector<Eigen::VectorXd> gradients(threads);

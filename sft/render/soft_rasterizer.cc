@@ -105,7 +105,7 @@ struct TermContext {
 // coverage D (a sigmoid of the squared distance to its nearest soft edge,
 // 1 deep inside), normalised inverse depth and colour, interpolated at p
 // inside or at the closest boundary point outside. False when the triangle
-// does not reach the pixel. One formula kept whole (about 85 lines): its
+// does not reach the pixel. One formula kept whole (about 90 lines): its
 // pieces share the same jets of the 9 variables, and split they would pass
 // a dozen of them between functions on the hottest path.
 bool TriangleTermAt(const TermContext& c, int f, int px, int py, TriangleTerm* term) {
