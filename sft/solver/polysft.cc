@@ -151,9 +151,12 @@ std::string PolySftOptions::Validate() const {
   if (max_image_width < 0) return "max_image_width must be >= 0";
   if (max_iterations_per_level < 1) return "max_iterations_per_level must be >= 1";
   if (patience < 1) return "patience must be >= 1";
-  for (double w : {photometric_weight, silhouette_weight, silhouette_reach_weight, inextensibility_weight,
-                   temporal_weight, depth_softness}) {
+  for (double w :
+       {photometric_weight, silhouette_weight, silhouette_reach_weight, inextensibility_weight, temporal_weight}) {
     if (!(w >= 0.0) || !std::isfinite(w)) return "term weights must be finite and >= 0";
+  }
+  if (!(depth_softness >= 0.0) || !std::isfinite(depth_softness)) {
+    return "depth_softness must be finite and >= 0 (m; 0: rasterizer.gamma as given)";
   }
   if (!(robust_scale > 0.0)) return "robust_scale must be > 0";
   if (!(silhouette_band <= 100.0)) return "silhouette_band must be <= 100 px (negative: measured)";
