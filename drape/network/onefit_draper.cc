@@ -33,7 +33,7 @@ OneFitDraper::OneFitDraper(const OneFitModel& model, const DrapeSolver& solver, 
 std::vector<double> OneFitDraper::Predict(const JointTransforms& before_previous, const JointTransforms& previous,
                                           const JointTransforms& now, double fps, const BodyShape& shape) const {
   const Eigen::VectorXd body =
-      model_.body_normalizer.Apply(BodyFeatures(skeleton_, before_previous, previous, now, fps, shape));
+      model_.body_normalizer.Apply(BodyFeatures(skeleton_, before_previous, previous, now, fps, shape, model_.root_rotation));
   Eigen::MatrixXd outputs;
   model_.network.ForwardWithGarmentHalf(model_.weights.data(), garment_half_, body, &joint_weights_, &outputs);
   return PatchParametersFromOutputs(rest_, frames_, outputs, model_.network.num_coefficients());

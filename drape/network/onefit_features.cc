@@ -47,6 +47,22 @@ Eigen::VectorXd LocalRotations(const Skeleton& skeleton, const JointTransforms& 
   return out;
 }
 
+// The root's three 6D blocks without its heading (RootRotation::kHeadingFree).
+void HeadingFreeRoot(const JointTransforms& before_previous, const JointTransforms& previous,
+                     const JointTransforms& now, int num_joints, double* out) {
+  const Eigen::Matrix3d r0 = now[0].linear(), r1 = previous[0].linear(), r2 = before_previous[0].linear();
+  const Eigen::Matrix3d tilt = Eigen::AngleAxisd(-HeadingAngle(r0), Eigen::Vector3d::UnitY()) * r0;
+  double identity[6];
+  SixD(Eigen::Matrix3d::Identity(), identity);
+  SixD(tilt, out);
+  SixD(r1.transpose() * r0, out + 6 * num_joints);
+  SixD(r2.transpose() * r1, out + 12 * num_joints);
+  for (int c = 0; c < 6; ++c) {
+    out[6 * num_joints + c] -= identity[c];
+    out[12 * num_joints + c] -= identity[c];
+  }
+}
+
 // Where the root is, and how it is turned (the root's rest head, posed).
 Eigen::Vector3d RootPosition(const Skeleton& skeleton, const JointTransforms& pose) {
   return pose[0] * Eigen::Vector3d(skeleton.rest_heads.col(0));
@@ -56,6 +72,13 @@ Eigen::Vector3d RootPosition(const Skeleton& skeleton, const JointTransforms& po
 
 int PatchFeatureSize(int jet_order, int num_joints) {
   return NumJetCoefficients(jet_order) + 1 + 6 + kEncodedSize + num_joints + kEncodedSize;
+}
+
+double HeadingAngle(const Eigen::Matrix3d& rotation) {
+  const Eigen::Vector3d l = rotation.col(0), f = rotation.col(2);
+  // Bending forward or back turns the body about l, which stays level.
+  if (l.x() * l.x() + l.z() * l.z() > 1e-2) return std::atan2(-l.z(), l.x());
+  return f.x() * f.x() + f.z() * f.z() > 1e-12 ? std::atan2(f.x(), f.z()) : 0.0;
 }
 
 int BodyFeatureSize(int num_joints) { return 3 * 6 * num_joints + 2 * 3 + 2 * 3 + 5; }
@@ -135,7 +158,7 @@ Eigen::MatrixXd PatchFeatures(const PolyFitModel& model, const std::vector<doubl
 
 Eigen::VectorXd BodyFeatures(const Skeleton& skeleton, const JointTransforms& before_previous,
                              const JointTransforms& previous, const JointTransforms& now, double fps,
-                             const BodyShape& shape) {
+                             const BodyShape& shape, RootRotation root) {
   if (!(fps > 0.0)) throw std::invalid_argument("BodyFeatures: fps must be positive");
   const int n = skeleton.num_joints();
   const Eigen::VectorXd r2 = LocalRotations(skeleton, before_previous);
@@ -149,6 +172,7 @@ Eigen::VectorXd BodyFeatures(const Skeleton& skeleton, const JointTransforms& be
   k += 6 * n;
   out.segment(k, 6 * n) = r1 - r2;
   k += 6 * n;
+  if (root == RootRotation::kHeadingFree) HeadingFreeRoot(before_previous, previous, now, n, out.data());
   const Eigen::Vector3d down(0.0, -1.0, 0.0);
   for (const JointTransforms* pose : {&now, &previous}) {
     out.segment<3>(k) = (*pose)[0].linear().transpose() * down;

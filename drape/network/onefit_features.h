@@ -15,7 +15,8 @@
 // Per frame (shared by every patch), from the pose and its two
 // predecessors (the dynamic part, a window rather than a GRU):
 //   the 6D local rotation of every joint relative to its parent, at t, and
-//   its changes t - (t-1) and (t-1) - (t-2); gravity's direction and the
+//   its changes t - (t-1) and (t-1) - (t-2) (the root: RootRotation
+//   below); gravity's direction and the
 //   root's velocity (m/s), both in the root's frame, at t and t-1; the
 //   body's five macro shape values.
 #ifndef POLYFIT_DRAPE_NETWORK_ONEFIT_FEATURES_H_
@@ -68,11 +69,32 @@ Eigen::MatrixXd LocalPoseFeatures(const Eigen::VectorXd& body_features, const Ei
 // A frame's pose: the rest-to-posed transform of every joint.
 using JointTransforms = std::vector<Eigen::Isometry3d>;
 
+// What the root's three 6D blocks hold (the root has no parent).
+//   kAbsolute     its rotation R_t in the world and the changes
+//                 6D(R_t) - 6D(R_t-1), 6D(R_t-1) - 6D(R_t-2): they depend
+//                 on which way the body faces, which no physics does, so
+//                 a clip that turns (the dance) leaves what walks in one
+//                 direction taught (models before file version 6).
+//   kHeadingFree  R_t with its heading about the vertical taken out,
+//                 Y(-psi_t) R_t (HeadingAngle), and the turns in the
+//                 root's own frame, 6D(R_t-1^T R_t) - 6D(I) and
+//                 6D(R_t-2^T R_t-1) - 6D(I): unchanged when the whole
+//                 motion is turned about the vertical.
+enum class RootRotation { kAbsolute, kHeadingFree };
+
+// psi: the heading of a rotation about the vertical (y), the direction
+// square to its lateral axis l = R e_x on the ground,
+// psi = atan2(-l_z, l_x): bending forward or back and leaning sideways
+// (turns about l and about the level forward axis) leave it alone. Where
+// l is within about 6 degrees of the vertical (lying on one's side), the
+// forward axis R e_z is used instead. Turning R by Y(a) turns psi by a.
+double HeadingAngle(const Eigen::Matrix3d& rotation);
+
 // #features. poses: frames t - 2, t - 1, t (the first two may repeat t at
 // a clip's start); fps: frames per second (for the root's velocity).
 Eigen::VectorXd BodyFeatures(const Skeleton& skeleton, const JointTransforms& before_previous,
                              const JointTransforms& previous, const JointTransforms& now, double fps,
-                             const BodyShape& shape);
+                             const BodyShape& shape, RootRotation root);
 
 // Per-feature mean and inverse spread, from training samples (columns),
 // applied as clamp((x - mean) * inv_std, +-kFeatureClamp). The spread is

@@ -111,6 +111,7 @@ void SaveOneFitModel(const std::string& path, const OneFitModel& model) {
   w.Put<std::int32_t>(model.network.local_pose() ? 1 : 0);
   w.Put<double>(model.patch_area);
   w.Put<double>(model.max_fit_error);
+  w.Put<std::int32_t>(model.root_rotation == RootRotation::kHeadingFree ? 1 : 0);
   PutMlp(model.network.patch_encoder(), &w);
   PutMlp(model.network.body_encoder(), &w);
   PutMlp(model.network.decoder(), &w);
@@ -189,6 +190,9 @@ OneFitModel LoadOneFitModel(const std::string& path) {
     model.patch_area = r.Get<double>("the header");
     model.max_fit_error = r.Get<double>("the header");
   }
+  const int heading_free = version >= 6 ? r.Get<std::int32_t>("the header") : 0;
+  if (heading_free != 0 && heading_free != 1) r.Fail("root rotation flag out of range");
+  model.root_rotation = heading_free == 1 ? RootRotation::kHeadingFree : RootRotation::kAbsolute;
   if (aligned != 0 && aligned != 1) r.Fail("frame alignment flag out of range");
   if (local_pose != 0 && local_pose != 1) r.Fail("local pose flag out of range");
   model.aligned_frames = aligned == 1;

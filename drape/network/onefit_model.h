@@ -16,8 +16,9 @@ namespace polyfit {
 
 // Version 2 adds the warp head's order, version 3 whether the patch frames
 // were aligned, version 4 whether the decoder reads the local pose, version
-// 5 the patching's area and fit error; earlier files still load.
-inline constexpr int kOneFitModelVersion = 5;
+// 5 the patching's area and fit error, version 6 the root's rotation
+// feature (RootRotation); earlier files still load.
+inline constexpr int kOneFitModelVersion = 6;
 
 class OneFitModelError : public Error {
  public:
@@ -36,6 +37,9 @@ struct OneFitModel {
   // network learnt to move.
   double patch_area = 0.04;
   double max_fit_error = 8e-3;
+  // How its body features hold the root's rotation (before version 6:
+  // kAbsolute).
+  RootRotation root_rotation = RootRotation::kHeadingFree;
   OneFitNetwork network;
   FeatureNormalizer patch_normalizer, body_normalizer;
   std::vector<double> weights;

@@ -175,7 +175,8 @@ Eigen::MatrixXd OneFitTrainer::ClipBodyFeatures(int clip) const {
   Eigen::MatrixXd features(BodyFeatureSize(skeleton.num_joints()), c.poses.size());
   for (int t = 0; t < static_cast<int>(c.poses.size()); ++t) {
     const auto pose = [&](int f) -> const JointTransforms& { return c.poses[std::max(f, 0)]; };
-    features.col(t) = BodyFeatures(skeleton, pose(t - 2), pose(t - 1), pose(t), c.fps, c.shape);
+    features.col(t) =
+        BodyFeatures(skeleton, pose(t - 2), pose(t - 1), pose(t), c.fps, c.shape, options_.root_rotation);
   }
   return features;
 }
@@ -192,7 +193,8 @@ Eigen::VectorXd OneFitTrainer::NormalizedBodyFeatures(int clip, int frame) const
   const OneFitTrainingClip& c = clips_[clip];
   const auto pose = [&](int f) -> const JointTransforms& { return c.poses[std::clamp(f, 0, int(c.poses.size()) - 1)]; };
   return body_normalizer_.Apply(
-      BodyFeatures(skeletons_[clip_body_[clip]], pose(frame - 2), pose(frame - 1), pose(frame), c.fps, c.shape));
+      BodyFeatures(skeletons_[clip_body_[clip]], pose(frame - 2), pose(frame - 1), pose(frame), c.fps, c.shape,
+                   options_.root_rotation));
 }
 
 OneFitModel OneFitTrainer::MakeModel(const std::vector<double>& weights) const {
@@ -202,6 +204,7 @@ OneFitModel OneFitTrainer::MakeModel(const std::vector<double>& weights) const {
   model.aligned_frames = options_.drape.patching.align_frames;
   model.patch_area = options_.drape.patching.patch_area;
   model.max_fit_error = options_.drape.patching.max_fit_error;
+  model.root_rotation = options_.root_rotation;
   model.network = network_;
   model.patch_normalizer = patch_normalizer_;
   model.body_normalizer = body_normalizer_;
@@ -214,9 +217,10 @@ void OneFitTrainer::StartFrom(const OneFitModel& model) {
       model.network.warp_order() != options_.network.warp_order ||
       model.aligned_frames != options_.drape.patching.align_frames ||
       model.patch_area != options_.drape.patching.patch_area ||
-      model.max_fit_error != options_.drape.patching.max_fit_error) {
+      model.max_fit_error != options_.drape.patching.max_fit_error || model.root_rotation != options_.root_rotation) {
     throw std::invalid_argument(
-        "OneFitTrainer::StartFrom: the model's jet order, warp order, patching or rig differs from the training's");
+        "OneFitTrainer::StartFrom: the model's jet order, warp order, patching, root feature or rig differs from the "
+        "training's");
   }
   if (model.patch_normalizer.mean.size() != patch_normalizer_.mean.size() ||
       model.body_normalizer.mean.size() != body_normalizer_.mean.size()) {

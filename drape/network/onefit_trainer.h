@@ -110,6 +110,10 @@ struct OneFitTrainerOptions {
   // linearly onto [0, kext_final_epoch], so that the paper's 100-epoch
   // allowance is reached at the end of whatever budget is given.
   double kext_final_epoch = 100.0;
+  // How the body features hold the root's rotation (recorded in the
+  // model): heading-free by default, so that which way the body faces
+  // means nothing.
+  RootRotation root_rotation = RootRotation::kHeadingFree;
   // A validation drape every this many batches (0: none), over this many
   // frames (see OneFitBatchSummary).
   int validation_every = 25;

@@ -178,6 +178,7 @@ std::unique_ptr<OneFitTrainer> MakeTrainer(const OneFitTrainingRunOptions& optio
     init = LoadOneFitModel(options.init_model_path);
     trainer_options.network.warp_order = init.network.warp_order();
     trainer_options.network.local_pose = init.network.local_pose();
+    trainer_options.root_rotation = init.root_rotation;
     PatchLikeModel(init, &trainer_options.drape);
   }
   auto trainer = std::make_unique<OneFitTrainer>(LoadTrainingBodies(options, body), trainer_options);
@@ -204,12 +205,12 @@ struct ResumePoint {
   OneFitAdamState adam;
 };
 
-ResumePoint Resume(const OneFitTrainingRunOptions& options, std::vector<double>* weights) {
+ResumePoint Resume(const OneFitTrainingRunOptions& options, const OneFitModel& fresh, std::vector<double>* weights) {
   ResumePoint point;
   const std::string csv_path = options.model_path + ".csv";
   if (options.resume && std::filesystem::exists(options.model_path)) {
     const OneFitModel saved = LoadOneFitModel(options.model_path);
-    if (saved.weights.size() != weights->size()) {
+    if (saved.weights.size() != weights->size() || saved.root_rotation != fresh.root_rotation) {
       throw Error(ErrorKind::kInput, options.model_path + ": a model of another layout; cannot resume from it");
     }
     *weights = saved.weights;
@@ -274,7 +275,7 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
   const SkinnedBody body = LoadDrapeBody(options.body_dir, options.shape);
   std::vector<double> weights;
   const std::unique_ptr<OneFitTrainer> trainer = MakeTrainer(options, body, &weights);
-  ResumePoint resume = Resume(options, &weights);
+  ResumePoint resume = Resume(options, trainer->MakeModel(weights), &weights);
   double best_loss = BestValidationLoss(resume.csv);
   // Shared over processes, every one holds the same weights: the first
   // writes them.

@@ -227,6 +227,9 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
                   "each patch also reads its own joints' pose, skinning-weighted (recorded in the model)");
   train->add_flag("--align-frames", t.drape.patching.align_frames,
                   "patch frames turned to the body's up axis (recorded in the model)");
+  train->add_flag_callback(
+      "--absolute-root", [&t] { t.root_rotation = polyfit::RootRotation::kAbsolute; },
+      "the body features hold the root's rotation with its heading, as models before file version 6 did");
   train->add_flag("--resume", o.resume, "continue from the model file and its progress, if they exist");
   train->add_option("--init", o.init_model_path, "fine-tune: start from this model (network, normalisers, weights)");
   train->add_option("--validate-every", t.validation_every, "a validation drape every N batches (0: none)")
