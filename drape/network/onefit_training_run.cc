@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "drape/motion/mirror_pose.h"
+#include "drape/motion/mix_pose.h"
 #include "drape/motion/perturb_pose.h"
 #include "drape/network/onefit_draper.h"
 #include "drape/simulate/drape_inputs.h"
@@ -53,6 +54,51 @@ OneFitTrainingClip LoadClip(const std::string& path, double speed, const OneFitT
   return clip;
 }
 
+// Frame f of a clip played forth and back (a donor shorter than its base
+// turns round rather than jumping back to its start).
+int PingPong(int f, int length) {
+  if (length <= 1) return 0;
+  const int period = 2 * (length - 1);
+  const int phase = f % period;
+  return phase < length ? phase : period - phase;
+}
+
+// `count` clips, each a recorded one (its root, hips and legs) whose limb
+// groups (DefaultMixGroups) move as other recorded clips do, each group
+// from its own clip and seeded start: combinations of joint angles that
+// no recorded clip has, each limb's motion still recorded and smooth.
+void AppendMixedClips(const OneFitTrainingRunOptions& options, const Skeleton& skeleton,
+                      std::vector<OneFitTrainingClip>* clips) {
+  std::vector<int> groups;
+  try {
+    groups = JointGroups(skeleton, DefaultMixGroups());
+  } catch (const std::invalid_argument& e) {
+    throw Error(ErrorKind::kInput, std::string("--mix-clips: ") + e.what());
+  }
+  const int num_groups = static_cast<int>(DefaultMixGroups().size());
+  const int recorded = static_cast<int>(clips->size());
+  std::mt19937_64 rng(options.trainer.seed * 7919 + 13);
+  std::uniform_int_distribution<int> pick(0, recorded - 1);
+  for (int m = 0; m < options.mix_clips; ++m) {
+    OneFitTrainingClip mixed = (*clips)[pick(rng)];
+    std::vector<int> donor(num_groups), start(num_groups);
+    for (int g = 0; g < num_groups; ++g) {
+      donor[g] = pick(rng);
+      start[g] = std::uniform_int_distribution<int>(0, int((*clips)[donor[g]].poses.size()) - 1)(rng);
+    }
+    mixed.name += "~mixed" + std::to_string(m);
+    std::vector<const JointTransforms*> donor_poses(num_groups);
+    for (size_t f = 0; f < mixed.poses.size(); ++f) {
+      for (int g = 0; g < num_groups; ++g) {
+        const auto& poses = (*clips)[donor[g]].poses;
+        donor_poses[g] = &poses[PingPong(start[g] + static_cast<int>(f), static_cast<int>(poses.size()))];
+      }
+      mixed.poses[f] = MixPoses(skeleton, mixed.poses[f], donor_poses, groups);
+    }
+    clips->push_back(std::move(mixed));
+  }
+}
+
 std::vector<OneFitTrainingClip> LoadClips(const OneFitTrainingRunOptions& options, const SkinnedBody& body) {
   std::vector<OneFitTrainingClip> clips;
   std::vector<int> mirror_map;
@@ -76,6 +122,7 @@ std::vector<OneFitTrainingClip> LoadClips(const OneFitTrainingRunOptions& option
       }
     }
   }
+  if (options.mix_clips > 0) AppendMixedClips(options, body.skeleton, &clips);
   if (options.perturb_degrees > 0.0) {
     const size_t recorded = clips.size();
     for (size_t c = 0; c < recorded; ++c) {
@@ -131,6 +178,7 @@ std::string OneFitTrainingRunOptions::Validate() const {
   }
   if (!(perturb_degrees >= 0.0 && perturb_degrees <= 45.0)) return "perturb_degrees must be in [0, 45]";
   if (shape_samples < 0 || shape_samples > 64) return "shape_samples must be in [0, 64]";
+  if (mix_clips < 0 || mix_clips > 1000) return "mix_clips must be in [0, 1000]";
   if (shape_samples > 0 && body_dir.empty()) return "shape_samples needs the MakeHuman body (a body folder)";
   if (std::string p = shape.Validate(); !p.empty()) return "shape: " + p;
   if (std::string p = trainer.Validate(); !p.empty()) return "trainer: " + p;

@@ -42,6 +42,11 @@ struct OneFitTrainingRunOptions {
   // perturbed smoothly by up to this many degrees per axis
   // (drape/motion/perturb_pose.h; seeded by trainer.seed); 0: none.
   double perturb_degrees = 0.0;
+  // Augmentation: this many mixed clips (before the perturbation, which
+  // then covers them too): each a recorded clip whose arms, neck and spine
+  // move as other recorded clips' do, from seeded starts
+  // (drape/motion/mix_pose.h; seeded by trainer.seed); 0: none.
+  int mix_clips = 0;
   // Augmentation: this many further body shapes, each macro value drawn
   // uniformly in [0, 1] (seeded by trainer.seed), each with the garments
   // fitted to it and the clips retargeted onto its rig, so that the

@@ -202,6 +202,11 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
                    "degrees (0: none)")
       ->capture_default_str();
   train
+      ->add_option("--mix-clips", o.mix_clips,
+                   "augmentation: this many more clips, each a recorded one whose arms, neck and spine move as other "
+                   "recorded clips' do (seeded; before --perturb, which covers them too)")
+      ->capture_default_str();
+  train
       ->add_option("--shape-samples", o.shape_samples,
                    "augmentation: also train on this many body shapes sampled uniformly in range (seeded; needs "
                    "--body), each with every garment fitted to it and every clip")
