@@ -175,8 +175,7 @@ Eigen::MatrixXd OneFitTrainer::ClipBodyFeatures(int clip) const {
   Eigen::MatrixXd features(BodyFeatureSize(skeleton.num_joints()), c.poses.size());
   for (int t = 0; t < static_cast<int>(c.poses.size()); ++t) {
     const auto pose = [&](int f) -> const JointTransforms& { return c.poses[std::max(f, 0)]; };
-    features.col(t) =
-        BodyFeatures(skeleton, pose(t - 2), pose(t - 1), pose(t), c.fps, c.shape, options_.root_rotation);
+    features.col(t) = BodyFeatures(skeleton, pose(t - 2), pose(t - 1), pose(t), c.fps, c.shape, options_.root_rotation);
   }
   return features;
 }
@@ -192,9 +191,8 @@ std::vector<double> OneFitTrainer::InitialWeights() const {
 Eigen::VectorXd OneFitTrainer::NormalizedBodyFeatures(int clip, int frame) const {
   const OneFitTrainingClip& c = clips_[clip];
   const auto pose = [&](int f) -> const JointTransforms& { return c.poses[std::clamp(f, 0, int(c.poses.size()) - 1)]; };
-  return body_normalizer_.Apply(
-      BodyFeatures(skeletons_[clip_body_[clip]], pose(frame - 2), pose(frame - 1), pose(frame), c.fps, c.shape,
-                   options_.root_rotation));
+  return body_normalizer_.Apply(BodyFeatures(skeletons_[clip_body_[clip]], pose(frame - 2), pose(frame - 1),
+                                             pose(frame), c.fps, c.shape, options_.root_rotation));
 }
 
 OneFitModel OneFitTrainer::MakeModel(const std::vector<double>& weights) const {

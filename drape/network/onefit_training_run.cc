@@ -352,6 +352,14 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
                           [&](std::ostream& out) { WritePolishProgress(summary.polish, out); });
     }
   }
+  {
+    // What LoadClips made of the motions.
+    const size_t recorded = options.motion_paths.size() * options.speeds.size() * (options.mirror ? 2 : 1);
+    const size_t made = recorded + static_cast<size_t>(options.mix_clips);
+    summary.message += "; " + std::to_string(options.perturb_degrees > 0.0 ? 2 * made : made) + " clips per body (" +
+                       std::to_string(recorded) + " recorded, " + std::to_string(options.mix_clips) + " mixed" +
+                       (options.perturb_degrees > 0.0 ? ", each also perturbed)" : ")");
+  }
   if (options.shape_samples > 0) {
     summary.message += "; body shapes";
     for (const BodyShape& shape : TrainingShapes(options)) summary.message += " {" + shape.ToString() + "}";
