@@ -383,42 +383,58 @@ bool InextensibilityCost::Evaluate(double const* const* parameters, double* resi
   return true;
 }
 
-TemporalCost::TemporalCost(const JetDeformationModel* model, int patch, double length_scale, double weight,
-                           const Eigen::Matrix3Xd* previous)
-    : model_(model), patch_(patch), scale_(weight / length_scale), fixed_previous_(previous != nullptr) {
+TemporalCost::TemporalCost(const JetDeformationModel* model, int patch, double length_scale, double weight, int order,
+                           const std::vector<const Eigen::Matrix3Xd*>& fixed)
+    : model_(model), patch_(patch), scale_(weight / length_scale) {
+  if (order != 1 && order != 2) throw std::invalid_argument("TemporalCost: the order must be 1 or 2");
+  if (fixed.size() > static_cast<size_t>(order))
+    throw std::invalid_argument("TemporalCost: more fixed frames than the order");
+  coefficients_ = order == 1 ? std::vector<double>{1.0, -1.0} : std::vector<double>{1.0, -2.0, 1.0};
+  num_free_ = order + 1 - static_cast<int>(fixed.size());
   for (int i = 0; i < model->num_vertices(); ++i) {
     if (model->patch_of_vertex(i) == patch) vertices_.push_back(i);
   }
-  if (previous != nullptr) {
-    previous_.resize(3, vertices_.size());
-    for (size_t v = 0; v < vertices_.size(); ++v) previous_.col(v) = previous->col(vertices_[v]);
+  fixed_sum_ = Eigen::Matrix3Xd::Zero(3, vertices_.size());
+  for (size_t f = 0; f < fixed.size(); ++f) {
+    const double c = coefficients_[num_free_ + f];
+    for (size_t v = 0; v < vertices_.size(); ++v) fixed_sum_.col(v) += c * fixed[f]->col(vertices_[v]);
   }
   set_num_residuals(3 * static_cast<int>(vertices_.size()));
-  mutable_parameter_block_sizes()->push_back(model->block_size());
-  if (!fixed_previous_) mutable_parameter_block_sizes()->push_back(model->block_size());
+  for (int f = 0; f < num_free_; ++f) mutable_parameter_block_sizes()->push_back(model->block_size());
 }
 
+TemporalCost::TemporalCost(const JetDeformationModel* model, int patch, double length_scale, double weight,
+                           const Eigen::Matrix3Xd* previous)
+    : TemporalCost(model, patch, length_scale, weight, 1,
+                   previous != nullptr ? std::vector<const Eigen::Matrix3Xd*>{previous}
+                                       : std::vector<const Eigen::Matrix3Xd*>{}) {}
+
 bool TemporalCost::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
-  const bool j_now = jacobians != nullptr && jacobians[0] != nullptr;
-  const bool j_before = !fixed_previous_ && jacobians != nullptr && jacobians[1] != nullptr;
   const int b = model_->block_size();
-  // r = scale (x_t - x_{t-1}): TemporalConsistencyResidual with length
-  // scale / weight folded into scale_.
+  // TemporalConsistencyResidual of x_t against what the frames before
+  // predict, -sum_{f >= 1} c_f x_f (x_t-1, or 2 x_t-1 - x_t-2), with the
+  // length scale / weight folded into scale_: dr/dx_f = scale_ c_f.
   const TemporalConsistencyResidual functor(1.0 / scale_, 1.0);
   for (size_t v = 0; v < vertices_.size(); ++v) {
-    const int i = vertices_[v];
-    Eigen::Vector3d now, before;
-    model_->EvaluateVertex(i, patch_, parameters[0], now.data(), j_now ? jacobians[0] + 3 * v * b : nullptr);
-    if (fixed_previous_) {
-      before = previous_.col(v);
-    } else {
-      model_->EvaluateVertex(i, patch_, parameters[1], before.data(), j_before ? jacobians[1] + 3 * v * b : nullptr);
+    Eigen::Vector3d now, predicted = -fixed_sum_.col(v);
+    for (int f = 0; f < num_free_; ++f) {
+      double* jacobian = jacobians != nullptr && jacobians[f] != nullptr ? jacobians[f] + 3 * v * b : nullptr;
+      Eigen::Vector3d x;
+      model_->EvaluateVertex(vertices_[v], patch_, parameters[f], x.data(), jacobian);
+      if (f == 0) {
+        now = x;
+      } else {
+        predicted -= coefficients_[f] * x;
+      }
     }
-    functor(now.data(), before.data(), residuals + 3 * v);
+    functor(now.data(), predicted.data(), residuals + 3 * v);
   }
   const size_t size = 3 * vertices_.size() * b;
-  if (j_now) Eigen::Map<Eigen::VectorXd>(jacobians[0], size) *= scale_;
-  if (j_before) Eigen::Map<Eigen::VectorXd>(jacobians[1], size) *= -scale_;
+  for (int f = 0; f < num_free_; ++f) {
+    if (jacobians != nullptr && jacobians[f] != nullptr) {
+      Eigen::Map<Eigen::VectorXd>(jacobians[f], size) *= scale_ * coefficients_[f];
+    }
+  }
   return true;
 }
 

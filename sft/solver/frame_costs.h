@@ -185,12 +185,22 @@ class SilhouetteReachCost : public ceres::CostFunction {
 // and its gradient; beyond it, the border's value plus the distance to it.
 double SampleOutsideDistance(const cv::Mat& distance, double x, double y, Eigen::Vector2d* gradient);
 
-// Temporal consistency of patch p's vertices between two frames
-// (TemporalConsistencyResidual). With `previous` (3 by #V) given, the
-// earlier frame is fixed data and the cost has one parameter block (this
-// frame's block p); otherwise two (this frame's, the earlier one's).
+// Temporal smoothness of patch p's vertices over the frames before,
+//   order 1: r = (w / L) (x_t - x_t-1)                (the paper's k_tc term,
+//            TemporalConsistencyResidual: consecutive frames close)
+//   order 2: r = (w / L) (x_t - 2 x_t-1 + x_t-2)      (each frame on the line
+//            through the two before: constant velocity, inertia without
+//            the mass and gravity a scene does not give)
+// 3 residuals per vertex of the patch. The earlier frames are parameter
+// blocks (patch p's block of frame t-1, then of t-2) except the oldest
+// `fixed.size()` of them, given as data (3 by #V each, the most recent
+// first): frames before the window. Parameter blocks: this frame's, then
+// the earlier frames' that are not fixed.
 class TemporalCost : public ceres::CostFunction {
  public:
+  TemporalCost(const JetDeformationModel* model, int patch, double length_scale, double weight, int order,
+               const std::vector<const Eigen::Matrix3Xd*>& fixed);
+  // Order 1; `previous` given: the earlier frame is data.
   TemporalCost(const JetDeformationModel* model, int patch, double length_scale, double weight,
                const Eigen::Matrix3Xd* previous = nullptr);
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
@@ -200,8 +210,11 @@ class TemporalCost : public ceres::CostFunction {
   int patch_;
   std::vector<int> vertices_;
   double scale_;
-  bool fixed_previous_;
-  Eigen::Matrix3Xd previous_;  // of vertices_
+  // Per frame t, t-1, ...: its coefficient; the fixed frames' sum, per
+  // vertex of vertices_.
+  std::vector<double> coefficients_;
+  int num_free_;  // frames that are parameter blocks (t included)
+  Eigen::Matrix3Xd fixed_sum_;
 };
 
 // Continuity across the seam of patches a < b (the paper's eq. 5, as

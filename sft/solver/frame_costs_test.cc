@@ -254,6 +254,41 @@ TEST_F(FrameCostsTest, InextensibilityAndTemporalJacobiansMatchFiniteDifferences
   EXPECT_LT(RelativeJacobianError(temporal, theta_, 1e-7), 1e-5);
 }
 
+// Order 2: r = (w / L) (x_t - 2 x_t-1 + x_t-2), alike whether the earlier
+// frames are parameters or data.
+TEST_F(FrameCostsTest, TheSecondOrderTemporalTermHoldsAFrameToTheLineThroughTheTwoBefore) {
+  ASSERT_EQ(model_->num_patches(), 1);
+  const int b = model_->block_size();
+  std::vector<double> frames[3] = {theta_, theta_, theta_};
+  frames[1][3] += 0.01;  // each frame a little elsewhere
+  frames[2][4] -= 0.02;
+  frames[0][0] += 0.005;
+  Eigen::Matrix3Xd x[3];
+  for (int f = 0; f < 3; ++f) model_->Evaluate(frames[f].data(), &x[f]);
+  const double scale = 1.5 / 0.3;
+  const Eigen::Matrix3Xd expected = scale * (x[0] - 2.0 * x[1] + x[2]);
+
+  std::vector<double> all = frames[0];
+  all.insert(all.end(), frames[1].begin(), frames[1].end());
+  all.insert(all.end(), frames[2].begin(), frames[2].end());
+  const TemporalCost free(model_.get(), 0, 0.3, 1.5, 2, {});
+  ASSERT_EQ(free.parameter_block_sizes().size(), 3u);
+  const TemporalCost last_fixed(model_.get(), 0, 0.3, 1.5, 2, {&x[2]});
+  const TemporalCost both_fixed(model_.get(), 0, 0.3, 1.5, 2, {&x[1], &x[2]});
+  ASSERT_EQ(both_fixed.parameter_block_sizes().size(), 1u);
+  Eigen::Matrix3Xd r(3, model_->num_vertices());
+  const double* blocks[3] = {frames[0].data(), frames[1].data(), frames[2].data()};
+  for (const TemporalCost* cost : {&free, &last_fixed, &both_fixed}) {
+    ASSERT_TRUE(cost->Evaluate(blocks, r.data(), nullptr));
+    EXPECT_LT((r - expected).cwiseAbs().maxCoeff(), 1e-12);
+  }
+  EXPECT_LT(RelativeJacobianError(free, all, 1e-7), 1e-5);
+  EXPECT_LT(RelativeJacobianError(last_fixed, std::vector<double>(all.begin(), all.begin() + 2 * b), 1e-7), 1e-5);
+  EXPECT_LT(RelativeJacobianError(both_fixed, frames[0], 1e-7), 1e-5);
+  EXPECT_THROW(TemporalCost(model_.get(), 0, 0.3, 1.5, 3, {}), std::invalid_argument);
+  EXPECT_THROW(TemporalCost(model_.get(), 0, 0.3, 1.5, 1, {&x[1], &x[2]}), std::invalid_argument);
+}
+
 // The outline's distance: 0 inside (holes filled), the distance to the
 // nearest inside pixel less half a pixel outside, and straight on beyond
 // the image.

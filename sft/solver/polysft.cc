@@ -158,6 +158,7 @@ std::string PolySftOptions::Validate() const {
   if (!(depth_softness >= 0.0) || !std::isfinite(depth_softness)) {
     return "depth_softness must be finite and >= 0 (m; 0: rasterizer.gamma as given)";
   }
+  if (temporal_order != 1 && temporal_order != 2) return "temporal_order must be 1 or 2";
   if (!(robust_scale > 0.0)) return "robust_scale must be > 0";
   if (!(silhouette_band <= 100.0)) return "silhouette_band must be <= 100 px (negative: measured)";
   if (max_frames < 0) return "max_frames must be >= 0";
@@ -587,8 +588,9 @@ class PolySftController {
   }
 
   // Inextensibility of window frame k, its patches' seams, and its
-  // temporal link to the frame before it (in the window, or the last
-  // finalised one): each over the blocks of the patches it joins.
+  // temporal link to the frames before it (in the window, or finalised
+  // before it; as many as temporal_order asks and exist): each over the
+  // blocks of the patches it joins.
   void AddRegularizers(size_t k, ceres::Problem* problem) {
     const std::vector<double*> blocks = Blocks(window_[k]->theta);
     auto of = [&](const std::vector<double*>& all, const std::vector<int>& patches) {
@@ -622,15 +624,26 @@ class PolySftController {
     }
     if (!use_temporal_) return;
     const double w = std::sqrt(options_.temporal_weight / model_.num_vertices());
-    const std::vector<double*> before = k > 0 ? Blocks(window_[k - 1]->theta) : std::vector<double*>();
-    for (int p = 0; p < model_.num_patches(); ++p) {
-      if (k > 0) {
-        problem->AddResidualBlock(new CompressedCost(new TemporalCost(&model_, p, size_, w)), nullptr, blocks[p],
-                                  before[p]);
-      } else if (has_previous_final_) {
-        problem->AddResidualBlock(new CompressedCost(new TemporalCost(&model_, p, size_, w, &previous_final_)), nullptr,
-                                  blocks[p]);
+    // Frames before k, most recent first: the window's, then the finalised.
+    std::vector<std::vector<double*>> earlier_blocks;
+    std::vector<const Eigen::Matrix3Xd*> fixed;
+    for (int back = 1; back <= options_.temporal_order; ++back) {
+      const int j = static_cast<int>(k) - back;
+      if (j >= 0) {
+        earlier_blocks.push_back(Blocks(window_[j]->theta));
+      } else if (-j - 1 < static_cast<int>(finals_.size())) {
+        fixed.push_back(&finals_[-j - 1]);
+      } else {
+        break;
       }
+    }
+    const int order = static_cast<int>(earlier_blocks.size() + fixed.size());
+    if (order == 0) return;
+    for (int p = 0; p < model_.num_patches(); ++p) {
+      std::vector<double*> frames = {blocks[p]};
+      for (const auto& earlier : earlier_blocks) frames.push_back(earlier[p]);
+      problem->AddResidualBlock(new CompressedCost(new TemporalCost(&model_, p, size_, w, order, fixed)), nullptr,
+                                frames);
     }
   }
 
@@ -912,7 +925,9 @@ class PolySftController {
       surface.faces = scene_.template_mesh.faces;
       result.chamfer_1e4 = ComputePointChamfer1e4(surface, data.frame.ground_truth);
     }
-    previous_final_ = result.vertices;
+    // The frames before the window that temporal_order reads, newest first.
+    finals_.insert(finals_.begin(), result.vertices);
+    finals_.resize(std::min<size_t>(finals_.size(), 2));
     previous_final_theta_ = data.theta;
     has_previous_final_ = true;
     summary_.frames.push_back(result);
@@ -961,7 +976,7 @@ class PolySftController {
   double template_pixels_ = 0.0;
   std::vector<LevelData> levels_;
   std::deque<std::unique_ptr<FrameData>> window_;
-  Eigen::Matrix3Xd previous_final_;  // the frame before the window, once there is one
+  std::vector<Eigen::Matrix3Xd> finals_;  // the two frames before the window, newest first, once there are
   std::vector<double> previous_final_theta_;
   bool has_previous_final_ = false;
   bool recovering_ = false;  // solving a lost frame again (RecoverLostFrame)

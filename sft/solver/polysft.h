@@ -77,6 +77,13 @@ struct PolySftOptions {
   double silhouette_weight = 1.0;
   double inextensibility_weight = 10.0;  // k_mi
   double temporal_weight = 0.1;          // k_tc
+  // What the temporal term holds each frame to (TemporalCost): 1, the
+  // frame before (the paper's: a surface that moves fast is held back);
+  // 2, the line through the two frames before (constant velocity, inertia
+  // without the mass and gravity a scene does not give: a surface moving
+  // steadily is not held back, one that changes its motion is). Where
+  // fewer frames came before, as many as there are.
+  int temporal_order = 1;
   // A segmentation's mask is a few pixels off: within this many pixels
   // (of the full-size frame) of the mask's border, the silhouette may
   // cover or not at no cost, so that a mask a little too large or too

@@ -65,6 +65,7 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("silhouette_weight", silhouette_weight),
         POLYFIT_SETTING("inextensibility_weight", inextensibility_weight),
         POLYFIT_SETTING("temporal_weight", temporal_weight),
+        POLYFIT_SETTING("temporal_order", temporal_order),
         POLYFIT_SETTING("silhouette_band", silhouette_band),
         POLYFIT_SETTING("silhouette_reach_weight", silhouette_reach_weight),
         POLYFIT_SETTING("match_brightness", match_brightness),

@@ -28,6 +28,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.silhouette_weight = 2.0;
   changed.inextensibility_weight = 20.0;
   changed.temporal_weight = 0.3;
+  changed.temporal_order = 2;
   changed.silhouette_band = 4.5;
   changed.match_brightness = false;
   changed.predict_motion = true;
