@@ -54,6 +54,25 @@ OneFitTrainingClip LoadClip(const std::string& path, double speed, const OneFitT
   return clip;
 }
 
+// What LoadClips appends to the names of the clips it makes.
+constexpr char kMixedTag[] = "~mixed";
+constexpr char kPerturbedTag[] = "~perturbed";
+
+// "N clips per body (R recorded, M mixed[, each also perturbed])", from the
+// names LoadClips gave them.
+std::string ClipReport(const std::vector<OneFitTrainingClip>& clips) {
+  size_t mixed = 0, perturbed = 0;
+  for (const OneFitTrainingClip& clip : clips) {
+    if (clip.name.find(kPerturbedTag) != std::string::npos) {
+      ++perturbed;
+    } else if (clip.name.find(kMixedTag) != std::string::npos) {
+      ++mixed;
+    }
+  }
+  return std::to_string(clips.size()) + " clips per body (" + std::to_string(clips.size() - perturbed - mixed) +
+         " recorded, " + std::to_string(mixed) + " mixed" + (perturbed > 0 ? ", each also perturbed)" : ")");
+}
+
 // Frame f of a clip played forth and back (a donor shorter than its base
 // turns round rather than jumping back to its start).
 int PingPong(int f, int length) {
@@ -69,13 +88,14 @@ int PingPong(int f, int length) {
 // no recorded clip has, each limb's motion still recorded and smooth.
 void AppendMixedClips(const OneFitTrainingRunOptions& options, const Skeleton& skeleton,
                       std::vector<OneFitTrainingClip>* clips) {
+  const std::vector<std::string> group_roots = DefaultMixGroups();
   std::vector<int> groups;
   try {
-    groups = JointGroups(skeleton, DefaultMixGroups());
+    groups = JointGroups(skeleton, group_roots);
   } catch (const std::invalid_argument& e) {
     throw Error(ErrorKind::kInput, std::string("--mix-clips: ") + e.what());
   }
-  const int num_groups = static_cast<int>(DefaultMixGroups().size());
+  const int num_groups = static_cast<int>(group_roots.size());
   const int recorded = static_cast<int>(clips->size());
   std::mt19937_64 rng(options.trainer.seed * 7919 + 13);
   std::uniform_int_distribution<int> pick(0, recorded - 1);
@@ -86,7 +106,7 @@ void AppendMixedClips(const OneFitTrainingRunOptions& options, const Skeleton& s
       donor[g] = pick(rng);
       start[g] = std::uniform_int_distribution<int>(0, int((*clips)[donor[g]].poses.size()) - 1)(rng);
     }
-    mixed.name += "~mixed" + std::to_string(m);
+    mixed.name += kMixedTag + std::to_string(m);
     std::vector<const JointTransforms*> donor_poses(num_groups);
     for (size_t f = 0; f < mixed.poses.size(); ++f) {
       for (int g = 0; g < num_groups; ++g) {
@@ -127,7 +147,7 @@ std::vector<OneFitTrainingClip> LoadClips(const OneFitTrainingRunOptions& option
     const size_t recorded = clips.size();
     for (size_t c = 0; c < recorded; ++c) {
       OneFitTrainingClip perturbed = clips[c];
-      perturbed.name += "~perturbed";
+      perturbed.name += kPerturbedTag;
       const PosePerturbation perturbation(body.skeleton, options.perturb_degrees * M_PI / 180.0,
                                           options.trainer.seed * 1000 + c);
       for (size_t f = 0; f < perturbed.poses.size(); ++f) {
@@ -201,8 +221,10 @@ std::vector<BodyShape> TrainingShapes(const OneFitTrainingRunOptions& options) {
   return shapes;
 }
 
-// Per shape: the body, the garments fitted to it and the clips on its rig.
-std::vector<OneFitTrainingBody> LoadTrainingBodies(const OneFitTrainingRunOptions& options, const SkinnedBody& body) {
+// Per shape: the body, the garments fitted to it and the clips on its rig
+// (*clip_report: ClipReport of the first body's).
+std::vector<OneFitTrainingBody> LoadTrainingBodies(const OneFitTrainingRunOptions& options, const SkinnedBody& body,
+                                                   std::string* clip_report) {
   std::vector<OneFitTrainingBody> bodies;
   for (const BodyShape& shape : TrainingShapes(options)) {
     OneFitTrainingBody b;
@@ -210,6 +232,7 @@ std::vector<OneFitTrainingBody> LoadTrainingBodies(const OneFitTrainingRunOption
     b.garments = LoadGarments(options, b.body);
     b.clips = LoadClips(options, b.body);
     for (OneFitTrainingClip& clip : b.clips) clip.shape = shape;
+    if (bodies.empty()) *clip_report = ClipReport(b.clips);
     bodies.push_back(std::move(b));
   }
   return bodies;
@@ -219,7 +242,7 @@ std::vector<OneFitTrainingBody> LoadTrainingBodies(const OneFitTrainingRunOption
 // ones, or a model's when fine-tuning (which keeps the model's
 // architecture: its warp head, local pose and frame alignment).
 std::unique_ptr<OneFitTrainer> MakeTrainer(const OneFitTrainingRunOptions& options, const SkinnedBody& body,
-                                           std::vector<double>* weights) {
+                                           std::vector<double>* weights, std::string* clip_report) {
   OneFitModel init;
   OneFitTrainerOptions trainer_options = options.trainer;
   if (!options.init_model_path.empty()) {
@@ -229,7 +252,7 @@ std::unique_ptr<OneFitTrainer> MakeTrainer(const OneFitTrainingRunOptions& optio
     trainer_options.root_rotation = init.root_rotation;
     PatchLikeModel(init, &trainer_options.drape);
   }
-  auto trainer = std::make_unique<OneFitTrainer>(LoadTrainingBodies(options, body), trainer_options);
+  auto trainer = std::make_unique<OneFitTrainer>(LoadTrainingBodies(options, body, clip_report), trainer_options);
   if (!options.validation_motion_path.empty()) {
     trainer->SetValidationClip(LoadClip(options.validation_motion_path, 1.0, options, body));
   }
@@ -322,7 +345,8 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
   }
   const SkinnedBody body = LoadDrapeBody(options.body_dir, options.shape);
   std::vector<double> weights;
-  const std::unique_ptr<OneFitTrainer> trainer = MakeTrainer(options, body, &weights);
+  std::string clip_report;
+  const std::unique_ptr<OneFitTrainer> trainer = MakeTrainer(options, body, &weights, &clip_report);
   ResumePoint resume = Resume(options, trainer->MakeModel(weights), &weights);
   double best_loss = BestValidationLoss(resume.csv);
   // Shared over processes, every one holds the same weights: the first
@@ -352,14 +376,7 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
                           [&](std::ostream& out) { WritePolishProgress(summary.polish, out); });
     }
   }
-  {
-    // What LoadClips made of the motions.
-    const size_t recorded = options.motion_paths.size() * options.speeds.size() * (options.mirror ? 2 : 1);
-    const size_t made = recorded + static_cast<size_t>(options.mix_clips);
-    summary.message += "; " + std::to_string(options.perturb_degrees > 0.0 ? 2 * made : made) + " clips per body (" +
-                       std::to_string(recorded) + " recorded, " + std::to_string(options.mix_clips) + " mixed" +
-                       (options.perturb_degrees > 0.0 ? ", each also perturbed)" : ")");
-  }
+  summary.message += "; " + clip_report;
   if (options.shape_samples > 0) {
     summary.message += "; body shapes";
     for (const BodyShape& shape : TrainingShapes(options)) summary.message += " {" + shape.ToString() + "}";

@@ -404,9 +404,9 @@ class PolySftController {
   std::vector<double> WarmStart(const FrameData& data) const {
     if (window_.empty()) return std::vector<double>(model_.num_parameters(), 0.0);
     const std::vector<double>& last = window_.back()->theta;
-    const std::vector<double>* before = window_.size() >= 2   ? &window_[window_.size() - 2]->theta
-                                        : has_previous_final_ ? &previous_final_theta_
-                                                              : nullptr;
+    const std::vector<double>* before = window_.size() >= 2 ? &window_[window_.size() - 2]->theta
+                                        : !finals_.empty()  ? &previous_final_theta_
+                                                            : nullptr;
     if (!options_.predict_motion || before == nullptr || data.mask_empty || (!use_photometric_ && !use_masks_) ||
         !Tracked(*window_.back()) || (window_.size() >= 2 && !Tracked(*window_[window_.size() - 2]))) {
       return last;
@@ -757,7 +757,7 @@ class PolySftController {
     const std::vector<double> previous = previous_final_theta_;
     const PatchSplit split = model_.SplitPatch(p, child);
     for (auto& frame : window_) frame->theta = model_.InheritParameters(split, frame->theta);
-    if (has_previous_final_) previous_final_theta_ = model_.InheritParameters(split, previous_final_theta_);
+    if (!finals_.empty()) previous_final_theta_ = model_.InheritParameters(split, previous_final_theta_);
     atlas_terms_ = GroupAtlasTerms(model_, edges_, rest_lengths_);
     const double gain = PredictedDecrease() - before;
     const double noise = (split.num_children - 1) * model_.block_size() * noise_cost_;
@@ -929,7 +929,6 @@ class PolySftController {
     finals_.insert(finals_.begin(), result.vertices);
     finals_.resize(std::min<size_t>(finals_.size(), 2));
     previous_final_theta_ = data.theta;
-    has_previous_final_ = true;
     summary_.frames.push_back(result);
     if (on_frame_) on_frame_(summary_.frames.back());
   }
@@ -978,7 +977,6 @@ class PolySftController {
   std::deque<std::unique_ptr<FrameData>> window_;
   std::vector<Eigen::Matrix3Xd> finals_;  // the two frames before the window, newest first, once there are
   std::vector<double> previous_final_theta_;
-  bool has_previous_final_ = false;
   bool recovering_ = false;  // solving a lost frame again (RecoverLostFrame)
   std::vector<double> frame_time_, frame_cost_;
   std::vector<int> frame_iterations_;
