@@ -8,9 +8,10 @@
 // reference drape (per-vertex slides, LM) is the output space's, and the gap
 // between this and a trained network is the training's.
 //
-//   output_space_benchmark [DATA_DIR [GARMENT [FRAMES [AREA:WARP:ITERATIONS,...]]]]
-//   (DATA_DIR: ../shared/data/drape; WARP -1: no warp head; the default
-//   configurations are the table of docs/benchmarks.md)
+//   output_space_benchmark [DATA_DIR [GARMENT [FRAMES [AREA:WARP:ITERATIONS[:KC[:EPS]],...]]]]
+//   (DATA_DIR: ../shared/data/drape; WARP -1: no warp head; KC, EPS: the
+//   collision weight and margin, the drape's defaults if not given; the
+//   default configurations are the table of docs/benchmarks.md)
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -102,21 +103,27 @@ int main(int argc, char** argv) {
   std::printf("%s, walk frames 0-%d, the drape solved in the network's output space (L-BFGS per frame)\n\n",
               garment.c_str(), frames - 1);
   std::printf(
-      "| patch area m^2 | patches | warp order | L-BFGS iterations (mean taken) | energy J | eps_c %% | eps_e %% |\n");
-  std::printf("|---:|---:|---:|---:|---:|---:|---:|\n");
+      "| patch area m^2 | patches | warp order | k_c | eps mm | L-BFGS iterations (mean taken) | energy J | eps_c %% | "
+      "eps_e %% |\n");
+  std::printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+  const DrapingWeights defaults;
   struct Config {
     double area;
     int warp, iterations;
+    double collision, margin;
   };
-  std::vector<Config> configs = {Config{0.04, -1, 200}, Config{0.04, 2, 200}, Config{0.04, 2, 1000},
-                                 Config{0.04, 4, 200}, Config{0.02, 2, 200}};
+  const double kc = defaults.collision, eps = defaults.collision_margin;
+  std::vector<Config> configs = {Config{0.04, -1, 200, kc, eps}, Config{0.04, 2, 200, kc, eps},
+                                 Config{0.04, 2, 1000, kc, eps}, Config{0.04, 4, 200, kc, eps},
+                                 Config{0.02, 2, 200, kc, eps}};
   if (argc > 4) {
     configs.clear();
     std::istringstream list(argv[4]);
     for (std::string item; std::getline(list, item, ',');) {
-      Config c{};
-      if (std::sscanf(item.c_str(), "%lf:%d:%d", &c.area, &c.warp, &c.iterations) != 3) {
-        std::fprintf(stderr, "output_space_benchmark: '%s' is not AREA:WARP:ITERATIONS\n", item.c_str());
+      Config c{0.0, 0, 0, kc, eps};
+      if (std::sscanf(item.c_str(), "%lf:%d:%d:%lf:%lf", &c.area, &c.warp, &c.iterations, &c.collision, &c.margin) <
+          3) {
+        std::fprintf(stderr, "output_space_benchmark: '%s' is not AREA:WARP:ITERATIONS[:KC[:EPS]]\n", item.c_str());
         return 2;
       }
       configs.push_back(c);
@@ -127,11 +134,13 @@ int main(int argc, char** argv) {
     options.patching.patch_area = c.area;
     options.slide.warp_order = c.warp;
     options.slide.enabled = c.warp >= 0;
+    options.physics.weights.collision = c.collision;
+    options.physics.weights.collision_margin = c.margin;
     options.num_threads = 2;
     DrapeSolver solver(body, mesh, weights, options);
     const Row row = DrapeInOutputSpace(&solver, *clip, frames, c.iterations);
-    std::printf("| %.2f | %d | %d | %d (%.0f) | %.0f | %.2f | %.2f |\n", c.area, solver.num_patches(), c.warp,
-                c.iterations, row.iterations, row.energy, row.inside, row.strain);
+    std::printf("| %.2f | %d | %d | %g | %g | %d (%.0f) | %.0f | %.2f | %.2f |\n", c.area, solver.num_patches(), c.warp,
+                c.collision, 1e3 * c.margin, c.iterations, row.iterations, row.energy, row.inside, row.strain);
     std::fflush(stdout);
   }
   return 0;

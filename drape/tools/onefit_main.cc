@@ -218,6 +218,12 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
   train->add_option("--seed", t.seed, "seed of the weights and the data order")->capture_default_str();
   train->add_option("--threads", t.num_threads, "threads")->capture_default_str();
   train->add_option("--patch-area", t.drape.patching.patch_area, "garment area per patch (m^2)")->capture_default_str();
+  train
+      ->add_option("--k-c", t.drape.physics.weights.collision,
+                   "the loss's collision weight (the reference drape's by default; refinement keeps its own)")
+      ->capture_default_str();
+  train->add_option("--eps", t.drape.physics.weights.collision_margin, "the loss's collision margin (m)")
+      ->capture_default_str();
   train->add_option("--decoder-hidden", t.network.decoder_hidden, "the decoder's hidden layer widths")
       ->capture_default_str();
   train->add_option("--body-hidden", t.network.body_hidden, "the body encoder's hidden layer widths")
