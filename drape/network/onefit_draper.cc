@@ -9,6 +9,7 @@ void PatchLikeModel(const OneFitModel& model, DrapeSolverOptions* options) {
   options->patching.align_frames = model.aligned_frames;
   options->patching.patch_area = model.patch_area;
   options->patching.max_fit_error = model.max_fit_error;
+  options->patching.curved_faces = model.curved_faces;
 }
 
 OneFitDraper::OneFitDraper(const OneFitModel& model, const DrapeSolver& solver, const SkinWeights& weights,
@@ -32,8 +33,8 @@ OneFitDraper::OneFitDraper(const OneFitModel& model, const DrapeSolver& solver, 
 
 std::vector<double> OneFitDraper::Predict(const JointTransforms& before_previous, const JointTransforms& previous,
                                           const JointTransforms& now, double fps, const BodyShape& shape) const {
-  const Eigen::VectorXd body =
-      model_.body_normalizer.Apply(BodyFeatures(skeleton_, before_previous, previous, now, fps, shape, model_.root_rotation));
+  const Eigen::VectorXd body = model_.body_normalizer.Apply(
+      BodyFeatures(skeleton_, before_previous, previous, now, fps, shape, model_.root_rotation));
   Eigen::MatrixXd outputs;
   model_.network.ForwardWithGarmentHalf(model_.weights.data(), garment_half_, body, &joint_weights_, &outputs);
   return PatchParametersFromOutputs(rest_, frames_, outputs, model_.network.num_coefficients());

@@ -112,6 +112,7 @@ void SaveOneFitModel(const std::string& path, const OneFitModel& model) {
   w.Put<double>(model.patch_area);
   w.Put<double>(model.max_fit_error);
   w.Put<std::int32_t>(model.root_rotation == RootRotation::kHeadingFree ? 1 : 0);
+  w.Put<std::int32_t>(model.curved_faces ? 1 : 0);
   PutMlp(model.network.patch_encoder(), &w);
   PutMlp(model.network.body_encoder(), &w);
   PutMlp(model.network.decoder(), &w);
@@ -193,6 +194,9 @@ OneFitModel LoadOneFitModel(const std::string& path) {
   const int heading_free = version >= 6 ? r.Get<std::int32_t>("the header") : 0;
   if (heading_free != 0 && heading_free != 1) r.Fail("root rotation flag out of range");
   model.root_rotation = heading_free == 1 ? RootRotation::kHeadingFree : RootRotation::kAbsolute;
+  const int curved = version >= 7 ? r.Get<std::int32_t>("the header") : 0;
+  if (curved != 0 && curved != 1) r.Fail("curved faces flag out of range");
+  model.curved_faces = curved == 1;
   if (aligned != 0 && aligned != 1) r.Fail("frame alignment flag out of range");
   if (local_pose != 0 && local_pose != 1) r.Fail("local pose flag out of range");
   model.aligned_frames = aligned == 1;

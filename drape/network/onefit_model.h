@@ -17,8 +17,9 @@ namespace polyfit {
 // Version 2 adds the warp head's order, version 3 whether the patch frames
 // were aligned, version 4 whether the decoder reads the local pose, version
 // 5 the patching's area and fit error, version 6 the root's rotation
-// feature (RootRotation); earlier files still load.
-inline constexpr int kOneFitModelVersion = 6;
+// feature (RootRotation), version 7 whether the patches were fitted to
+// curved faces; earlier files still load.
+inline constexpr int kOneFitModelVersion = 7;
 
 class OneFitModelError : public Error {
  public:
@@ -37,6 +38,8 @@ struct OneFitModel {
   // network learnt to move.
   double patch_area = 0.04;
   double max_fit_error = 8e-3;
+  // GarmentPatchOptions::curved_faces (before version 7: false).
+  bool curved_faces = false;
   // How its body features hold the root's rotation (before version 6:
   // kAbsolute).
   RootRotation root_rotation = RootRotation::kHeadingFree;

@@ -202,6 +202,7 @@ OneFitModel OneFitTrainer::MakeModel(const std::vector<double>& weights) const {
   model.aligned_frames = options_.drape.patching.align_frames;
   model.patch_area = options_.drape.patching.patch_area;
   model.max_fit_error = options_.drape.patching.max_fit_error;
+  model.curved_faces = options_.drape.patching.curved_faces;
   model.root_rotation = options_.root_rotation;
   model.network = network_;
   model.patch_normalizer = patch_normalizer_;
@@ -215,7 +216,8 @@ void OneFitTrainer::StartFrom(const OneFitModel& model) {
       model.network.warp_order() != options_.network.warp_order ||
       model.aligned_frames != options_.drape.patching.align_frames ||
       model.patch_area != options_.drape.patching.patch_area ||
-      model.max_fit_error != options_.drape.patching.max_fit_error || model.root_rotation != options_.root_rotation) {
+      model.max_fit_error != options_.drape.patching.max_fit_error ||
+      model.curved_faces != options_.drape.patching.curved_faces || model.root_rotation != options_.root_rotation) {
     throw std::invalid_argument(
         "OneFitTrainer::StartFrom: the model's jet order, warp order, patching, root feature or rig differs from the "
         "training's");

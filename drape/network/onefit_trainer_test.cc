@@ -703,8 +703,8 @@ TEST_F(OneFitTrainerTest, AModelFileRoundTripsAndTheDraperPredictsAsTraining) {
   wrong_version[8] = 9;
   expect_error(wrong_version, "version 9");
   std::string huge = bytes;
-  huge[52] = '\xff';  // the patch encoder's layer count
-  huge[53] = '\xff';
+  huge[56] = '\xff';  // the patch encoder's layer count
+  huge[57] = '\xff';
   expect_error(huge, "layer sizes");
   EXPECT_THROW(LoadOneFitModel(path + ".absent"), OneFitModelError);
 }
@@ -767,7 +767,28 @@ TEST(OneFitModelTest, OlderVersionsStillLoadAndTheFlagsRoundTrip) {
     std::ifstream in(path, std::ios::binary);
     bytes.assign(std::istreambuf_iterator<char>(in), {});
   }
-  ASSERT_EQ(bytes[8], 6);  // the version
+  EXPECT_FALSE(LoadOneFitModel(path).curved_faces);
+  model.curved_faces = true;
+  SaveOneFitModel(path, model);
+  EXPECT_TRUE(LoadOneFitModel(path).curved_faces);
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  ASSERT_EQ(bytes[8], 7);  // the version
+  std::string bad_curved = bytes;
+  bad_curved[52] = 2;
+  const std::string path6 = ::testing::TempDir() + "/onefit_v6_old.pfonefit";
+  std::ofstream(path6, std::ios::binary) << bad_curved;
+  EXPECT_THROW(LoadOneFitModel(path6), OneFitModelError);
+  // Version 6: no curved faces flag (planar faces).
+  std::string v6 = bytes;
+  v6[8] = 6;
+  v6.erase(52, 4);
+  std::ofstream(path6, std::ios::binary) << v6;
+  EXPECT_FALSE(LoadOneFitModel(path6).curved_faces);
+  EXPECT_EQ(LoadOneFitModel(path6).root_rotation, RootRotation::kHeadingFree);
+  bytes = v6;
   // Version 5: no root rotation flag (the root's rotation in the world).
   std::string v5 = bytes;
   v5[8] = 5;

@@ -46,6 +46,7 @@ PolyFitModel PatchGarment(const TriangleMesh& mesh, const GarmentPatchOptions& p
   options.clustering.auto_min_patches = 1;
   options.clustering.auto_max_patches = std::max(1, mesh.num_faces());
   options.face_subdivisions = patching.face_subdivisions;
+  options.curved_faces = patching.curved_faces;
   options.jet.order = patching.jet_order;
   options.jet.num_threads = num_threads;
   options.max_fit_error = patching.max_fit_error;

@@ -77,6 +77,12 @@ struct GarmentPatchOptions {
   // edge rather than to the vertices alone: a small patch of a coarse
   // garment has fewer vertices than a jet has coefficients.
   int face_subdivisions = 3;
+  // The grid on the faces' Phong tessellation (FitPatchJets' curved_faces):
+  // a coarse garment's flat faces cut chords inside the surface its
+  // vertices sample, so that its patches would sit closer to the body than
+  // a fine meshing's of the same garment. A model records it
+  // (OneFitModel::curved_faces).
+  bool curved_faces = false;
   // Patches whose jet misses a vertex by more (m) are split, up to
   // max_splits rounds.
   double max_fit_error = 8e-3;

@@ -80,6 +80,8 @@ void AddSimulatePatchingOptions(CLI::App* simulate, SimulateFlags* f) {
       ->add_option("--face-subdivisions", options.solver.patching.face_subdivisions,
                    "jets fitted to a grid of this many subdivisions per face edge (0: to the vertices)")
       ->capture_default_str();
+  simulate->add_flag("--curved-faces", options.solver.patching.curved_faces,
+                     "the grid on the faces' Phong tessellation, not their planes");
   simulate
       ->add_option("--max-fit-error", options.solver.patching.max_fit_error,
                    "split patches whose jet misses a vertex by more (m)")
@@ -238,6 +240,8 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
                   "each patch also reads its own joints' pose, skinning-weighted (recorded in the model)");
   train->add_flag("--align-frames", t.drape.patching.align_frames,
                   "patch frames turned to the body's up axis (recorded in the model)");
+  train->add_flag("--curved-faces", t.drape.patching.curved_faces,
+                  "jets fitted to the faces' Phong tessellation, not their planes (recorded in the model)");
   train->add_flag_callback(
       "--absolute-root", [&t] { t.root_rotation = polyfit::RootRotation::kAbsolute; },
       "the body features hold the root's rotation with its heading, as models before file version 6 did");

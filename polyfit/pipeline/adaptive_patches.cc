@@ -43,7 +43,7 @@ PolyFitModel FitAdaptivePatches(const AdaptivePatchOptions& options, const Trian
   const Eigen::Matrix3Xd centroids = FaceCentroids(mesh);
   for (int round = 0;; ++round) {
     BuildPatchMemberships(mesh, model.face_patch, &model);
-    FitPatchJets(options.jet, mesh, &model, options.face_subdivisions);
+    FitPatchJets(options.jet, mesh, &model, options.face_subdivisions, options.curved_faces);
     if (round == options.max_splits) break;
     const std::vector<double> error = PatchMaxFitErrors(mesh, model);
     std::vector<std::vector<int>> faces(model.num_patches());

@@ -25,6 +25,8 @@ struct AdaptivePatchOptions {
   // Jets fitted to a barycentric grid of this many subdivisions per face
   // edge (FitPatchJets); 0: to the vertices.
   int face_subdivisions = 0;
+  // The grid on the faces' Phong tessellation (FitPatchJets' curved_faces).
+  bool curved_faces = false;
   // Metres (the mesh's units).
   double max_fit_error = 8e-3;
   int max_splits = 4;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <limits>
 #include <stdexcept>
@@ -103,9 +104,70 @@ PatchPointSets MemberPoints(const TriangleMesh& mesh, const PolyFitModel& model,
   return sets;
 }
 
-// Barycentric grid points (i, j, L - i - j) / L of every face, by patch.
+// 3 by #V unit normals for the Phong tessellation: area-weighted means of
+// the incident faces' normals, except on the boundary, where that mean sees
+// the faces of one side only and tilts inward by about half their angle (5
+// degrees on a sphere sampled 0.125 rad apart, which bends the boundary
+// faces' tessellation as much as the chords' sag it corrects). There the
+// normal is a 2-jet's fitted to the vertex's two-ring (kept as the mean
+// where the ring is too small or the fit is not trustworthy).
+Eigen::Matrix3Xd SurfaceNormals(const TriangleMesh& mesh) {
+  Eigen::Matrix3Xd normals = VertexNormals(mesh);
+  std::vector<char> boundary(mesh.num_vertices(), 0);
+  const std::vector<std::pair<std::uint64_t, int>> edges = SortedEdgeCorners(mesh);
+  for (size_t i = 0; i < edges.size(); ++i) {
+    const bool single = (i == 0 || edges[i - 1].first != edges[i].first) &&
+                        (i + 1 == edges.size() || edges[i + 1].first != edges[i].first);
+    if (!single) continue;
+    boundary[edges[i].first >> 32] = boundary[edges[i].first & 0xffffffffu] = 1;
+  }
+  const AdjacencyList neighbours = VertexVertexAdjacency(mesh);
+  JetFitOptions options;
+  options.order = 2;
+  options.num_threads = 1;
+  JetFitter fitter(options);
+  std::vector<int> ring;
+  Eigen::Matrix3Xd points;
+  for (int v = 0; v < mesh.num_vertices(); ++v) {
+    if (!boundary[v] || normals.col(v).squaredNorm() == 0.0) continue;
+    ring.assign(1, v);
+    for (const int* a = neighbours.begin(v); a != neighbours.end(v); ++a) {
+      ring.push_back(*a);
+      ring.insert(ring.end(), neighbours.begin(*a), neighbours.end(*a));
+    }
+    std::sort(ring.begin(), ring.end());
+    ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
+    if (ring.size() < 8) continue;
+    points.resize(3, static_cast<Eigen::Index>(ring.size()));
+    for (size_t i = 0; i < ring.size(); ++i) points.col(static_cast<Eigen::Index>(i)) = mesh.vertices.col(ring[i]);
+    const JetPatch jet = fitter.Fit(points);
+    if (jet.flags != 0) continue;
+    const Eigen::Vector3d uv = jet.frame.PointToPatch(mesh.vertices.col(v));
+    const Eigen::Vector3d n = jet.NormalInWorld(uv.x(), uv.y());
+    if (n.allFinite()) normals.col(v) = n.dot(normals.col(v)) < 0.0 ? -n : n;
+  }
+  return normals;
+}
+
+// Phong tessellation (Boubekeur and Alexa 2008) of the point q with
+// barycentric weights w on the face with corners p_i and unit vertex normals
+// n_i: q moved by alpha sum_i w_i (the step projecting q onto p_i's tangent
+// plane). On a circle of radius R through two corners, the flat chord's sag
+// at weight w is 2 w (1 - w) R theta^2 and the full projection moves it
+// twice that, so alpha = 1/2 puts the point on the circle to second order.
+// The step is the same for n_i and -n_i; a zero normal leaves q alone.
+Eigen::Vector3d PhongPoint(const Eigen::Vector3d& q, const Eigen::Matrix3d& corners, const Eigen::Matrix3d& normals,
+                           const Eigen::Vector3d& w) {
+  constexpr double kAlpha = 0.5;
+  Eigen::Vector3d p = q;
+  for (int i = 0; i < 3; ++i) p -= kAlpha * w[i] * (q - corners.col(i)).dot(normals.col(i)) * normals.col(i);
+  return p;
+}
+
+// Barycentric grid points (i, j, L - i - j) / L of every face, by patch;
+// curved: on the faces' Phong tessellation rather than their planes.
 PatchPointSets ResampledPoints(const TriangleMesh& mesh, const std::vector<int>& face_patch, int num_patches,
-                               int subdivisions) {
+                               int subdivisions, bool curved) {
   const int per_face = (subdivisions + 1) * (subdivisions + 2) / 2;
   PatchPointSets sets;
   sets.offsets.assign(num_patches + 1, 0);
@@ -115,14 +177,20 @@ PatchPointSets ResampledPoints(const TriangleMesh& mesh, const std::vector<int>&
   sets.points.resize(3, sets.offsets.back());
   sets.weights.resize(sets.offsets.back());
   const Eigen::VectorXd face_areas = FaceAreas(mesh);
+  const Eigen::Matrix3Xd vertex_normals = curved ? SurfaceNormals(mesh) : Eigen::Matrix3Xd();
+  Eigen::Matrix3d corners, normals;
   for (int f = 0; f < mesh.num_faces(); ++f) {
-    const Eigen::Vector3d a = mesh.vertices.col(mesh.faces(0, f)), b = mesh.vertices.col(mesh.faces(1, f)),
-                          c = mesh.vertices.col(mesh.faces(2, f));
+    for (int c = 0; c < 3; ++c) {
+      corners.col(c) = mesh.vertices.col(mesh.faces(c, f));
+      if (curved) normals.col(c) = vertex_normals.col(mesh.faces(c, f));
+    }
     int& s = slot[face_patch[f]];
     for (int i = 0; i <= subdivisions; ++i) {
       for (int j = 0; i + j <= subdivisions; ++j, ++s) {
         const double wa = static_cast<double>(i) / subdivisions, wb = static_cast<double>(j) / subdivisions;
-        sets.points.col(s) = wa * a + wb * b + (1.0 - wa - wb) * c;
+        const Eigen::Vector3d w(wa, wb, 1.0 - wa - wb);
+        const Eigen::Vector3d q = corners * w;
+        sets.points.col(s) = curved ? PhongPoint(q, corners, normals, w) : q;
         sets.weights[s] = face_areas[f] / per_face;
       }
     }
@@ -133,13 +201,13 @@ PatchPointSets ResampledPoints(const TriangleMesh& mesh, const std::vector<int>&
 }  // namespace
 
 JetFitSummary FitPatchJets(const JetFitOptions& options, const TriangleMesh& mesh, PolyFitModel* model,
-                           int face_subdivisions) {
+                           int face_subdivisions, bool curved_faces) {
   if (face_subdivisions < 0) throw std::invalid_argument("FitPatchJets: face_subdivisions must be >= 0");
   const int num_patches =
       model->face_patch.empty() ? 0 : *std::max_element(model->face_patch.begin(), model->face_patch.end()) + 1;
-  const PatchPointSets sets = face_subdivisions > 0
-                                  ? ResampledPoints(mesh, model->face_patch, num_patches, face_subdivisions)
-                                  : MemberPoints(mesh, *model, num_patches);
+  const PatchPointSets sets =
+      face_subdivisions > 0 ? ResampledPoints(mesh, model->face_patch, num_patches, face_subdivisions, curved_faces)
+                            : MemberPoints(mesh, *model, num_patches);
   const JetFitSummary summary = FitJetPatches(options, sets.points, sets.offsets, &sets.weights, &model->patches);
   for (int v = 0; v < mesh.num_vertices(); ++v) {
     for (int m : model->memberships(v)) {

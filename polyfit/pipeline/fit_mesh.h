@@ -90,9 +90,13 @@ void BuildPatchMemberships(const TriangleMesh& mesh, const std::vector<int>& fac
 // with L > 0 to the points of a barycentric grid of L + 1 points per side
 // on each of the patch's faces (each face's area shared among its points),
 // so that a patch with fewer vertices than the jet has coefficients is
-// still determined by its surface. Returns the fit's summary.
+// still determined by its surface. With curved_faces the grid points lie on
+// the faces' Phong tessellation (vertex normals), not on their planes: a
+// coarse mesh's flat faces cut chords inside the smooth surface its
+// vertices sample, and jets fitted to them sit inside it. Returns the fit's
+// summary.
 JetFitSummary FitPatchJets(const JetFitOptions& options, const TriangleMesh& mesh, PolyFitModel* model,
-                           int face_subdivisions = 0);
+                           int face_subdivisions = 0, bool curved_faces = false);
 
 }  // namespace polyfit
 
