@@ -59,6 +59,7 @@ std::string OneFitTrainerOptions::Validate() const {
   if (!(weight_step > 0.0)) return "weight_step must be > 0";
   if (!(learning_rate > 0.0)) return "learning_rate must be > 0";
   if (warmup_batches < 0) return "warmup_batches must be >= 0";
+  if (!(final_rate_fraction > 0.0 && final_rate_fraction <= 1.0)) return "final_rate_fraction must be in (0, 1]";
   if (validation_every < 0 || validation_frames < 1) return "validation_every >= 0 and validation_frames >= 1";
   if (num_threads < 1) return "num_threads must be >= 1";
   const OneFitDistribution& d = distribution;
@@ -348,6 +349,19 @@ OneFitBatchSummary OneFitTrainer::LbfgsBatch(const std::vector<OneFitSample>& ba
   return record;
 }
 
+double AdamStepSize(const OneFitTrainerOptions& options, long long step) {
+  // Counted in Adam's steps, so that a resumed run continues the schedule.
+  const double warmup = static_cast<double>(options.warmup_batches) * options.iterations_per_batch;
+  const double total = static_cast<double>(options.num_batches) * options.iterations_per_batch;
+  const double s = static_cast<double>(step);
+  if (s < warmup) return options.learning_rate * s / warmup;
+  if (options.final_rate_fraction == 1.0 || total <= warmup) return options.learning_rate;
+  const double t = std::min(1.0, (s - warmup) / (total - warmup));
+  const double fraction =
+      options.final_rate_fraction + (1.0 - options.final_rate_fraction) * 0.5 * (1.0 + std::cos(M_PI * t));
+  return options.learning_rate * fraction;
+}
+
 // Adam (Kingma and Ba): m = b1 m + (1 - b1) g, v = b2 v + (1 - b2) g^2,
 // w -= rate m_hat / (sqrt(v_hat) + eps), its moments kept across batches.
 OneFitBatchSummary OneFitTrainer::AdamBatch(const std::vector<OneFitSample>& batch, int index, AdamState* state,
@@ -366,10 +380,7 @@ OneFitBatchSummary OneFitTrainer::AdamBatch(const std::vector<OneFitSample>& bat
     if (k == 0) record.initial_loss = loss;
     ++state->steps;
     const double c1 = 1.0 - std::pow(kBeta1, state->steps), c2 = 1.0 - std::pow(kBeta2, state->steps);
-    // The warm-up counts Adam's steps, so that a resumed run continues it.
-    const double warmup = static_cast<double>(options_.warmup_batches) * options_.iterations_per_batch;
-    const double rate =
-        options_.learning_rate * (warmup > 0.0 ? std::min(1.0, static_cast<double>(state->steps) / warmup) : 1.0);
+    const double rate = AdamStepSize(options_, state->steps);
     for (size_t i = 0; i < n; ++i) {
       state->m[i] = kBeta1 * state->m[i] + (1.0 - kBeta1) * gradient[i];
       state->v[i] = kBeta2 * state->v[i] + (1.0 - kBeta2) * gradient[i] * gradient[i];

@@ -103,8 +103,12 @@ struct OneFitTrainerOptions {
   // Adam's step size (weights' units), reached linearly over the first
   // warmup_batches batches (Adam's first steps move every weight by the
   // full rate: batch 0's loss rose from 42k to 100k J without a warm-up).
+  // After the warm-up it follows a cosine down to learning_rate
+  // final_rate_fraction at the last batch (1: constant): late batches'
+  // steps then average out the mini-batches' noise instead of adding it.
   double learning_rate = 1e-4;
   int warmup_batches = 0;
+  double final_rate_fraction = 1.0;
   std::uint64_t seed = 1;
   // k_ext's epoch (DrapePhysicsOptions::k_ext) over training: batches map
   // linearly onto [0, kext_final_epoch], so that the paper's 100-epoch
@@ -174,6 +178,11 @@ struct OneFitTrainingSummary {
 
   std::string BriefReport() const;
 };
+
+// Adam's step size at its step `step` (counted over the whole run, from 0):
+// linear over the warm-up, then learning_rate, or a cosine from it down to
+// learning_rate final_rate_fraction at the last batch's last iteration.
+double AdamStepSize(const OneFitTrainerOptions& options, long long step);
 
 // One sample of the loss.
 struct OneFitSample {

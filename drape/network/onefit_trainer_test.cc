@@ -288,6 +288,28 @@ TEST_F(OneFitTrainerTest, AdamLowersTheLossToo) {
   EXPECT_NEAR(largest, options.learning_rate / 4.0, 1e-3 * options.learning_rate);
 }
 
+// The step size's schedule: linear warm-up, then constant or a cosine down
+// to the final fraction at the last batch's last step.
+TEST(AdamStepSizeTest, WarmsUpThenDecaysAlongACosine) {
+  OneFitTrainerOptions options;
+  options.learning_rate = 2e-4;
+  options.warmup_batches = 2;
+  options.iterations_per_batch = 5;
+  options.num_batches = 10;  // 50 steps, 10 of them warm-up
+  EXPECT_DOUBLE_EQ(AdamStepSize(options, 5), 1e-4);
+  EXPECT_DOUBLE_EQ(AdamStepSize(options, 10), 2e-4);
+  EXPECT_DOUBLE_EQ(AdamStepSize(options, 50), 2e-4);
+  options.final_rate_fraction = 0.1;
+  EXPECT_TRUE(options.Validate().empty()) << options.Validate();
+  EXPECT_DOUBLE_EQ(AdamStepSize(options, 5), 1e-4);
+  EXPECT_DOUBLE_EQ(AdamStepSize(options, 10), 2e-4);
+  EXPECT_NEAR(AdamStepSize(options, 30), 2e-4 * (0.1 + 0.9 * 0.5), 1e-18);
+  EXPECT_NEAR(AdamStepSize(options, 50), 2e-5, 1e-18);
+  EXPECT_NEAR(AdamStepSize(options, 80), 2e-5, 1e-18);  // a run extended past its budget
+  options.final_rate_fraction = 0.0;
+  EXPECT_FALSE(options.Validate().empty());
+}
+
 // Processes simulated by threads: MPI_Allreduce's sum, met at a barrier.
 class InMemoryAllReduce {
  public:

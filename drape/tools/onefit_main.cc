@@ -259,6 +259,11 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
   train->add_option("--warmup", t.warmup_batches, "Adam's step size ramps up linearly over this many batches")
       ->capture_default_str();
   train
+      ->add_option("--final-rate", t.final_rate_fraction,
+                   "Adam's step size then follows a cosine down to this fraction of --learning-rate at the last batch "
+                   "(1: constant)")
+      ->capture_default_str();
+  train
       ->add_option("--polish", t.polish.iterations,
                    "then this many Levenberg-Marquardt iterations on the output layer, features frozen (with "
                    "--batches 0: a polish of --init's model); progress in MODEL.polish.csv")
