@@ -1,5 +1,6 @@
 #include "drape/network/onefit_training_run.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -13,10 +14,13 @@
 #include "drape/motion/perturb_pose.h"
 #include "drape/network/onefit_draper.h"
 #include "drape/simulate/drape_inputs.h"
+#include "polyfit/mesh/decimation.h"
 #include "polyfit/util/atomic_file.h"
 
 namespace polyfit {
 namespace {
+
+constexpr char kDecimatedTag[] = "~decimated";
 
 std::vector<OneFitTrainingGarment> LoadGarments(const OneFitTrainingRunOptions& options, const SkinnedBody& body) {
   std::vector<OneFitTrainingGarment> garments;
@@ -30,6 +34,22 @@ std::vector<OneFitTrainingGarment> LoadGarments(const OneFitTrainingRunOptions& 
       throw Error(ErrorKind::kInput, path + ": " + e.what());
     }
     garments.push_back(std::move(g));
+  }
+  // After every original, so that garment 0 (the validation drape's) stays
+  // the first one given.
+  if (options.decimate > 0.0) {
+    const size_t given = garments.size();
+    for (size_t i = 0; i < given; ++i) {
+      OneFitTrainingGarment d;
+      d.name = garments[i].name + kDecimatedTag;
+      try {
+        d.mesh = DecimateMesh(garments[i].mesh, options.decimate);
+        d.weights = TransferSkinWeights(body, d.mesh, options.skin);
+      } catch (const std::invalid_argument& e) {
+        throw Error(ErrorKind::kInput, options.garment_paths[i] + ": --decimate: " + e.what());
+      }
+      garments.push_back(std::move(d));
+    }
   }
   return garments;
 }
@@ -71,6 +91,17 @@ std::string ClipReport(const std::vector<OneFitTrainingClip>& clips) {
   }
   return std::to_string(clips.size()) + " clips per body (" + std::to_string(clips.size() - perturbed - mixed) +
          " recorded, " + std::to_string(mixed) + " mixed" + (perturbed > 0 ? ", each also perturbed)" : ")");
+}
+
+// "N garments per body (G given, D decimated)", from the names
+// LoadGarments gave them.
+std::string GarmentReport(const std::vector<OneFitTrainingGarment>& garments) {
+  const auto decimated = std::count_if(garments.begin(), garments.end(), [](const OneFitTrainingGarment& g) {
+    return g.name.find(kDecimatedTag) != std::string::npos;
+  });
+  return std::to_string(garments.size()) + " garments per body (" +
+         std::to_string(static_cast<long>(garments.size()) - decimated) + " given, " + std::to_string(decimated) +
+         " decimated)";
 }
 
 // Frame f of a clip played forth and back (a donor shorter than its base
@@ -199,6 +230,7 @@ std::string OneFitTrainingRunOptions::Validate() const {
   if (!(perturb_degrees >= 0.0 && perturb_degrees <= 45.0)) return "perturb_degrees must be in [0, 45]";
   if (shape_samples < 0 || shape_samples > 64) return "shape_samples must be in [0, 64]";
   if (mix_clips < 0 || mix_clips > 1000) return "mix_clips must be in [0, 1000]";
+  if (!(decimate >= 0.0 && decimate < 1.0)) return "decimate must be in [0, 1)";
   if (shape_samples > 0 && body_dir.empty()) return "shape_samples needs the MakeHuman body (a body folder)";
   if (std::string p = shape.Validate(); !p.empty()) return "shape: " + p;
   if (std::string p = trainer.Validate(); !p.empty()) return "trainer: " + p;
@@ -222,9 +254,9 @@ std::vector<BodyShape> TrainingShapes(const OneFitTrainingRunOptions& options) {
 }
 
 // Per shape: the body, the garments fitted to it and the clips on its rig
-// (*clip_report: ClipReport of the first body's).
+// (*data_report: GarmentReport and ClipReport of the first body's).
 std::vector<OneFitTrainingBody> LoadTrainingBodies(const OneFitTrainingRunOptions& options, const SkinnedBody& body,
-                                                   std::string* clip_report) {
+                                                   std::string* data_report) {
   std::vector<OneFitTrainingBody> bodies;
   for (const BodyShape& shape : TrainingShapes(options)) {
     OneFitTrainingBody b;
@@ -232,7 +264,7 @@ std::vector<OneFitTrainingBody> LoadTrainingBodies(const OneFitTrainingRunOption
     b.garments = LoadGarments(options, b.body);
     b.clips = LoadClips(options, b.body);
     for (OneFitTrainingClip& clip : b.clips) clip.shape = shape;
-    if (bodies.empty()) *clip_report = ClipReport(b.clips);
+    if (bodies.empty()) *data_report = GarmentReport(b.garments) + ", " + ClipReport(b.clips);
     bodies.push_back(std::move(b));
   }
   return bodies;
@@ -242,7 +274,7 @@ std::vector<OneFitTrainingBody> LoadTrainingBodies(const OneFitTrainingRunOption
 // ones, or a model's when fine-tuning (which keeps the model's
 // architecture: its warp head, local pose and frame alignment).
 std::unique_ptr<OneFitTrainer> MakeTrainer(const OneFitTrainingRunOptions& options, const SkinnedBody& body,
-                                           std::vector<double>* weights, std::string* clip_report) {
+                                           std::vector<double>* weights, std::string* data_report) {
   OneFitModel init;
   OneFitTrainerOptions trainer_options = options.trainer;
   if (!options.init_model_path.empty()) {
@@ -252,7 +284,7 @@ std::unique_ptr<OneFitTrainer> MakeTrainer(const OneFitTrainingRunOptions& optio
     trainer_options.root_rotation = init.root_rotation;
     PatchLikeModel(init, &trainer_options.drape);
   }
-  auto trainer = std::make_unique<OneFitTrainer>(LoadTrainingBodies(options, body, clip_report), trainer_options);
+  auto trainer = std::make_unique<OneFitTrainer>(LoadTrainingBodies(options, body, data_report), trainer_options);
   if (!options.validation_motion_path.empty()) {
     trainer->SetValidationClip(LoadClip(options.validation_motion_path, 1.0, options, body));
   }
@@ -345,8 +377,8 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
   }
   const SkinnedBody body = LoadDrapeBody(options.body_dir, options.shape);
   std::vector<double> weights;
-  std::string clip_report;
-  const std::unique_ptr<OneFitTrainer> trainer = MakeTrainer(options, body, &weights, &clip_report);
+  std::string data_report;
+  const std::unique_ptr<OneFitTrainer> trainer = MakeTrainer(options, body, &weights, &data_report);
   ResumePoint resume = Resume(options, trainer->MakeModel(weights), &weights);
   double best_loss = BestValidationLoss(resume.csv);
   // Shared over processes, every one holds the same weights: the first
@@ -376,7 +408,7 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
                           [&](std::ostream& out) { WritePolishProgress(summary.polish, out); });
     }
   }
-  summary.message += "; " + clip_report;
+  summary.message += "; " + data_report;
   if (options.shape_samples > 0) {
     summary.message += "; body shapes";
     for (const BodyShape& shape : TrainingShapes(options)) summary.message += " {" + shape.ToString() + "}";

@@ -47,6 +47,11 @@ struct OneFitTrainingRunOptions {
   // move as other recorded clips' do, from seeded starts
   // (drape/motion/mix_pose.h; seeded by trainer.seed); 0: none.
   int mix_clips = 0;
+  // Augmentation: each garment also trained decimated by edge collapse to
+  // this fraction of its edges (polyfit/mesh/decimation.h; its skinning
+  // transferred as a mesh file's is), so that the network sees more than
+  // one meshing of it; 0: none.
+  double decimate = 0.0;
   // Augmentation: this many further body shapes, each macro value drawn
   // uniformly in [0, 1] (seeded by trainer.seed), each with the garments
   // fitted to it and the clips retargeted onto its rig, so that the

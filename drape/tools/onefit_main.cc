@@ -209,6 +209,10 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
                    "recorded clips' do (seeded; before --perturb, which covers them too)")
       ->capture_default_str();
   train
+      ->add_option("--decimate", o.decimate,
+                   "augmentation: each garment also decimated to this fraction of its edges (0: none)")
+      ->capture_default_str();
+  train
       ->add_option("--shape-samples", o.shape_samples,
                    "augmentation: also train on this many body shapes sampled uniformly in range (seeded; needs "
                    "--body), each with every garment fitted to it and every clip")
