@@ -152,10 +152,12 @@ void OneFitTrainer::AddGarment(const SkinnedBody& body, const OneFitTrainingGarm
                                const DrapeSolverOptions& drape) {
   auto data = std::make_unique<GarmentData>();
   data->name = g.name;
+  DrapeSolverOptions own = drape;
+  own.patching.seed = g.patch_seed;
   data->body = body_index;
   try {
     for (int t = 0; t < options_.num_threads; ++t) {
-      data->solvers.push_back(std::make_unique<DrapeSolver>(body, g.mesh, g.weights, drape));
+      data->solvers.push_back(std::make_unique<DrapeSolver>(body, g.mesh, g.weights, own));
     }
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument("OneFitTrainer: garment '" + g.name + "': " + e.what());

@@ -35,6 +35,9 @@ struct OneFitTrainingGarment {
   std::string name;
   TriangleMesh mesh;  // in the body's rest pose
   SkinWeights weights;
+  // Its patches' clustering seed (GarmentPatchOptions::seed): the same
+  // garment under another seed is another layout of patches.
+  std::uint64_t patch_seed = 1;
 };
 
 struct OneFitTrainingClip {

@@ -21,6 +21,7 @@ namespace polyfit {
 namespace {
 
 constexpr char kDecimatedTag[] = "~decimated";
+constexpr char kRepatchedTag[] = "~patched";
 
 std::vector<OneFitTrainingGarment> LoadGarments(const OneFitTrainingRunOptions& options, const SkinnedBody& body) {
   std::vector<OneFitTrainingGarment> garments;
@@ -49,6 +50,15 @@ std::vector<OneFitTrainingGarment> LoadGarments(const OneFitTrainingRunOptions& 
         throw Error(ErrorKind::kInput, options.garment_paths[i] + ": --decimate: " + e.what());
       }
       garments.push_back(std::move(d));
+    }
+  }
+  const size_t meshings = garments.size();
+  for (int k = 1; k <= options.repatch; ++k) {
+    for (size_t i = 0; i < meshings; ++i) {
+      OneFitTrainingGarment r = garments[i];
+      r.name += kRepatchedTag + std::to_string(k);
+      r.patch_seed = garments[i].patch_seed + static_cast<std::uint64_t>(k);
+      garments.push_back(std::move(r));
     }
   }
   return garments;
@@ -93,15 +103,20 @@ std::string ClipReport(const std::vector<OneFitTrainingClip>& clips) {
          " recorded, " + std::to_string(mixed) + " mixed" + (perturbed > 0 ? ", each also perturbed)" : ")");
 }
 
-// "N garments per body (G given, D decimated)", from the names
-// LoadGarments gave them.
+// "N garments per body (G given, D decimated, R re-patched)", from the
+// names LoadGarments gave them.
 std::string GarmentReport(const std::vector<OneFitTrainingGarment>& garments) {
-  const auto decimated = std::count_if(garments.begin(), garments.end(), [](const OneFitTrainingGarment& g) {
-    return g.name.find(kDecimatedTag) != std::string::npos;
-  });
-  return std::to_string(garments.size()) + " garments per body (" +
-         std::to_string(static_cast<long>(garments.size()) - decimated) + " given, " + std::to_string(decimated) +
-         " decimated)";
+  long decimated = 0, repatched = 0;
+  for (const OneFitTrainingGarment& g : garments) {
+    if (g.name.find(kRepatchedTag) != std::string::npos) {
+      ++repatched;
+    } else if (g.name.find(kDecimatedTag) != std::string::npos) {
+      ++decimated;
+    }
+  }
+  const long given = static_cast<long>(garments.size()) - decimated - repatched;
+  return std::to_string(garments.size()) + " garments per body (" + std::to_string(given) + " given, " +
+         std::to_string(decimated) + " decimated, " + std::to_string(repatched) + " re-patched)";
 }
 
 // Frame f of a clip played forth and back (a donor shorter than its base
@@ -231,6 +246,7 @@ std::string OneFitTrainingRunOptions::Validate() const {
   if (shape_samples < 0 || shape_samples > 64) return "shape_samples must be in [0, 64]";
   if (mix_clips < 0 || mix_clips > 1000) return "mix_clips must be in [0, 1000]";
   if (!(decimate >= 0.0 && decimate < 1.0)) return "decimate must be in [0, 1)";
+  if (repatch < 0 || repatch > 16) return "repatch must be in [0, 16]";
   if (shape_samples > 0 && body_dir.empty()) return "shape_samples needs the MakeHuman body (a body folder)";
   if (std::string p = shape.Validate(); !p.empty()) return "shape: " + p;
   if (std::string p = trainer.Validate(); !p.empty()) return "trainer: " + p;

@@ -52,6 +52,11 @@ struct OneFitTrainingRunOptions {
   // transferred as a mesh file's is), so that the network sees more than
   // one meshing of it; 0: none.
   double decimate = 0.0;
+  // Augmentation: each garment (decimated ones too) also patched under this
+  // many other clustering seeds, so that the network sees more than one
+  // layout of patches on it (a network trained on one leaves more of the
+  // same garment inside under another); 0: none.
+  int repatch = 0;
   // Augmentation: this many further body shapes, each macro value drawn
   // uniformly in [0, 1] (seeded by trainer.seed), each with the garments
   // fitted to it and the clips retargeted onto its rig, so that the

@@ -61,7 +61,8 @@ void BindSolverOptions(py::module_& m) {
       .def_readwrite("max_fit_error", &GarmentPatchOptions::max_fit_error)
       .def_readwrite("max_splits", &GarmentPatchOptions::max_splits)
       .def_readwrite("align_frames", &GarmentPatchOptions::align_frames)
-      .def_readwrite("curved_faces", &GarmentPatchOptions::curved_faces);
+      .def_readwrite("curved_faces", &GarmentPatchOptions::curved_faces)
+      .def_readwrite("seed", &GarmentPatchOptions::seed);
   AddCopy(patching);
   py::class_<DrapeSlideOptions> slide(m, "DrapeSlideOptions");
   slide.def(py::init<>())

@@ -45,6 +45,7 @@ PolyFitModel PatchGarment(const TriangleMesh& mesh, const GarmentPatchOptions& p
   options.clustering.auto_area_per_patch = patching.patch_area;
   options.clustering.auto_min_patches = 1;
   options.clustering.auto_max_patches = std::max(1, mesh.num_faces());
+  options.clustering.seed = patching.seed;
   options.face_subdivisions = patching.face_subdivisions;
   options.curved_faces = patching.curved_faces;
   options.jet.order = patching.jet_order;

@@ -29,6 +29,7 @@
 #ifndef POLYFIT_DRAPE_SIMULATE_DRAPE_SOLVER_H_
 #define POLYFIT_DRAPE_SIMULATE_DRAPE_SOLVER_H_
 
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -83,6 +84,9 @@ struct GarmentPatchOptions {
   // a fine meshing's of the same garment. A model records it
   // (OneFitModel::curved_faces).
   bool curved_faces = false;
+  // The clustering's seed (ClusteringOptions::seed): another seed, another
+  // layout of patches of the same size.
+  std::uint64_t seed = 1;
   // Patches whose jet misses a vertex by more (m) are split, up to
   // max_splits rounds.
   double max_fit_error = 8e-3;

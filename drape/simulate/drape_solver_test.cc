@@ -32,6 +32,22 @@ TEST(DrapeSolverTest, PatchesReproduceTheRestGarment) {
   for (const JetPatch& patch : aligned.model().patches) EXPECT_GT(patch.frame.rotation.col(0).y(), 0.99);
 }
 
+// The clustering's seed: the same seed the same patches, another seed
+// another layout; the garment it reproduces is the same.
+TEST(DrapeSolverTest, ThePatchSeedChangesTheLayoutOnly) {
+  const SkinnedBody body = MakeProceduralBody();
+  const TriangleMesh tube = MakeTube(0.2, 0.1, 0.5, 24, 8);
+  const SkinWeights weights = SingleJointWeights(tube.num_vertices(), 0);
+  DrapeSolverOptions options;
+  options.patching.patch_area = 0.02;
+  DrapeSolver first(body, tube, weights, options), again(body, tube, weights, options);
+  options.patching.seed = 2;
+  DrapeSolver other(body, tube, weights, options);
+  EXPECT_EQ(first.model().face_patch, again.model().face_patch);
+  EXPECT_NE(first.model().face_patch, other.model().face_patch);
+  EXPECT_LT((first.positions() - other.positions()).cwiseAbs().maxCoeff(), 1e-3);
+}
+
 TEST(DrapeSolverTest, AFreeSheetFallsWithTheWeightsAccelerationAndKeepsItsShape) {
   const SkinnedBody body = MakeProceduralBody();
   TriangleMesh garment = MakeGrid(16, 16, 0.4);

@@ -80,6 +80,8 @@ void AddSimulatePatchingOptions(CLI::App* simulate, SimulateFlags* f) {
       ->add_option("--face-subdivisions", options.solver.patching.face_subdivisions,
                    "jets fitted to a grid of this many subdivisions per face edge (0: to the vertices)")
       ->capture_default_str();
+  simulate->add_option("--patch-seed", options.solver.patching.seed, "the patches' clustering seed")
+      ->capture_default_str();
   simulate->add_flag("--curved-faces", options.solver.patching.curved_faces,
                      "the grid on the faces' Phong tessellation, not their planes");
   simulate
@@ -211,6 +213,11 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
   train
       ->add_option("--decimate", o.decimate,
                    "augmentation: each garment also decimated to this fraction of its edges (0: none)")
+      ->capture_default_str();
+  train
+      ->add_option("--repatch", o.repatch,
+                   "augmentation: each garment (decimated ones too) also patched under this many other clustering "
+                   "seeds (0: none)")
       ->capture_default_str();
   train
       ->add_option("--shape-samples", o.shape_samples,
