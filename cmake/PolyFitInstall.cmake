@@ -14,9 +14,10 @@ install(DIRECTORY polyfit/jet DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/polyfit
         FILES_MATCHING PATTERN "*.h" PATTERN "*_test*" EXCLUDE)
 install(DIRECTORY cost_functions DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
         FILES_MATCHING PATTERN "*.h" PATTERN "*_test*" EXCLUDE)
+# cgal_surface_mesh.h is internal to CGAL-heavy units (CGAL is not exported).
 foreach(dir patch synthetic eval util mesh cluster model pipeline)
   install(DIRECTORY polyfit/${dir} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/polyfit
-          FILES_MATCHING PATTERN "*.h")
+          FILES_MATCHING PATTERN "*.h" PATTERN "cgal_surface_mesh.h" EXCLUDE)
 endforeach()
 
 install(EXPORT PolyFitCostFunctionsTargets NAMESPACE PolyFit::

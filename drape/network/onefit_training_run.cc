@@ -8,6 +8,7 @@
 #include <memory>
 #include <random>
 #include <sstream>
+#include <utility>
 
 #include "drape/motion/mirror_pose.h"
 #include "drape/motion/mix_pose.h"
@@ -88,32 +89,32 @@ OneFitTrainingClip LoadClip(const std::string& path, double speed, const OneFitT
 constexpr char kMixedTag[] = "~mixed";
 constexpr char kPerturbedTag[] = "~perturbed";
 
-// "N clips per body (R recorded, M mixed[, each also perturbed])", from the
-// names LoadClips gave them.
-std::string ClipReport(const std::vector<OneFitTrainingClip>& clips) {
-  size_t mixed = 0, perturbed = 0;
-  for (const OneFitTrainingClip& clip : clips) {
-    if (clip.name.find(kPerturbedTag) != std::string::npos) {
-      ++perturbed;
-    } else if (clip.name.find(kMixedTag) != std::string::npos) {
-      ++mixed;
+// How many of `items` have `first` in their name, and how many of the rest
+// have `second` (the tags LoadClips and LoadGarments append).
+template <typename T>
+std::pair<long, long> CountTagged(const std::vector<T>& items, const char* first, const char* second) {
+  long a = 0, b = 0;
+  for (const T& item : items) {
+    if (item.name.find(first) != std::string::npos) {
+      ++a;
+    } else if (item.name.find(second) != std::string::npos) {
+      ++b;
     }
   }
-  return std::to_string(clips.size()) + " clips per body (" + std::to_string(clips.size() - perturbed - mixed) +
-         " recorded, " + std::to_string(mixed) + " mixed" + (perturbed > 0 ? ", each also perturbed)" : ")");
+  return {a, b};
 }
 
-// "N garments per body (G given, D decimated, R re-patched)", from the
-// names LoadGarments gave them.
+// "N clips per body (R recorded, M mixed[, each also perturbed])".
+std::string ClipReport(const std::vector<OneFitTrainingClip>& clips) {
+  const auto [perturbed, mixed] = CountTagged(clips, kPerturbedTag, kMixedTag);
+  const long recorded = static_cast<long>(clips.size()) - perturbed - mixed;
+  return std::to_string(clips.size()) + " clips per body (" + std::to_string(recorded) + " recorded, " +
+         std::to_string(mixed) + " mixed" + (perturbed > 0 ? ", each also perturbed)" : ")");
+}
+
+// "N garments per body (G given, D decimated, R re-patched)".
 std::string GarmentReport(const std::vector<OneFitTrainingGarment>& garments) {
-  long decimated = 0, repatched = 0;
-  for (const OneFitTrainingGarment& g : garments) {
-    if (g.name.find(kRepatchedTag) != std::string::npos) {
-      ++repatched;
-    } else if (g.name.find(kDecimatedTag) != std::string::npos) {
-      ++decimated;
-    }
-  }
+  const auto [repatched, decimated] = CountTagged(garments, kRepatchedTag, kDecimatedTag);
   const long given = static_cast<long>(garments.size()) - decimated - repatched;
   return std::to_string(garments.size()) + " garments per body (" + std::to_string(given) + " given, " +
          std::to_string(decimated) + " decimated, " + std::to_string(repatched) + " re-patched)";

@@ -1,65 +1,29 @@
-// CGAL-heavy: the only translation unit of the library that includes
-// Surface_mesh and the subdivision methods.
+// CGAL-heavy: the subdivision methods (with Surface_mesh, as in
+// decimation.cc).
 #include "polyfit/mesh/subdivision.h"
 
 #include <algorithm>
 #include <cstdint>
 #include <vector>
 
-#include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
-#include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
-#include <CGAL/Simple_cartesian.h>
 #include <CGAL/Subdivision_method_3/subdivision_methods_3.h>
-#include <CGAL/Surface_mesh.h>
 
+#include "polyfit/mesh/cgal_surface_mesh.h"
 #include "polyfit/mesh/mesh_topology.h"
 
 namespace polyfit {
 namespace {
 
-using Kernel = CGAL::Simple_cartesian<double>;
-using SurfaceMesh = CGAL::Surface_mesh<Kernel::Point_3>;
-
 // Loop subdivision, or false with the reason when the mesh is not a
 // manifold CGAL accepts.
 bool SubdivideLoop(const TriangleMesh& mesh, int levels, TriangleMesh* out, std::string* reason) {
-  namespace PMP = CGAL::Polygon_mesh_processing;
-  std::vector<Kernel::Point_3> points;
-  points.reserve(mesh.num_vertices());
-  for (int v = 0; v < mesh.num_vertices(); ++v) {
-    points.emplace_back(mesh.vertices(0, v), mesh.vertices(1, v), mesh.vertices(2, v));
-  }
-  std::vector<std::vector<std::size_t>> polygons(mesh.num_faces());
-  for (int f = 0; f < mesh.num_faces(); ++f) {
-    polygons[f] = {static_cast<std::size_t>(mesh.faces(0, f)), static_cast<std::size_t>(mesh.faces(1, f)),
-                   static_cast<std::size_t>(mesh.faces(2, f))};
-  }
-  if (!PMP::is_polygon_soup_a_polygon_mesh(polygons)) {
+  CgalSurfaceMesh sm;
+  if (!ToCgalSurfaceMesh(mesh, &sm)) {
     *reason = "not an oriented manifold mesh";
     return false;
   }
-  SurfaceMesh sm;
-  PMP::polygon_soup_to_polygon_mesh(points, polygons, sm);
   CGAL::Subdivision_method_3::Loop_subdivision(sm, CGAL::parameters::number_of_iterations(levels));
-  out->vertices.resize(3, sm.number_of_vertices());
-  std::vector<int> index(sm.num_vertices(), -1);
-  int next = 0;
-  for (auto v : sm.vertices()) {
-    const auto& p = sm.point(v);
-    out->vertices.col(next) = Eigen::Vector3d(p.x(), p.y(), p.z());
-    index[v.idx()] = next++;
-  }
-  out->faces.resize(3, sm.number_of_faces());
-  int f = 0;
-  for (auto face : sm.faces()) {
-    int c = 0;
-    for (auto v : CGAL::vertices_around_face(sm.halfedge(face), sm)) {
-      if (c < 3) out->faces(c, f) = index[v.idx()];
-      ++c;
-    }
-    ++f;
-  }
-  out->corner_texcoords.resize(2, 0);
+  *out = FromCgalSurfaceMesh(sm);
   return true;
 }
 
