@@ -3,6 +3,7 @@
 //   polyfit fit INPUT... --out DIR [--patches K|auto] [--order N] [--refine]
 //   mpirun -n N polyfit fit ...     (built with MPI: the inputs shared by N ranks)
 //   polyfit eval A B [--samples N]
+//   polyfit remesh IN OUT (--decimate F | --subdivide N [--loop])
 //
 // Every default lives in the library's options; this file only maps flags
 // onto them and makes one library call per command.
@@ -10,6 +11,7 @@
 
 #include <cstdio>
 #include <iostream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -17,7 +19,9 @@
 
 #include "polyfit/eval/mesh_metrics.h"
 #include "polyfit/eval/surface_distance.h"
+#include "polyfit/mesh/decimation.h"
 #include "polyfit/mesh/mesh_io.h"
+#include "polyfit/mesh/subdivision.h"
 #include "polyfit/pipeline/batch_fit.h"
 #include "polyfit/util/status.h"
 #ifdef POLYFIT_WITH_MPI
@@ -115,6 +119,33 @@ int RunEval(const std::string& mesh_a, const std::string& mesh_b, int samples) {
   return polyfit::kExitSuccess;
 }
 
+// The remesh command: the same surface, meshed coarser or finer (a
+// resolution-agnostic method's test input). OUT's extension picks the format.
+int RunRemesh(const std::string& input, const std::string& output, double decimate,
+              const polyfit::SubdivisionOptions& subdivision) {
+  const std::string extension = output.size() >= 4 ? output.substr(output.size() - 4) : "";
+  if (extension != ".obj" && extension != ".ply") {
+    std::cerr << output << ": expected a .obj or .ply file name\n";
+    return polyfit::kExitUsage;
+  }
+  const polyfit::TriangleMesh mesh = polyfit::ReadTriangleMesh(input);
+  polyfit::TriangleMesh remeshed;
+  try {
+    remeshed = decimate > 0.0 ? polyfit::DecimateMesh(mesh, decimate) : polyfit::SubdivideMesh(mesh, subdivision);
+  } catch (const std::invalid_argument& e) {
+    std::cerr << input << ": " << e.what() << "\n";
+    return polyfit::kExitInputError;
+  }
+  if (extension == ".obj") {
+    polyfit::WriteObj(output, remeshed);
+  } else {
+    polyfit::WritePly(output, remeshed);
+  }
+  std::printf("%s: %d vertices, %d faces -> %s: %d vertices, %d faces\n", input.c_str(), mesh.num_vertices(),
+              mesh.num_faces(), output.c_str(), remeshed.num_vertices(), remeshed.num_faces());
+  return polyfit::kExitSuccess;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -162,6 +193,23 @@ int main(int argc, char** argv) {
   eval->add_option("b", mesh_b, "Compared mesh")->required();
   eval->add_option("--samples", samples, "Uniform surface samples per mesh")->capture_default_str();
 
+  std::string remesh_in, remesh_out;
+  double decimate = 0.0;
+  polyfit::SubdivisionOptions subdivide;
+  subdivide.levels = 0;
+  bool loop = false;
+  CLI::App* remesh = app.add_subcommand("remesh", "The same surface meshed coarser (edge collapse) or finer");
+  remesh->add_option("input", remesh_in, "Mesh file")->required();
+  remesh->add_option("output", remesh_out, "Output mesh (.obj or .ply)")->required();
+  CLI::Option* decimate_option =
+      remesh->add_option("--decimate", decimate, "Collapse edges until this fraction of them is left, in (0, 1]")
+          ->check(CLI::Range(1e-6, 1.0));
+  CLI::Option* subdivide_option =
+      remesh->add_option("--subdivide", subdivide.levels, "Subdivision levels (each 4x the faces)")
+          ->check(CLI::Range(1, 4));
+  decimate_option->excludes(subdivide_option);
+  remesh->add_flag("--loop", loop, "With --subdivide: Loop's scheme (smooth) rather than midpoints");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -192,6 +240,14 @@ int main(int argc, char** argv) {
     }
     if (eval->parsed()) {
       return RunEval(mesh_a, mesh_b, samples);
+    }
+    if (remesh->parsed()) {
+      if (decimate <= 0.0 && subdivide.levels <= 0) {
+        std::cerr << "remesh: give --decimate F or --subdivide N\n";
+        return polyfit::kExitUsage;
+      }
+      if (loop) subdivide.scheme = polyfit::SubdivisionScheme::kLoop;
+      return RunRemesh(remesh_in, remesh_out, decimate, subdivide);
     }
     return polyfit::kExitSuccess;
   });
