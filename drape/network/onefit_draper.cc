@@ -2,6 +2,8 @@
 
 #include <string>
 
+#include "polyfit/jet/jet_basis.h"
+
 namespace polyfit {
 
 void PatchLikeModel(const OneFitModel& model, DrapeSolverOptions* options) {
@@ -12,9 +14,24 @@ void PatchLikeModel(const OneFitModel& model, DrapeSolverOptions* options) {
   options->patching.curved_faces = model.curved_faces;
 }
 
+PatchOutputMap MakePatchOutputMap(const DrapeSolver& solver, int jet_order, int warp_order, bool area_units) {
+  PatchOutputMap map;
+  map.rest = solver.RestPatchParameters();
+  const PolyFitModel& model = solver.model();
+  const int stride = solver.num_patch_parameters(), k = NumJetCoefficients(jet_order);
+  const std::vector<double> areas = solver.PatchRestAreas();
+  map.units.resize(stride, model.num_patches());
+  for (int p = 0; p < model.num_patches(); ++p) {
+    map.frames.push_back(model.patches[p].frame.rotation);
+    map.units.col(p) =
+        PatchOutputUnits(jet_order, warp_order, map.rest[p * stride + k], areas[p], solver.WarpRadii()[p], area_units);
+  }
+  return map;
+}
+
 OneFitDraper::OneFitDraper(const OneFitModel& model, const DrapeSolver& solver, const SkinWeights& weights,
                            const Skeleton& skeleton)
-    : model_(model), skeleton_(skeleton), rest_(solver.RestPatchParameters()) {
+    : model_(model), skeleton_(skeleton) {
   if (skeleton.num_joints() != model.num_joints) {
     throw OneFitModelError("the model was trained for a rig of " + std::to_string(model.num_joints) +
                                " joints, the body has " + std::to_string(skeleton.num_joints()),
@@ -24,9 +41,9 @@ OneFitDraper::OneFitDraper(const OneFitModel& model, const DrapeSolver& solver, 
     throw OneFitModelError("the model predicts jets or warps of another order than the drape's",
                            ErrorKind::kInvalidArgument);
   }
-  for (const JetPatch& patch : solver.model().patches) frames_.push_back(patch.frame.rotation);
-  const Eigen::MatrixXd features =
-      model.patch_normalizer.Apply(PatchFeatures(solver.model(), rest_, model.jet_order, weights, skeleton));
+  map_ = MakePatchOutputMap(solver, model.jet_order, model.network.warp_order(), model.area_units);
+  const Eigen::MatrixXd features = model.patch_normalizer.Apply(
+      PatchFeatures(solver.model(), map_.rest, map_.units, model.jet_order, weights, skeleton));
   garment_half_ = model.network.GarmentHalf(model.weights.data(), features);
   joint_weights_ = PatchJointWeights(solver.model(), weights, skeleton.num_joints());
 }
@@ -37,7 +54,7 @@ std::vector<double> OneFitDraper::Predict(const JointTransforms& before_previous
       BodyFeatures(skeleton_, before_previous, previous, now, fps, shape, model_.root_rotation));
   Eigen::MatrixXd outputs;
   model_.network.ForwardWithGarmentHalf(model_.weights.data(), garment_half_, body, &joint_weights_, &outputs);
-  return PatchParametersFromOutputs(rest_, frames_, outputs, model_.network.num_coefficients());
+  return PatchParametersFromOutputs(map_, outputs, model_.network.num_coefficients());
 }
 
 }  // namespace polyfit

@@ -20,6 +20,10 @@ namespace polyfit {
 // (frame alignment, patch area, fit error) it was trained on.
 void PatchLikeModel(const OneFitModel& model, DrapeSolverOptions* options);
 
+// What the network's outputs are to the solver's patches (PatchOutputUnits).
+// jet_order, warp_order: the solver's (GarmentPatchOptions, DrapeSlideOptions).
+PatchOutputMap MakePatchOutputMap(const DrapeSolver& solver, int jet_order, int warp_order, bool area_units);
+
 class OneFitDraper {
  public:
   // solver: the garment's drape (its patches); throws OneFitModelError
@@ -35,8 +39,7 @@ class OneFitDraper {
  private:
   const OneFitModel& model_;
   const Skeleton& skeleton_;
-  std::vector<double> rest_;
-  std::vector<Eigen::Matrix3d> frames_;
+  PatchOutputMap map_;
   Eigen::MatrixXd garment_half_;
   Eigen::MatrixXd joint_weights_;  // #joints by #patches, for the local pose
 };

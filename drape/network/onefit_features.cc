@@ -121,8 +121,9 @@ Eigen::MatrixXd LocalPoseFeatures(const Eigen::VectorXd& body_features, const Ei
   return blocks * joint_weights;
 }
 
-Eigen::MatrixXd PatchFeatures(const PolyFitModel& model, const std::vector<double>& rest_parameters, int jet_order,
-                              const SkinWeights& weights, const Skeleton& skeleton) {
+Eigen::MatrixXd PatchFeatures(const PolyFitModel& model, const std::vector<double>& rest_parameters,
+                              const Eigen::MatrixXd& units, int jet_order, const SkinWeights& weights,
+                              const Skeleton& skeleton) {
   const int num_patches = model.num_patches();
   if (num_patches == 0) throw std::invalid_argument("PatchFeatures: the garment has no patch");
   const int stride = static_cast<int>(rest_parameters.size()) / num_patches;
@@ -130,6 +131,9 @@ Eigen::MatrixXd PatchFeatures(const PolyFitModel& model, const std::vector<doubl
   if (stride * num_patches != static_cast<int>(rest_parameters.size()) || jet_order < 1 ||
       stride < num_coefficients + 4) {
     throw std::invalid_argument("PatchFeatures: rest parameters do not fit the patches");
+  }
+  if (units.cols() != num_patches || units.rows() < num_coefficients + 4) {
+    throw std::invalid_argument("PatchFeatures: output units do not fit the patches");
   }
   const int num_joints = skeleton.num_joints();
   // Checks that the weights are the garment's.
@@ -140,8 +144,8 @@ Eigen::MatrixXd PatchFeatures(const PolyFitModel& model, const std::vector<doubl
     const double* rest = rest_parameters.data() + p * stride;
     double* out = features.col(p).data();
     int k = 0;
-    for (int c = 0; c < num_coefficients; ++c) out[k++] = rest[c];
-    out[k++] = std::log(std::max(rest[num_coefficients], 1e-12));
+    for (int c = 0; c < num_coefficients; ++c) out[k++] = rest[c] / units(c, p);
+    out[k++] = std::log(std::max(units(num_coefficients + 1, p), 1e-12));
     SixD(model.patches[p].frame.rotation, out + k);
     k += 6;
     const Eigen::Vector3d centre(rest[num_coefficients + 1], rest[num_coefficients + 2], rest[num_coefficients + 3]);

@@ -3,8 +3,10 @@
 //
 // Per garment patch k (once per garment, not per frame), from its rest
 // PolyFit description and its binding to the body:
-//   alpha_k                     the rest jet's coefficients (NumJetCoefficients)
-//   log s_k                     its scale
+//   alpha_k                     the rest jet's coefficients (NumJetCoefficients),
+//                               over their output units (PatchOutputMap)
+//   log L_k                     its scale s_k, or with area units its area's
+//                               radius sqrt(A_k / pi)
 //   r1, r2                      the first two columns of its frame R_k (6D)
 //   gamma(T_k)                  its centre T_k and a positional encoding of it
 //   w_k                         its members' mean skinning weight per joint (#J)
@@ -53,10 +55,14 @@ int BodyFeatureSize(int num_joints);
 
 // #features by #patches. rest_parameters: per patch alpha
 // (NumJetCoefficients(jet_order)), s, T (and any warp, not read) as
-// DrapeSolver::RestPatchParameters gives them; model: the patches' frames
-// and memberships; weights: the garment's skinning weights.
-Eigen::MatrixXd PatchFeatures(const PolyFitModel& model, const std::vector<double>& rest_parameters, int jet_order,
-                              const SkinWeights& weights, const Skeleton& skeleton);
+// DrapeSolver::RestPatchParameters gives them; units: the network's output
+// units per patch (PatchOutputMap::units): alpha_c and log s are read as
+// alpha_c / u_c and log L, the jet in the units the network moves it in;
+// model: the patches' frames and memberships; weights: the garment's
+// skinning weights.
+Eigen::MatrixXd PatchFeatures(const PolyFitModel& model, const std::vector<double>& rest_parameters,
+                              const Eigen::MatrixXd& units, int jet_order, const SkinWeights& weights,
+                              const Skeleton& skeleton);
 
 // #joints by #patches: each patch's members' mean skinning weight per
 // joint (a column sums to 1 where the garment's weights do).

@@ -113,6 +113,7 @@ void SaveOneFitModel(const std::string& path, const OneFitModel& model) {
   w.Put<double>(model.max_fit_error);
   w.Put<std::int32_t>(model.root_rotation == RootRotation::kHeadingFree ? 1 : 0);
   w.Put<std::int32_t>(model.curved_faces ? 1 : 0);
+  w.Put<std::int32_t>(model.area_units ? 1 : 0);
   PutMlp(model.network.patch_encoder(), &w);
   PutMlp(model.network.body_encoder(), &w);
   PutMlp(model.network.decoder(), &w);
@@ -197,6 +198,9 @@ OneFitModel LoadOneFitModel(const std::string& path) {
   const int curved = version >= 7 ? r.Get<std::int32_t>("the header") : 0;
   if (curved != 0 && curved != 1) r.Fail("curved faces flag out of range");
   model.curved_faces = curved == 1;
+  const int area_units = version >= 8 ? r.Get<std::int32_t>("the header") : 0;
+  if (area_units != 0 && area_units != 1) r.Fail("output units flag out of range");
+  model.area_units = area_units == 1;
   if (aligned != 0 && aligned != 1) r.Fail("frame alignment flag out of range");
   if (local_pose != 0 && local_pose != 1) r.Fail("local pose flag out of range");
   model.aligned_frames = aligned == 1;

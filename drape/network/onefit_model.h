@@ -18,8 +18,9 @@ namespace polyfit {
 // were aligned, version 4 whether the decoder reads the local pose, version
 // 5 the patching's area and fit error, version 6 the root's rotation
 // feature (RootRotation), version 7 whether the patches were fitted to
-// curved faces; earlier files still load.
-inline constexpr int kOneFitModelVersion = 7;
+// curved faces, version 8 the output units (area_units); earlier files
+// still load.
+inline constexpr int kOneFitModelVersion = 8;
 
 class OneFitModelError : public Error {
  public:
@@ -40,6 +41,9 @@ struct OneFitModel {
   double max_fit_error = 8e-3;
   // GarmentPatchOptions::curved_faces (before version 7: false).
   bool curved_faces = false;
+  // Outputs and jet features in units of each patch's area rather than of
+  // its scale (PatchOutputUnits; before version 8: false).
+  bool area_units = true;
   // How its body features hold the root's rotation (before version 6:
   // kAbsolute).
   RootRotation root_rotation = RootRotation::kHeadingFree;

@@ -166,50 +166,79 @@ double BoundSlope(double y, double c) {
 
 }  // namespace
 
-std::vector<double> PatchParametersFromOutputs(const std::vector<double>& rest,
-                                               const std::vector<Eigen::Matrix3d>& frames,
-                                               const Eigen::MatrixXd& outputs, int num_coefficients) {
+Eigen::VectorXd PatchOutputUnits(int jet_order, int warp_order, double s0, double area, double warp_radius,
+                                 bool area_units) {
+  const int k = NumJetCoefficients(jet_order), w = warp_order >= 0 ? 2 * NumJetCoefficients(warp_order) : 0;
+  Eigen::VectorXd units = Eigen::VectorXd::Ones(k + 4 + w);
+  if (!area_units) {
+    units.segment<3>(k + 1).setConstant(s0);
+    return units;
+  }
+  if (!(area > 0.0) || !(s0 > 0.0) || !(warp_radius > 0.0)) {
+    throw std::invalid_argument("PatchOutputUnits: a patch without area, scale or extent");
+  }
+  const double rho = std::sqrt(area / 3.14159265358979323846);
+  const auto degree_units = [&](int order, double ratio, double* out) {
+    int c = 0;
+    for (int d = 0; d <= order; ++d) {
+      for (int b = 0; b <= d; ++b) out[c++] = std::pow(ratio, d - 1);
+    }
+  };
+  degree_units(jet_order, s0 / rho, units.data());
+  units.segment<3>(k + 1).setConstant(rho);
+  if (w > 0) {
+    degree_units(warp_order, s0 * warp_radius / rho, units.data() + k + 4);
+    units.segment(k + 4 + w / 2, w / 2) = units.segment(k + 4, w / 2);
+  }
+  return units;
+}
+
+std::vector<double> PatchParametersFromOutputs(const PatchOutputMap& map, const Eigen::MatrixXd& outputs,
+                                               int num_coefficients) {
   const int num_patches = static_cast<int>(outputs.cols());
   const int stride = static_cast<int>(outputs.rows());
   const int k = num_coefficients;
-  if (static_cast<int>(rest.size()) != stride * num_patches || static_cast<int>(frames.size()) != num_patches ||
-      stride < k + 4) {
+  if (static_cast<int>(map.rest.size()) != stride * num_patches || map.num_patches() != num_patches ||
+      map.units.rows() != stride || map.units.cols() != num_patches || stride < k + 4) {
     throw std::invalid_argument("PatchParametersFromOutputs: sizes disagree");
   }
-  std::vector<double> params(rest.size());
+  std::vector<double> params(map.rest.size());
   for (int p = 0; p < num_patches; ++p) {
-    const double* r = rest.data() + p * stride;
+    const double* r = map.rest.data() + p * stride;
+    const double* u = map.units.col(p).data();
     double* out = params.data() + p * stride;
-    for (int c = 0; c < k; ++c) out[c] = r[c] + Bound(outputs(c, p), kOutputBoundAlpha);
+    for (int c = 0; c < k; ++c) out[c] = r[c] + u[c] * Bound(outputs(c, p), kOutputBoundAlpha);
     out[k] = r[k] * std::exp(Bound(outputs(k, p), kOutputBoundLogScale));
     Eigen::Vector3d d;
-    for (int c = 0; c < 3; ++c) d[c] = Bound(outputs(k + 1 + c, p), kOutputBoundTranslation);
-    const Eigen::Vector3d t = Eigen::Map<const Eigen::Vector3d>(r + k + 1) + r[k] * frames[p] * d;
-    Eigen::Map<Eigen::Vector3d>(out + k + 1) = t;
-    for (int c = k + 4; c < stride; ++c) out[c] = r[c] + Bound(outputs(c, p), kOutputBoundWarp);
+    for (int c = 0; c < 3; ++c) d[c] = u[k + 1 + c] * Bound(outputs(k + 1 + c, p), kOutputBoundTranslation);
+    Eigen::Map<Eigen::Vector3d>(out + k + 1) = Eigen::Map<const Eigen::Vector3d>(r + k + 1) + map.frames[p] * d;
+    for (int c = k + 4; c < stride; ++c) out[c] = r[c] + u[c] * Bound(outputs(c, p), kOutputBoundWarp);
   }
   return params;
 }
 
-Eigen::MatrixXd ChainPatchParameterGradient(const std::vector<double>& rest, const std::vector<Eigen::Matrix3d>& frames,
-                                            const Eigen::MatrixXd& outputs, int num_coefficients,
-                                            const std::vector<double>& gradient) {
+Eigen::MatrixXd ChainPatchParameterGradient(const PatchOutputMap& map, const Eigen::MatrixXd& outputs,
+                                            int num_coefficients, const std::vector<double>& gradient) {
   const int num_patches = static_cast<int>(outputs.cols());
   const int stride = static_cast<int>(outputs.rows());
   const int k = num_coefficients;
-  if (static_cast<int>(gradient.size()) != stride * num_patches || stride < k + 4) {
+  if (static_cast<int>(gradient.size()) != stride * num_patches || map.units.rows() != stride ||
+      map.units.cols() != num_patches || stride < k + 4) {
     throw std::invalid_argument("ChainPatchParameterGradient: sizes disagree");
   }
   Eigen::MatrixXd d(stride, num_patches);
   for (int p = 0; p < num_patches; ++p) {
     const double* g = gradient.data() + p * stride;
-    const double s0 = rest[p * stride + k];
-    for (int c = 0; c < k; ++c) d(c, p) = g[c] * BoundSlope(outputs(c, p), kOutputBoundAlpha);
+    const double* u = map.units.col(p).data();
+    const double s0 = map.rest[p * stride + k];
+    for (int c = 0; c < k; ++c) d(c, p) = g[c] * u[c] * BoundSlope(outputs(c, p), kOutputBoundAlpha);
     d(k, p) = g[k] * s0 * std::exp(Bound(outputs(k, p), kOutputBoundLogScale)) *
               BoundSlope(outputs(k, p), kOutputBoundLogScale);
-    const Eigen::Vector3d dt = s0 * frames[p].transpose() * Eigen::Map<const Eigen::Vector3d>(g + k + 1);
-    for (int c = 0; c < 3; ++c) d(k + 1 + c, p) = dt[c] * BoundSlope(outputs(k + 1 + c, p), kOutputBoundTranslation);
-    for (int c = k + 4; c < stride; ++c) d(c, p) = g[c] * BoundSlope(outputs(c, p), kOutputBoundWarp);
+    const Eigen::Vector3d dt = map.frames[p].transpose() * Eigen::Map<const Eigen::Vector3d>(g + k + 1);
+    for (int c = 0; c < 3; ++c) {
+      d(k + 1 + c, p) = dt[c] * u[k + 1 + c] * BoundSlope(outputs(k + 1 + c, p), kOutputBoundTranslation);
+    }
+    for (int c = k + 4; c < stride; ++c) d(c, p) = g[c] * u[c] * BoundSlope(outputs(c, p), kOutputBoundWarp);
   }
   return d;
 }

@@ -12,12 +12,16 @@
 // one flat vector [E_T | E_B | D]. The output of patch k turns its rest
 // parameters (alpha_0, s_0, T_0, frame R_0) into the drape's:
 //
-//   alpha = alpha_0 + b_a(d alpha),   s = s_0 exp(b_s(d s)),   T = T_0 + s_0 R_0 b_T(d T)
+//   alpha = alpha_0 + u_a b_a(d alpha),   s = s_0 exp(b_s(d s)),   T = T_0 + L R_0 b_T(d T)
 //
+// with per patch units (PatchOutputMap): in the patch's own units (L = s_0,
+// u = 1: models before file version 8) or in units of its area (L = rho =
+// sqrt(A / pi), u_c = (s_0 / rho)^(deg c - 1)), which a remeshing leaves
+// alone where s_0, the patch's largest extent, grows with its faces,
 // in the body's rest pose, which the garment's skinning then poses, as in
 // the reference drape (drape/simulate/drape_solver.h). With a warp head
 // (warp_order >= 0) each patch also gets its in-plane warp's coefficients
-// (DrapeSlideOptions::warp_order), w = b_w(d w): the slides that undo
+// (DrapeSlideOptions::warp_order), w = u_w b_w(d w): the slides that undo
 // skinning's in-plane distortion, which patch parameters alone cannot.
 // b_c(y) = c tanh(y / c) (about y near zero): the bounds (jet coefficients
 // by 1, scale by e^(+-0.25), centre by half the patch's size, warp by a
@@ -120,17 +124,35 @@ inline constexpr double kOutputBoundLogScale = 0.25;
 inline constexpr double kOutputBoundTranslation = 0.5;
 inline constexpr double kOutputBoundWarp = 0.25;
 
+// What a network's outputs are to one garment's patches: their rest
+// parameters (DrapeSolver's layout, warps zero), frames R_0, and per patch
+// the unit of every output (num_outputs() by #patches: u_c for alpha's and
+// the warp's rows, 1 for the scale's, L for the centre's three).
+struct PatchOutputMap {
+  std::vector<double> rest;
+  std::vector<Eigen::Matrix3d> frames;
+  Eigen::MatrixXd units;
+
+  int num_patches() const { return static_cast<int>(frames.size()); }
+};
+
+// The units of a patch's outputs (num_outputs rows): with area_units,
+// rho = sqrt(area / pi), u_c = (s_0 / rho)^(deg c - 1) for alpha's rows,
+// (s_0 r / rho)^(deg c - 1) for the warp's (r: its radius, DrapeSolver::
+// warp_radii), L = rho; without, u = 1 and L = s_0. The jet in metres is
+// sum_c alpha_c s_0^(1 - deg c) x^i y^j: an alpha_c step of u_c is a step
+// of 1 in the coefficient of the jet over (x, y) / rho, whatever s_0.
+Eigen::VectorXd PatchOutputUnits(int jet_order, int warp_order, double s0, double area, double warp_radius,
+                                 bool area_units);
+
 // alpha, s, T (and the warp) per patch, packed as DrapeSolver's patch
-// parameters, from the rest ones (warps zero), the patches' frames R_0
-// and the network's outputs (num_outputs() by #patches, the first
-// num_coefficients of each column alpha's).
-std::vector<double> PatchParametersFromOutputs(const std::vector<double>& rest,
-                                               const std::vector<Eigen::Matrix3d>& frames,
-                                               const Eigen::MatrixXd& outputs, int num_coefficients);
+// parameters, from the network's outputs (num_outputs() by #patches, the
+// first num_coefficients of each column alpha's).
+std::vector<double> PatchParametersFromOutputs(const PatchOutputMap& map, const Eigen::MatrixXd& outputs,
+                                               int num_coefficients);
 // dL/doutputs from dL/d(patch parameters) at those outputs.
-Eigen::MatrixXd ChainPatchParameterGradient(const std::vector<double>& rest, const std::vector<Eigen::Matrix3d>& frames,
-                                            const Eigen::MatrixXd& outputs, int num_coefficients,
-                                            const std::vector<double>& gradient);
+Eigen::MatrixXd ChainPatchParameterGradient(const PatchOutputMap& map, const Eigen::MatrixXd& outputs,
+                                            int num_coefficients, const std::vector<double>& gradient);
 
 }  // namespace polyfit
 

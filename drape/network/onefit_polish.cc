@@ -32,8 +32,8 @@ double Seconds(Clock::time_point start) { return std::chrono::duration<double>(C
 // (ChainPatchParameterGradient computes D^T g), fed one unit vector per
 // parameter, at every patch at once: the bounds' derivatives live in one
 // place.
-void ChainGaussNewton(const std::vector<double>& rest, const std::vector<Eigen::Matrix3d>& frames,
-                      const Eigen::MatrixXd& outputs, int num_coefficients, Eigen::MatrixXd* h) {
+void ChainGaussNewton(const PatchOutputMap& map, const Eigen::MatrixXd& outputs, int num_coefficients,
+                      Eigen::MatrixXd* h) {
   const Eigen::Index stride = outputs.rows(), num_patches = outputs.cols();
   std::vector<Eigen::MatrixXd> d_t(num_patches, Eigen::MatrixXd(stride, stride));  // D_p^T
   std::vector<double> unit(stride * num_patches);
@@ -41,7 +41,7 @@ void ChainGaussNewton(const std::vector<double>& rest, const std::vector<Eigen::
     for (Eigen::Index p = 0; p < num_patches; ++p) {
       for (Eigen::Index c = 0; c < stride; ++c) unit[p * stride + c] = c == j ? 1.0 : 0.0;
     }
-    const Eigen::MatrixXd column = ChainPatchParameterGradient(rest, frames, outputs, num_coefficients, unit);
+    const Eigen::MatrixXd column = ChainPatchParameterGradient(map, outputs, num_coefficients, unit);
     for (Eigen::Index p = 0; p < num_patches; ++p) d_t[p].col(j) = column.col(p);
   }
   Eigen::MatrixXd rows;
@@ -91,12 +91,12 @@ double OneFitTrainer::SampleGaussNewton(const double* weights, const OneFitSampl
   OneFitNetwork::Cache cache;
   PrepareSample(weights, weights, sample, thread, epoch_, &outputs, &cache);
   const int k = network_.num_coefficients();
-  const std::vector<double> params = PatchParametersFromOutputs(g.rest, g.frames, outputs, k);
+  const std::vector<double> params = PatchParametersFromOutputs(g.map, outputs, k);
   std::vector<double> d_params;
   Eigen::MatrixXd& h_y = scratch->h_y;
   const double energy = g.solvers[thread]->EvaluateGaussNewton(params, &d_params, &h_y);
-  ChainGaussNewton(g.rest, g.frames, outputs, k, &h_y);
-  const Eigen::MatrixXd g_y = ChainPatchParameterGradient(g.rest, g.frames, outputs, k, d_params);  // O by P
+  ChainGaussNewton(g.map, outputs, k, &h_y);
+  const Eigen::MatrixXd g_y = ChainPatchParameterGradient(g.map, outputs, k, d_params);  // O by P
   // h~ (I + 1 by P).
   const Eigen::MatrixXd& last_input = cache.decoder.inputs.back();
   const Eigen::Index width = last_input.rows() + 1, num_patches = last_input.cols(), o_size = outputs.rows();

@@ -10,6 +10,7 @@
 #include <ceres/gradient_problem.h>
 #include <ceres/gradient_problem_solver.h>
 
+#include "drape/network/onefit_draper.h"
 #include "drape/network/onefit_trainer_garment.h"
 #include "polyfit/util/parallel_for.h"
 
@@ -163,10 +164,10 @@ void OneFitTrainer::AddGarment(const SkinnedBody& body, const OneFitTrainingGarm
     throw std::invalid_argument("OneFitTrainer: garment '" + g.name + "': " + e.what());
   }
   const DrapeSolver& solver = *data->solvers.front();
-  data->rest = solver.RestPatchParameters();
-  for (const JetPatch& patch : solver.model().patches) data->frames.push_back(patch.frame.rotation);
-  data->raw_features =
-      PatchFeatures(solver.model(), data->rest, options_.drape.patching.jet_order, g.weights, body.skeleton);
+  data->map =
+      MakePatchOutputMap(solver, options_.drape.patching.jet_order, options_.network.warp_order, options_.area_units);
+  data->raw_features = PatchFeatures(solver.model(), data->map.rest, data->map.units, options_.drape.patching.jet_order,
+                                     g.weights, body.skeleton);
   data->joint_weights = PatchJointWeights(solver.model(), g.weights, body.skeleton.num_joints());
   garments_.push_back(std::move(data));
 }
@@ -207,6 +208,7 @@ OneFitModel OneFitTrainer::MakeModel(const std::vector<double>& weights) const {
   model.max_fit_error = options_.drape.patching.max_fit_error;
   model.curved_faces = options_.drape.patching.curved_faces;
   model.root_rotation = options_.root_rotation;
+  model.area_units = options_.area_units;
   model.network = network_;
   model.patch_normalizer = patch_normalizer_;
   model.body_normalizer = body_normalizer_;
@@ -220,10 +222,11 @@ void OneFitTrainer::StartFrom(const OneFitModel& model) {
       model.aligned_frames != options_.drape.patching.align_frames ||
       model.patch_area != options_.drape.patching.patch_area ||
       model.max_fit_error != options_.drape.patching.max_fit_error ||
-      model.curved_faces != options_.drape.patching.curved_faces || model.root_rotation != options_.root_rotation) {
+      model.curved_faces != options_.drape.patching.curved_faces || model.root_rotation != options_.root_rotation ||
+      model.area_units != options_.area_units) {
     throw std::invalid_argument(
-        "OneFitTrainer::StartFrom: the model's jet order, warp order, patching, root feature or rig differs from the "
-        "training's");
+        "OneFitTrainer::StartFrom: the model's jet order, warp order, patching, root feature, output units or rig "
+        "differs from the training's");
   }
   if (model.patch_normalizer.mean.size() != patch_normalizer_.mean.size() ||
       model.body_normalizer.mean.size() != body_normalizer_.mean.size()) {
@@ -240,7 +243,7 @@ std::vector<double> OneFitTrainer::Predict(const double* weights, int garment, i
   if (g.body != clip_body_.at(clip)) throw std::invalid_argument("OneFitTrainer: a garment and a clip of two bodies");
   Eigen::MatrixXd outputs;
   network_.Forward(weights, g.features, NormalizedBodyFeatures(clip, frame), &g.joint_weights, &outputs);
-  return PatchParametersFromOutputs(g.rest, g.frames, outputs, network_.num_coefficients());
+  return PatchParametersFromOutputs(g.map, outputs, network_.num_coefficients());
 }
 
 void OneFitTrainer::PrepareSample(const double* weights, const double* history_weights, const OneFitSample& sample,
@@ -268,13 +271,12 @@ double OneFitTrainer::SampleLoss(const double* weights, const double* history_we
   Eigen::MatrixXd outputs;
   OneFitNetwork::Cache cache;
   PrepareSample(weights, history_weights, sample, thread, epoch, &outputs, gradient != nullptr ? &cache : nullptr);
-  const std::vector<double> params = PatchParametersFromOutputs(g.rest, g.frames, outputs, network_.num_coefficients());
+  const std::vector<double> params = PatchParametersFromOutputs(g.map, outputs, network_.num_coefficients());
   std::vector<double> d_params;
   const double energy = g.solvers[thread]->Evaluate(params, gradient != nullptr ? &d_params : nullptr);
   if (gradient != nullptr) {
     network_.Backward(weights, cache,
-                      ChainPatchParameterGradient(g.rest, g.frames, outputs, network_.num_coefficients(), d_params),
-                      gradient);
+                      ChainPatchParameterGradient(g.map, outputs, network_.num_coefficients(), d_params), gradient);
   }
   return energy;
 }

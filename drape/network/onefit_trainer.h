@@ -121,6 +121,10 @@ struct OneFitTrainerOptions {
   // model): heading-free by default, so that which way the body faces
   // means nothing.
   RootRotation root_rotation = RootRotation::kHeadingFree;
+  // Outputs and jet features in units of each patch's area (recorded in
+  // the model; PatchOutputUnits): a remeshed garment's patches, whose
+  // scales grow with their faces, are moved alike.
+  bool area_units = true;
   // A validation drape every this many batches (0: none), over this many
   // frames (see OneFitBatchSummary).
   int validation_every = 25;

@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 
+#include "drape/network/onefit_network.h"
 #include "drape/network/onefit_trainer.h"
 #include "drape/simulate/drape_solver.h"
 
@@ -20,8 +21,7 @@ struct OneFitTrainer::GarmentData {
   std::string name;
   int body = 0;
   std::vector<std::unique_ptr<DrapeSolver>> solvers;  // per thread
-  std::vector<double> rest;                           // patch parameters at rest
-  std::vector<Eigen::Matrix3d> frames;                // R_0 per patch
+  PatchOutputMap map;                                 // rest parameters, frames, output units
   Eigen::MatrixXd raw_features, features;             // per patch: raw, normalised
   Eigen::MatrixXd joint_weights;                      // #joints by #patches
 };

@@ -299,6 +299,7 @@ std::unique_ptr<OneFitTrainer> MakeTrainer(const OneFitTrainingRunOptions& optio
     trainer_options.network.warp_order = init.network.warp_order();
     trainer_options.network.local_pose = init.network.local_pose();
     trainer_options.root_rotation = init.root_rotation;
+    trainer_options.area_units = init.area_units;
     PatchLikeModel(init, &trainer_options.drape);
   }
   auto trainer = std::make_unique<OneFitTrainer>(LoadTrainingBodies(options, body, data_report), trainer_options);
@@ -330,7 +331,8 @@ ResumePoint Resume(const OneFitTrainingRunOptions& options, const OneFitModel& f
   const std::string csv_path = options.model_path + ".csv";
   if (options.resume && std::filesystem::exists(options.model_path)) {
     const OneFitModel saved = LoadOneFitModel(options.model_path);
-    if (saved.weights.size() != weights->size() || saved.root_rotation != fresh.root_rotation) {
+    if (saved.weights.size() != weights->size() || saved.root_rotation != fresh.root_rotation ||
+        saved.area_units != fresh.area_units) {
       throw Error(ErrorKind::kInput, options.model_path + ": a model of another layout; cannot resume from it");
     }
     *weights = saved.weights;

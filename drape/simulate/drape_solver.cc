@@ -165,6 +165,7 @@ struct DrapeSolver::Impl {
   // and their values at each membership's rest (u, v) (num_warp each).
   int num_warp = 0;
   std::vector<double> warp_basis;
+  std::vector<double> warp_radius;  // per patch: r_p
   // Per membership.
   std::vector<int> membership_vertex;
   // The metric term's faces: a face of patch p with its corners'
@@ -288,16 +289,17 @@ void DrapeSolver::Impl::InitializeParameters(const PolyFitModel& model) {
   // times r_p: each coefficient moves a patch's points by up to its value
   // times the patch's extent, whatever the patch's size and order (raw
   // monomials needed coefficients in the hundreds at order 4).
+  warp_radius.assign(model.num_patches(), 0.0);
+  for (int k = 0; k < model.num_memberships(); ++k) {
+    double& r = warp_radius[model.membership_patch[k]];
+    r = std::max(r, model.membership_uv.col(k).norm());
+  }
+  for (double& r : warp_radius) r = std::max(r, 1e-9);
   num_warp = NumJetCoefficients(options.slide.warp_order);
   warp_basis.resize(static_cast<size_t>(num_warp) * model.num_memberships());
   if (num_warp == 0) return;
-  std::vector<double> radius(model.num_patches(), 0.0);
   for (int k = 0; k < model.num_memberships(); ++k) {
-    double& r = radius[model.membership_patch[k]];
-    r = std::max(r, model.membership_uv.col(k).norm());
-  }
-  for (int k = 0; k < model.num_memberships(); ++k) {
-    const double r = std::max(radius[model.membership_patch[k]], 1e-9);
+    const double r = warp_radius[model.membership_patch[k]];
     double* phi = warp_basis.data() + num_warp * k;
     JetMonomials(options.slide.warp_order, model.membership_uv(0, k) / r, model.membership_uv(1, k) / r, phi);
     for (int i = 0; i < num_warp; ++i) phi[i] *= r;
@@ -793,6 +795,14 @@ int DrapeSolver::num_patch_parameters() const { return impl_->packed_stride(); }
 std::vector<double> DrapeSolver::RestPatchParameters() const {
   return impl_->PackedPatchParameters(impl_->rest_params);
 }
+
+std::vector<double> DrapeSolver::PatchRestAreas() const {
+  std::vector<double> area(model_.num_patches(), 0.0);
+  for (size_t f = 0; f < model_.face_patch.size(); ++f) area[model_.face_patch[f]] += impl_->rest.face_area[f];
+  return area;
+}
+
+const std::vector<double>& DrapeSolver::WarpRadii() const { return impl_->warp_radius; }
 
 std::vector<double> DrapeSolver::PatchParameters() const {
   std::vector<double> packed = impl_->PackedPatchParameters(impl_->params);

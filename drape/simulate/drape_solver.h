@@ -221,6 +221,10 @@ class DrapeSolver {
   // zero), posed.
   std::vector<double> RestPatchParameters() const;
   std::vector<double> PatchParameters() const;
+  // Per patch: its faces' rest area (m^2), and r_p, its members' largest
+  // rest |(u, v)| (the warp's radius, DrapeSlideOptions).
+  std::vector<double> PatchRestAreas() const;
+  const std::vector<double>& WarpRadii() const;
   Eigen::Matrix3Xd PositionsOf(const std::vector<double>& patch_parameters);
   // The same with the garment's skinning posed by `rest_to_posed` (and left
   // there; the body is not posed: cheap, for a history of frames or the

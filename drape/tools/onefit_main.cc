@@ -256,6 +256,9 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
   train->add_flag_callback(
       "--absolute-root", [&t] { t.root_rotation = polyfit::RootRotation::kAbsolute; },
       "the body features hold the root's rotation with its heading, as models before file version 6 did");
+  train->add_flag_callback(
+      "--scale-units", [&t] { t.area_units = false; },
+      "outputs and jet features in units of each patch's scale, as models before file version 8 had them");
   train->add_flag("--resume", o.resume, "continue from the model file and its progress, if they exist");
   train->add_option("--init", o.init_model_path, "fine-tune: start from this model (network, normalisers, weights)");
   train->add_option("--validate-every", t.validation_every, "a validation drape every N batches (0: none)")
