@@ -1,10 +1,12 @@
 #include "drape/garment/skin_transfer.h"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 #include "polyfit/eval/surface_distance.h"
 #include "polyfit/mesh/mesh_topology.h"
+#include "polyfit/mesh/unique_edges.h"
 
 namespace polyfit {
 
@@ -17,6 +19,21 @@ void SkinWeights::Blend(int v, const std::vector<Eigen::Isometry3d>& transforms,
     *linear += value[k] * t.linear();
     *translation += value[k] * t.translation();
   }
+}
+
+int SkinSmoothingSteps(const TriangleMesh& garment, const SkinTransferOptions& options) {
+  if (options.smoothing_iterations > 0) return options.smoothing_iterations;
+  if (!(options.smoothing_length > 0.0)) return 0;
+  const Eigen::Matrix2Xi edges = UniqueEdges(garment);
+  if (edges.cols() == 0) return 0;
+  double mean_edge = 0.0;
+  for (Eigen::Index e = 0; e < edges.cols(); ++e) {
+    mean_edge += (garment.vertices.col(edges(0, e)) - garment.vertices.col(edges(1, e))).norm();
+  }
+  mean_edge /= static_cast<double>(edges.cols());
+  if (!(mean_edge > 0.0)) return 0;
+  const double steps = std::pow(options.smoothing_length / mean_edge, 2);
+  return static_cast<int>(std::lround(std::min(steps, 1e5)));
 }
 
 SkinWeights TransferSkinWeights(const SkinnedBody& body, const TriangleMesh& garment,
@@ -57,10 +74,11 @@ SkinWeights TransferSkinWeights(const SkinnedBody& body, const TriangleMesh& gar
       }
     }
   }
-  if (options.smoothing_iterations > 0) {
+  const int steps = SkinSmoothingSteps(garment, options);
+  if (steps > 0) {
     const AdjacencyList neighbours = VertexVertexAdjacency(garment);
     Eigen::MatrixXd next(num_joints, n);
-    for (int it = 0; it < options.smoothing_iterations; ++it) {
+    for (int it = 0; it < steps; ++it) {
       for (int v = 0; v < n; ++v) {
         if (neighbours.degree(v) == 0 || anchored[v]) {
           next.col(v) = dense.col(v);

@@ -1,7 +1,8 @@
 // Skinning weights for a garment, transferred from the body it is fitted
 // to: each garment vertex takes the weights at its closest point on the
 // body surface (the closest face's three vertices, blended barycentrically),
-// then the weights are diffused over the garment's edges so that loose
+// then the weights are diffused over the garment's edges, over a set
+// length whatever the meshing, so that loose
 // parts (a skirt between the legs) do not tear along the body's seams;
 // each vertex diffuses in proportion to its distance from the body (up to
 // loose_distance), so tight parts keep following the skin under them.
@@ -35,9 +36,19 @@ struct SkinWeights {
 SkinWeights SingleJointWeights(int num_vertices, int joint);
 
 struct SkinTransferOptions {
-  // Jacobi smoothing steps over the garment's edges (each vertex moves
-  // half-way to its neighbours' mean), 0 for none.
-  int smoothing_iterations = 100;
+  // How far the weights diffuse over the garment (m): Jacobi smoothing
+  // steps over its edges (each vertex moves half-way to its neighbours'
+  // mean), (smoothing_length / h)^2 of them for a garment of mean edge
+  // length h. A fixed count of steps reaches a distance in proportion to
+  // h, so that a coarser meshing of a garment got weights mixed from
+  // further away, and more of it was skinned into the body (the suit
+  // decimated to 972 vertices: 24.6% of its vertices inside with no
+  // network, against 14.3% as given). 0.3 m is 99 steps on the male
+  // casual suit (h 3.0 cm; 100 before). 0: no smoothing.
+  double smoothing_length = 0.3;
+  // When positive, this many steps whatever the meshing (the length is
+  // then ignored).
+  int smoothing_iterations = 0;
   // Vertices closer to the body than this (m) keep the body's weights
   // (they move with the skin under them; the smoothing flows around them).
   // 0: every vertex is smoothed.
@@ -50,6 +61,10 @@ struct SkinTransferOptions {
   // Weights below this are dropped (then rows renormalised).
   double min_weight = 1e-3;
 };
+
+// The Jacobi steps that options give a garment (smoothing_iterations, or
+// from smoothing_length and the garment's mean edge length; at most 1e5).
+int SkinSmoothingSteps(const TriangleMesh& garment, const SkinTransferOptions& options);
 
 // garment: in the body's rest pose (3 by #V vertices, triangles).
 SkinWeights TransferSkinWeights(const SkinnedBody& body, const TriangleMesh& garment,

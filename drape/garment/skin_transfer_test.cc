@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include "drape/body/procedural_body.h"
+#include "polyfit/mesh/primitives.h"
+#include "polyfit/mesh/subdivision.h"
 
 namespace polyfit {
 namespace {
@@ -15,7 +17,7 @@ TEST(SkinTransferTest, PointsOnTheBodyTakeItsWeights) {
   const SkinnedBody body = MakeProceduralBody();
   TriangleMesh garment = body.mesh;
   SkinTransferOptions options;
-  options.smoothing_iterations = 0;
+  options.smoothing_length = 0.0;
   options.min_weight = 0.0;
   const SkinWeights weights = TransferSkinWeights(body, garment, options);
   ASSERT_EQ(weights.num_vertices(), body.mesh.num_vertices());
@@ -60,7 +62,7 @@ TEST(SkinTransferTest, LooseDistanceKeepsVerticesOnTheBodyAndDiffusesFarOnes) {
   const SkinnedBody body = MakeProceduralBody();
   TriangleMesh garment = body.mesh;
   SkinTransferOptions exact;
-  exact.smoothing_iterations = 0;
+  exact.smoothing_length = 0.0;
   exact.min_weight = 0.0;
   const SkinWeights on_body = TransferSkinWeights(body, garment, exact);
   SkinTransferOptions loose = exact;
@@ -75,6 +77,44 @@ TEST(SkinTransferTest, LooseDistanceKeepsVerticesOnTheBodyAndDiffusesFarOnes) {
       EXPECT_NEAR(smoothed.value[k], on_body.value[k], 1e-12);
     }
   }
+}
+
+// Mean over the first n vertices of |w_a - w_b| (dense rows).
+double MeanWeightDifference(const SkinWeights& a, const SkinWeights& b, int n, int num_joints) {
+  double total = 0.0;
+  for (int v = 0; v < n; ++v) {
+    Eigen::VectorXd d = Eigen::VectorXd::Zero(num_joints);
+    for (int k = a.offsets[v]; k < a.offsets[v + 1]; ++k) d[a.joint[k]] += a.value[k];
+    for (int k = b.offsets[v]; k < b.offsets[v + 1]; ++k) d[b.joint[k]] -= b.value[k];
+    total += d.cwiseAbs().sum() / n;
+  }
+  return total;
+}
+
+TEST(SkinTransferTest, AFinerMeshingOfAGarmentGetsTheSameWeights) {
+  // A sleeve-like tube over the body's seams and the same tube subdivided
+  // (its vertices first): smoothing over a length gives the tube's
+  // vertices about the same weights in both; a fixed count of steps
+  // reaches half as far on the finer one.
+  const SkinnedBody body = MakeProceduralBody();
+  const TriangleMesh coarse = MakeTube(0.15, 0.1, 0.4, 24, 8);
+  const TriangleMesh fine = SubdivideMidpoint(coarse);
+  ASSERT_TRUE(fine.vertices.leftCols(coarse.num_vertices()).isApprox(coarse.vertices));
+  const int joints = body.skeleton.num_joints();
+  SkinTransferOptions by_length;
+  by_length.loose_distance = 0.0;
+  by_length.smoothing_length = 0.15;
+  EXPECT_NEAR(SkinSmoothingSteps(fine, by_length), 4 * SkinSmoothingSteps(coarse, by_length), 4);
+  const double length_gap =
+      MeanWeightDifference(TransferSkinWeights(body, coarse, by_length), TransferSkinWeights(body, fine, by_length),
+                           coarse.num_vertices(), joints);
+  SkinTransferOptions by_steps = by_length;
+  by_steps.smoothing_iterations = SkinSmoothingSteps(coarse, by_length);
+  const double steps_gap =
+      MeanWeightDifference(TransferSkinWeights(body, coarse, by_steps), TransferSkinWeights(body, fine, by_steps),
+                           coarse.num_vertices(), joints);
+  EXPECT_LT(length_gap, 0.5 * steps_gap) << length_gap << " " << steps_gap;
+  EXPECT_GT(steps_gap, 0.01);
 }
 
 TEST(SkinTransferTest, RejectsEmptyAndNonFiniteGarments) {

@@ -98,6 +98,7 @@ void BindSolverOptions(py::module_& m) {
   AddCopy(solver);
   py::class_<SkinTransferOptions> skin(m, "SkinTransferOptions");
   skin.def(py::init<>())
+      .def_readwrite("smoothing_length", &SkinTransferOptions::smoothing_length)
       .def_readwrite("smoothing_iterations", &SkinTransferOptions::smoothing_iterations)
       .def_readwrite("anchor_distance", &SkinTransferOptions::anchor_distance)
       .def_readwrite("loose_distance", &SkinTransferOptions::loose_distance);

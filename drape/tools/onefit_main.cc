@@ -133,8 +133,12 @@ void AddSimulatePhysicsOptions(CLI::App* simulate, SimulateFlags* f) {
   simulate->add_option("--collision-stiffness", options.solver.physics.collision_stiffness, "kappa (N/m)")
       ->capture_default_str();
   simulate
-      ->add_option("--skin-smoothing", options.skin.smoothing_iterations,
-                   "smoothing steps of the transferred skinning weights")
+      ->add_option("--skin-smoothing", options.skin.smoothing_length,
+                   "how far the transferred skinning weights diffuse over the garment (m; 0: not at all)")
+      ->capture_default_str();
+  simulate
+      ->add_option("--skin-smoothing-steps", options.skin.smoothing_iterations,
+                   "that many smoothing steps instead, whatever the garment's meshing (0: from the length)")
       ->capture_default_str();
   simulate
       ->add_option("--skin-anchor", options.skin.anchor_distance,
