@@ -43,8 +43,9 @@ struct SkinTransferOptions {
   // h, so that a coarser meshing of a garment got weights mixed from
   // further away, and more of it was skinned into the body (the suit
   // decimated to 972 vertices: 24.6% of its vertices inside with no
-  // network, against 14.3% as given). 0.3 m is 99 steps on the male
-  // casual suit (h 3.0 cm; 100 before). 0: no smoothing.
+  // network, against 14.3% as given). 0.3 m is 84 steps on the male
+  // casual suit as fitted to the body (h 3.3 cm; 100 before). 0: no
+  // smoothing.
   double smoothing_length = 0.3;
   // When positive, this many steps whatever the meshing (the length is
   // then ignored).
