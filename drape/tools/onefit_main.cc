@@ -188,10 +188,9 @@ struct TrainFlags {
   std::string optimizer = "adam";
 };
 
-CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
+// onefit train's inputs: the body, garments, clips and their augmentation.
+void AddTrainDataFlags(CLI::App* train, TrainFlags* f) {
   polyfit::OneFitTrainingRunOptions& o = f->options;
-  polyfit::OneFitTrainerOptions& t = o.trainer;
-  CLI::App* train = app->add_subcommand("train", "train OneFit's network, self-supervised, on the drape's losses");
   train->add_option("--body", o.body_dir, "MakeHuman body folder; none: procedural body");
   train->add_option("--garments", o.garment_paths, ".mhclo garments or meshes in the body's rest pose")->required();
   train->add_option("--motions", o.motion_paths, "BVH clips")->required();
@@ -228,12 +227,11 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
                    "augmentation: also train on this many body shapes sampled uniformly in range (seeded; needs "
                    "--body), each with every garment fitted to it and every clip")
       ->capture_default_str();
-  train->add_option("--batches", t.num_batches, "mini-batches")->capture_default_str();
-  train->add_option("--batch-size", t.batch_size, "samples (garment, frame) per batch")->capture_default_str();
-  train->add_option("--iterations-per-batch", t.iterations_per_batch, "L-BFGS iterations per batch")
-      ->capture_default_str();
-  train->add_option("--seed", t.seed, "seed of the weights and the data order")->capture_default_str();
-  train->add_option("--threads", t.num_threads, "threads")->capture_default_str();
+}
+
+// The network, its patching and its loss.
+void AddTrainModelFlags(CLI::App* train, polyfit::OneFitTrainerOptions* trainer) {
+  polyfit::OneFitTrainerOptions& t = *trainer;
   train->add_option("--patch-area", t.drape.patching.patch_area, "garment area per patch (m^2)")->capture_default_str();
   train
       ->add_option("--k-c", t.drape.physics.weights.collision,
@@ -263,6 +261,18 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
   train->add_flag_callback(
       "--scale-units", [&t] { t.area_units = false; },
       "outputs and jet features in units of each patch's scale, as models before file version 8 had them");
+}
+
+// The optimisation: batches, optimiser, resumption, validation, polish.
+void AddTrainRunFlags(CLI::App* train, TrainFlags* f) {
+  polyfit::OneFitTrainingRunOptions& o = f->options;
+  polyfit::OneFitTrainerOptions& t = o.trainer;
+  train->add_option("--batches", t.num_batches, "mini-batches")->capture_default_str();
+  train->add_option("--batch-size", t.batch_size, "samples (garment, frame) per batch")->capture_default_str();
+  train->add_option("--iterations-per-batch", t.iterations_per_batch, "L-BFGS iterations per batch")
+      ->capture_default_str();
+  train->add_option("--seed", t.seed, "seed of the weights and the data order")->capture_default_str();
+  train->add_option("--threads", t.num_threads, "threads")->capture_default_str();
   train->add_flag("--resume", o.resume, "continue from the model file and its progress, if they exist");
   train->add_option("--init", o.init_model_path, "fine-tune: start from this model (network, normalisers, weights)");
   train->add_option("--validate-every", t.validation_every, "a validation drape every N batches (0: none)")
@@ -289,6 +299,15 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
   train->add_option("--polish-samples", t.polish.samples, "samples the polish fits")->capture_default_str();
   train->add_option("--polish-damping", t.polish.initial_damping, "the polish's initial Marquardt lambda")
       ->capture_default_str();
+}
+
+CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
+  polyfit::OneFitTrainingRunOptions& o = f->options;
+  polyfit::OneFitTrainerOptions& t = o.trainer;
+  CLI::App* train = app->add_subcommand("train", "train OneFit's network, self-supervised, on the drape's losses");
+  AddTrainDataFlags(train, f);
+  AddTrainModelFlags(train, &t);
+  AddTrainRunFlags(train, f);
   return train;
 }
 

@@ -121,8 +121,51 @@ int RunEval(const std::string& mesh_a, const std::string& mesh_b, int samples) {
 
 // The remesh command: the same surface, meshed coarser or finer (a
 // resolution-agnostic method's test input). OUT's extension picks the format.
-int RunRemesh(const std::string& input, const std::string& output, double decimate,
-              const polyfit::SubdivisionOptions& subdivision) {
+struct EvalFlags {
+  std::string mesh_a, mesh_b;
+  int samples = 10000;
+};
+
+CLI::App* AddEvalCommand(CLI::App* app, EvalFlags* f) {
+  CLI::App* eval = app->add_subcommand("eval", "Chamfer distance between two meshes (A's unit-sphere normalisation)");
+  eval->add_option("a", f->mesh_a, "Reference mesh")->required();
+  eval->add_option("b", f->mesh_b, "Compared mesh")->required();
+  eval->add_option("--samples", f->samples, "Uniform surface samples per mesh")->capture_default_str();
+  return eval;
+}
+
+struct RemeshFlags {
+  std::string input, output;
+  double decimate = 0.0;
+  int subdivide = 0;
+  bool loop = false;
+};
+
+CLI::App* AddRemeshCommand(CLI::App* app, RemeshFlags* f) {
+  CLI::App* remesh = app->add_subcommand("remesh", "The same surface meshed coarser (edge collapse) or finer");
+  remesh->add_option("input", f->input, "Mesh file")->required();
+  remesh->add_option("output", f->output, "Output mesh (.obj or .ply)")->required();
+  CLI::Option* decimate =
+      remesh->add_option("--decimate", f->decimate, "Collapse edges until this fraction of them is left, in (0, 1]")
+          ->check(CLI::Range(1e-6, 1.0));
+  CLI::Option* subdivide = remesh->add_option("--subdivide", f->subdivide, "Subdivision levels (each 4x the faces)")
+                               ->check(CLI::Range(1, 4));
+  decimate->excludes(subdivide);
+  remesh->add_flag("--loop", f->loop, "With --subdivide: Loop's scheme (smooth) rather than midpoints");
+  return remesh;
+}
+
+int RunRemesh(const RemeshFlags& f) {
+  if (f.decimate <= 0.0 && f.subdivide <= 0) {
+    std::cerr << "remesh: give --decimate F or --subdivide N\n";
+    return polyfit::kExitUsage;
+  }
+  polyfit::SubdivisionOptions subdivision;
+  subdivision.levels = f.subdivide;
+  if (f.loop) subdivision.scheme = polyfit::SubdivisionScheme::kLoop;
+  const std::string& input = f.input;
+  const std::string& output = f.output;
+  const double decimate = f.decimate;
   const std::string extension = output.size() >= 4 ? output.substr(output.size() - 4) : "";
   if (extension != ".obj" && extension != ".ply") {
     std::cerr << output << ": expected a .obj or .ply file name\n";
@@ -186,29 +229,11 @@ int main(int argc, char** argv) {
   fit->add_flag("--force", batch.force, "Refit inputs whose outputs exist");
   fit->add_option("--threads", batch.num_threads, "Threads (0: all)")->capture_default_str();
 
-  std::string mesh_a, mesh_b;
-  int samples = 10000;
-  CLI::App* eval = app.add_subcommand("eval", "Chamfer distance between two meshes (A's unit-sphere normalisation)");
-  eval->add_option("a", mesh_a, "Reference mesh")->required();
-  eval->add_option("b", mesh_b, "Compared mesh")->required();
-  eval->add_option("--samples", samples, "Uniform surface samples per mesh")->capture_default_str();
+  EvalFlags eval_flags;
+  CLI::App* eval = AddEvalCommand(&app, &eval_flags);
 
-  std::string remesh_in, remesh_out;
-  double decimate = 0.0;
-  polyfit::SubdivisionOptions subdivide;
-  subdivide.levels = 0;
-  bool loop = false;
-  CLI::App* remesh = app.add_subcommand("remesh", "The same surface meshed coarser (edge collapse) or finer");
-  remesh->add_option("input", remesh_in, "Mesh file")->required();
-  remesh->add_option("output", remesh_out, "Output mesh (.obj or .ply)")->required();
-  CLI::Option* decimate_option =
-      remesh->add_option("--decimate", decimate, "Collapse edges until this fraction of them is left, in (0, 1]")
-          ->check(CLI::Range(1e-6, 1.0));
-  CLI::Option* subdivide_option =
-      remesh->add_option("--subdivide", subdivide.levels, "Subdivision levels (each 4x the faces)")
-          ->check(CLI::Range(1, 4));
-  decimate_option->excludes(subdivide_option);
-  remesh->add_flag("--loop", loop, "With --subdivide: Loop's scheme (smooth) rather than midpoints");
+  RemeshFlags remesh_flags;
+  CLI::App* remesh = AddRemeshCommand(&app, &remesh_flags);
 
   try {
     app.parse(argc, argv);
@@ -239,16 +264,9 @@ int main(int argc, char** argv) {
       return RunFit(batch, inputs);
     }
     if (eval->parsed()) {
-      return RunEval(mesh_a, mesh_b, samples);
+      return RunEval(eval_flags.mesh_a, eval_flags.mesh_b, eval_flags.samples);
     }
-    if (remesh->parsed()) {
-      if (decimate <= 0.0 && subdivide.levels <= 0) {
-        std::cerr << "remesh: give --decimate F or --subdivide N\n";
-        return polyfit::kExitUsage;
-      }
-      if (loop) subdivide.scheme = polyfit::SubdivisionScheme::kLoop;
-      return RunRemesh(remesh_in, remesh_out, decimate, subdivide);
-    }
+    if (remesh->parsed()) return RunRemesh(remesh_flags);
     return polyfit::kExitSuccess;
   });
 }
