@@ -1,8 +1,8 @@
 // Skinning weights for a garment, transferred from the body it is fitted
 // to: each garment vertex takes the weights at its closest point on the
 // body surface (the closest face's three vertices, blended barycentrically),
-// then the weights are diffused over the garment's edges, over a set
-// length whatever the meshing, so that loose
+// then the weights are spread over the garment over a set length
+// whatever the meshing, so that loose
 // parts (a skirt between the legs) do not tear along the body's seams;
 // each vertex diffuses in proportion to its distance from the body (up to
 // loose_distance), so tight parts keep following the skin under them.
@@ -35,20 +35,30 @@ struct SkinWeights {
 // Every vertex bound to one joint with weight 1 (a rigid garment, tests).
 SkinWeights SingleJointWeights(int num_vertices, int joint);
 
-struct SkinTransferOptions {
-  // How far the weights diffuse over the garment (m): Jacobi smoothing
-  // steps over its edges (each vertex moves half-way to its neighbours'
+// How the transferred weights are spread over the garment.
+enum class SkinSmoothing {
+  // Heat diffusion over the garment's surface (cotangent Laplacian, lumped
+  // areas) for the time SkinDiffusionTime(smoothing_length): the same
+  // spread whatever the meshing, uniform or not.
+  kSurface,
+  // Jacobi steps over the edges (each vertex half-way to its neighbours'
   // mean), (smoothing_length / h)^2 of them for a garment of mean edge
-  // length h. A fixed count of steps reaches a distance in proportion to
-  // h, so that a coarser meshing of a garment got weights mixed from
-  // further away, and more of it was skinned into the body (the suit
-  // decimated to 972 vertices: 24.6% of its vertices inside with no
-  // network, against 14.3% as given). 0.3 m is 84 steps on the male
-  // casual suit as fitted to the body (h 3.3 cm; 100 before). 0: no
-  // smoothing.
+  // length h. A fixed count reaches a distance in proportion to h; counted
+  // from the mean edge, long edges still reach further than short ones.
+  kEdgeSteps,
+};
+
+struct SkinTransferOptions {
+  SkinSmoothing smoothing = SkinSmoothing::kEdgeSteps;
+  // How far the weights diffuse over the garment (m). With a fixed count
+  // of steps, a coarser meshing got weights mixed from further away and
+  // more of it was skinned into the body (the suit decimated to 972
+  // vertices: 24.6% of its vertices inside with no network, against 14.3%
+  // as given; docs/drape.md). 0.3 m is 84 steps on the male casual suit
+  // as fitted to the body (h 3.3 cm). 0: no smoothing.
   double smoothing_length = 0.3;
-  // When positive, this many steps whatever the meshing (the length is
-  // then ignored).
+  // When positive, this many Jacobi steps over the edges, whatever the
+  // meshing and method (the smoothing before 2026-11-24 was 100 of them).
   int smoothing_iterations = 0;
   // Vertices closer to the body than this (m) keep the body's weights
   // (they move with the skin under them; the smoothing flows around them).
@@ -63,8 +73,14 @@ struct SkinTransferOptions {
   double min_weight = 1e-3;
 };
 
-// The Jacobi steps that options give a garment (smoothing_iterations, or
-// from smoothing_length and the garment's mean edge length; at most 1e5).
+// The diffusion time (m^2) that spreads weights over `length` (m):
+// length^2 / 8, the time (length / h)^2 Jacobi steps take on a regular
+// mesh of edge h.
+double SkinDiffusionTime(double length);
+
+// The Jacobi steps that options give a garment under kEdgeSteps
+// (smoothing_iterations, or from smoothing_length and the garment's mean
+// edge length; at most 1e5).
 int SkinSmoothingSteps(const TriangleMesh& garment, const SkinTransferOptions& options);
 
 // garment: in the body's rest pose (3 by #V vertices, triangles).

@@ -7,6 +7,7 @@
 #include "drape/body/procedural_body.h"
 #include "polyfit/mesh/primitives.h"
 #include "polyfit/mesh/subdivision.h"
+#include "polyfit/mesh/unique_edges.h"
 
 namespace polyfit {
 namespace {
@@ -91,9 +92,17 @@ double MeanWeightDifference(const SkinWeights& a, const SkinWeights& b, int n, i
   return total;
 }
 
+double MeanEdgeLength(const TriangleMesh& mesh) {
+  const Eigen::Matrix2Xi edges = UniqueEdges(mesh);
+  double total = 0.0;
+  for (Eigen::Index e = 0; e < edges.cols(); ++e)
+    total += (mesh.vertices.col(edges(0, e)) - mesh.vertices.col(edges(1, e))).norm();
+  return total / static_cast<double>(edges.cols());
+}
+
 TEST(SkinTransferTest, AFinerMeshingOfAGarmentGetsTheSameWeights) {
   // A sleeve-like tube over the body's seams and the same tube subdivided
-  // (its vertices first): smoothing over a length gives the tube's
+  // (its vertices first): diffusion over the surface gives the tube's
   // vertices about the same weights in both; a fixed count of steps
   // reaches half as far on the finer one.
   const SkinnedBody body = MakeProceduralBody();
@@ -102,18 +111,29 @@ TEST(SkinTransferTest, AFinerMeshingOfAGarmentGetsTheSameWeights) {
   ASSERT_TRUE(fine.vertices.leftCols(coarse.num_vertices()).isApprox(coarse.vertices));
   const int joints = body.skeleton.num_joints();
   SkinTransferOptions by_length;
+  by_length.smoothing = SkinSmoothing::kSurface;
   by_length.loose_distance = 0.0;
   by_length.smoothing_length = 0.15;
-  EXPECT_NEAR(SkinSmoothingSteps(fine, by_length), 4 * SkinSmoothingSteps(coarse, by_length), 4);
+  SkinTransferOptions steps_by_length = by_length;
+  steps_by_length.smoothing = SkinSmoothing::kEdgeSteps;
+  EXPECT_NEAR(SkinSmoothingSteps(fine, steps_by_length), 4 * SkinSmoothingSteps(coarse, steps_by_length), 4);
   const double length_gap =
       MeanWeightDifference(TransferSkinWeights(body, coarse, by_length), TransferSkinWeights(body, fine, by_length),
                            coarse.num_vertices(), joints);
+  // The Jacobi count that spreads as far on the coarse tube, (L / h)^2.
   SkinTransferOptions by_steps = by_length;
-  by_steps.smoothing_iterations = SkinSmoothingSteps(coarse, by_length);
+  by_steps.smoothing_iterations = static_cast<int>(std::lround(std::pow(0.15 / MeanEdgeLength(coarse), 2)));
+  EXPECT_EQ(by_steps.smoothing_iterations, SkinSmoothingSteps(coarse, steps_by_length));
   const double steps_gap =
       MeanWeightDifference(TransferSkinWeights(body, coarse, by_steps), TransferSkinWeights(body, fine, by_steps),
                            coarse.num_vertices(), joints);
   EXPECT_LT(length_gap, 0.5 * steps_gap) << length_gap << " " << steps_gap;
+  // The diffusion time is calibrated to that count: on the coarse tube
+  // both give about the same weights.
+  const double calibration_gap =
+      MeanWeightDifference(TransferSkinWeights(body, coarse, by_length), TransferSkinWeights(body, coarse, by_steps),
+                           coarse.num_vertices(), joints);
+  EXPECT_LT(calibration_gap, 0.5 * steps_gap) << calibration_gap;
   EXPECT_GT(steps_gap, 0.01);
 }
 

@@ -96,8 +96,12 @@ void BindSolverOptions(py::module_& m) {
       .def_readwrite("num_threads", &DrapeSolverOptions::num_threads)
       .def("validate", &DrapeSolverOptions::Validate);
   AddCopy(solver);
+  py::enum_<SkinSmoothing>(m, "SkinSmoothing")
+      .value("SURFACE", SkinSmoothing::kSurface)
+      .value("EDGE_STEPS", SkinSmoothing::kEdgeSteps);
   py::class_<SkinTransferOptions> skin(m, "SkinTransferOptions");
   skin.def(py::init<>())
+      .def_readwrite("smoothing", &SkinTransferOptions::smoothing)
       .def_readwrite("smoothing_length", &SkinTransferOptions::smoothing_length)
       .def_readwrite("smoothing_iterations", &SkinTransferOptions::smoothing_iterations)
       .def_readwrite("anchor_distance", &SkinTransferOptions::anchor_distance)

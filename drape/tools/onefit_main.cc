@@ -19,6 +19,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <map>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -137,8 +138,16 @@ void AddSimulatePhysicsOptions(CLI::App* simulate, SimulateFlags* f) {
                    "how far the transferred skinning weights diffuse over the garment (m; 0: not at all)")
       ->capture_default_str();
   simulate
+      ->add_option("--skin-smoothing-method", options.skin.smoothing,
+                   "surface: heat diffusion over the garment's surface; edges: Jacobi steps over its edges")
+      ->transform(CLI::CheckedTransformer(
+          std::map<std::string, polyfit::SkinSmoothing>{{"surface", polyfit::SkinSmoothing::kSurface},
+                                                        {"edges", polyfit::SkinSmoothing::kEdgeSteps}},
+          CLI::ignore_case))
+      ->capture_default_str();
+  simulate
       ->add_option("--skin-smoothing-steps", options.skin.smoothing_iterations,
-                   "that many smoothing steps instead, whatever the garment's meshing (0: from the length)")
+                   "that many Jacobi steps over its edges instead, whatever its meshing (0: by the length)")
       ->capture_default_str();
   simulate
       ->add_option("--skin-anchor", options.skin.anchor_distance,
