@@ -43,6 +43,19 @@ def test_simulate_equals_the_command_line(tmp_path):
         assert 0.0 <= record.inside_percent < 5.0 and 0.0 < record.edge_strain_percent < 15.0
 
 
+def test_skinning_by_heat_diffusion(tmp_path):
+    # The options reach the skinning: heat diffusion gives other weights,
+    # hence another first frame, just as plausible.
+    surface = polyfit._drape.SkinSmoothing.SURFACE
+    assert polyfit._drape.SkinTransferOptions().smoothing == polyfit._drape.SkinSmoothing.EDGE_STEPS
+    steps = polyfit.onefit_simulate(SUIT, WALK, tmp_path / "steps", body_dir=BODY, **CLIP)
+    heat = polyfit.onefit_simulate(SUIT, WALK, tmp_path / "heat", body_dir=BODY, skin__smoothing=surface, **CLIP)
+    assert heat.all_finite
+    assert np.abs(heat.positions[0] - steps.positions[0]).max() > 1e-4
+    for record in heat.records:
+        assert 0.0 <= record.inside_percent < 5.0 and 0.0 < record.edge_strain_percent < 15.0
+
+
 def test_drape_with_the_shipped_model(tmp_path):
     model = os.path.join(SOURCE, "drape", "models", "onefit_default.pfonefit")
     if not os.path.exists(model):
