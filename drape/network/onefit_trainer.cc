@@ -406,6 +406,12 @@ void OneFitTrainer::SetValidationClip(OneFitTrainingClip clip) {
   validation_clip_ = num_training_clips_;
 }
 
+int ValidationFrame(int i, int count, int clip_frames) {
+  // The middle of the i-th of `count` equal spans: a clip's calm opening
+  // frames alone would pick checkpoints on its easiest poses.
+  return static_cast<int>((2 * static_cast<long>(i) + 1) * clip_frames / (2 * static_cast<long>(count)));
+}
+
 void OneFitTrainer::ValidationDrape(const double* weights, int garment, int clip, int frames, double* inside_percent,
                                     double* edge_strain_percent, double* loss) {
   DrapeSolver& solver = *garments_.at(garment)->solvers.front();
@@ -413,7 +419,8 @@ void OneFitTrainer::ValidationDrape(const double* weights, int garment, int clip
   const ClothRest rest = PrepareClothRest(solver.rest_garment());
   const int count = std::min(frames, static_cast<int>(c.poses.size()));
   double inside = 0.0, strain = 0.0;
-  for (int f = 0; f < count; ++f) {
+  for (int i = 0; i < count; ++i) {
+    const int f = ValidationFrame(i, count, static_cast<int>(c.poses.size()));
     solver.Pose(c.poses[f]);
     const Eigen::Matrix3Xd x = solver.PositionsOf(Predict(weights, garment, clip, f));
     const Eigen::VectorXd d = solver.SignedDistances(x);
@@ -424,8 +431,10 @@ void OneFitTrainer::ValidationDrape(const double* weights, int garment, int clip
   *edge_strain_percent = strain;
   if (loss != nullptr) {
     double sum = 0.0;
-    for (int f = 0; f < count; ++f)
+    for (int i = 0; i < count; ++i) {
+      const int f = ValidationFrame(i, count, static_cast<int>(c.poses.size()));
       sum += SampleLoss(weights, weights, {garment, clip, f}, 0, nullptr, options_.kext_final_epoch);
+    }
     *loss = sum / count;
   }
 }

@@ -143,8 +143,8 @@ struct OneFitBatchSummary {
   int iterations = 0;
   double time_s = 0.0;  // since training started
   // The validation drape (every validation_every batches, else NaN; on
-  // process 0 only): the network alone on the first garment through the
-  // first frames of the first clip, epsilon_c and epsilon_e (%).
+  // process 0 only): the network alone on the first garment over frames
+  // spread through the validation clip, epsilon_c and epsilon_e (%).
   double validation_inside_percent = std::numeric_limits<double>::quiet_NaN();
   double validation_edge_strain_percent = std::numeric_limits<double>::quiet_NaN();
   // With it, the mean loss (J) over the validation frames, at k_ext's final
@@ -190,6 +190,10 @@ struct OneFitTrainingSummary {
 // linear over the warm-up, then learning_rate, or a cosine from it down to
 // learning_rate final_rate_fraction at the last batch's last iteration.
 double AdamStepSize(const OneFitTrainerOptions& options, long long step);
+
+// The clip frame of the i-th of `count` validation frames spread evenly
+// through a clip of clip_frames frames (count <= clip_frames).
+int ValidationFrame(int i, int count, int clip_frames);
 
 // One sample of the loss.
 struct OneFitSample {
@@ -266,9 +270,10 @@ class OneFitTrainer {
   // body's (retargeted onto its rig).
   void SetValidationClip(OneFitTrainingClip clip);
 
-  // epsilon_c and epsilon_e (%) of the network's drape of a garment through
-  // a clip's first `frames` frames and, when `loss` is not null, the mean
-  // loss over those frames at k_ext's final epoch.
+  // epsilon_c and epsilon_e (%) of the network's drape of a garment over
+  // `frames` frames spread evenly through a clip (ValidationFrame) and,
+  // when `loss` is not null, the mean loss over those frames at k_ext's
+  // final epoch.
   void ValidationDrape(const double* weights, int garment, int clip, int frames, double* inside_percent,
                        double* edge_strain_percent, double* loss = nullptr);
 

@@ -250,6 +250,14 @@ TEST_F(OneFitTrainerTest, SeveralBodiesPairTheirOwnGarmentsAndClipsAndTheShapeIs
   EXPECT_THROW(OneFitTrainer(bodies, options_), std::invalid_argument);
 }
 
+TEST(ValidationFrameTest, SpreadsTheFramesEvenlyThroughTheClip) {
+  EXPECT_EQ(ValidationFrame(0, 3, 90), 15);
+  EXPECT_EQ(ValidationFrame(1, 3, 90), 45);
+  EXPECT_EQ(ValidationFrame(2, 3, 90), 75);
+  for (int i = 0; i < 30; ++i) EXPECT_EQ(ValidationFrame(i, 30, 30), i);  // every frame once
+  EXPECT_EQ(ValidationFrame(0, 1, 7), 3);
+}
+
 TEST_F(OneFitTrainerTest, TheValidationDrapeMeasuresTheNetworksGarment) {
   std::vector<double> weights(trainer_->num_parameters(), 0.0);  // the rest garment, skinned
   double inside = -1.0, strain = -1.0;

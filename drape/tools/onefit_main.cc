@@ -286,7 +286,7 @@ void AddTrainRunFlags(CLI::App* train, TrainFlags* f) {
   train->add_option("--init", o.init_model_path, "fine-tune: start from this model (network, normalisers, weights)");
   train->add_option("--validate-every", t.validation_every, "a validation drape every N batches (0: none)")
       ->capture_default_str();
-  train->add_option("--validate-frames", t.validation_frames, "frames of each validation drape")->capture_default_str();
+  train->add_option("--validate-frames", t.validation_frames, "frames of each validation drape, spread evenly through its clip")->capture_default_str();
   train->add_option("--validation-motion", o.validation_motion_path,
                     "BVH clip held out of training for the validation drape; the model at its lowest loss is "
                     "written to MODEL.best");
