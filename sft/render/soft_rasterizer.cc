@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <type_traits>
 
 #include <ceres/jet.h>
 
@@ -64,9 +65,11 @@ struct TriangleTerm {
 // Triangles binned into kTile-square tiles by their bounding boxes grown by
 // the reach of a soft edge, within roi. Triangles with a corner behind the
 // camera or not finite are left out.
-std::vector<std::vector<int>> BinTrianglesIntoTiles(const ScreenMesh& mesh, const cv::Rect& roi, double reach,
-                                                    int tiles_x, int tiles_y) {
-  std::vector<std::vector<int>> tiles(static_cast<size_t>(tiles_x) * tiles_y);
+void BinTrianglesIntoTiles(const ScreenMesh& mesh, const cv::Rect& roi, double reach, int tiles_x, int tiles_y,
+                           std::vector<std::vector<int>>* tiles_out) {
+  std::vector<std::vector<int>>& tiles = *tiles_out;
+  tiles.resize(static_cast<size_t>(tiles_x) * tiles_y);
+  for (std::vector<int>& tile : tiles) tile.clear();
   for (int f = 0; f < mesh.faces.cols(); ++f) {
     double min_x = 1e300, max_x = -1e300, min_y = 1e300, max_y = -1e300;
     bool visible = true;
@@ -88,7 +91,6 @@ std::vector<std::vector<int>> BinTrianglesIntoTiles(const ScreenMesh& mesh, cons
       for (int tx = x0 / kTile; tx <= x1 / kTile; ++tx) tiles[ty * tiles_x + tx].push_back(f);
     }
   }
-  return tiles;
 }
 
 // What every pixel's triangle terms read.
@@ -101,13 +103,29 @@ struct TermContext {
   bool has_uv = false, has_flags = false;
 };
 
-// Triangle f's term at pixel (px, py), as jets of its 9 screen variables:
-// coverage D (a sigmoid of the squared distance to its nearest soft edge,
+// Variable i of a triangle's 9 as a jet, or its value alone.
+template <typename T>
+T Variable(double value, int i);
+template <>
+inline J9 Variable<J9>(double value, int i) {
+  return J9(value, i);
+}
+template <>
+inline double Variable<double>(double value, int) {
+  return value;
+}
+inline void Store(const J9& x, J9* out) { *out = x; }
+inline void Store(double x, J9* out) { out->a = x; }  // its derivatives are not read
+
+// Triangle f's term at pixel (px, py), as jets of its 9 screen variables
+// (T = T), or as values alone (T = double, for a render without gradients,
+// several times cheaper): coverage D (a sigmoid of the squared distance to its nearest soft edge,
 // 1 deep inside), normalised inverse depth and colour, interpolated at p
 // inside or at the closest boundary point outside. False when the triangle
 // does not reach the pixel. One formula kept whole (about 90 lines): its
 // pieces share the same jets of the 9 variables, and split they would pass
 // a dozen of them between functions on the hottest path.
+template <typename T>
 bool TriangleTermAt(const TermContext& c, int f, int px, int py, TriangleTerm* term) {
   const ScreenMesh& mesh = c.mesh;
   const double pxd = px, pyd = py;
@@ -140,53 +158,61 @@ bool TriangleTermAt(const TermContext& c, int f, int px, int py, TriangleTerm* t
     return false;
   }
   // The same quantities as jets of the triangle's 9 variables.
-  const J9 Ax(ax, 0), Ay(ay, 1), Bx(bx, 2), By(by, 3), Cx(cx, 4), Cy(cy, 5);
-  const J9 Za(mesh.depths[ia], 6), Zb(mesh.depths[ib], 7), Zc(mesh.depths[ic], 8);
-  const J9* X[3] = {&Ax, &Bx, &Cx};
-  const J9* Y[3] = {&Ay, &By, &Cy};
+  const T Ax = Variable<T>(ax, 0), Ay = Variable<T>(ay, 1), Bx = Variable<T>(bx, 2), By = Variable<T>(by, 3);
+  const T Cx = Variable<T>(cx, 4), Cy = Variable<T>(cy, 5);
+  const T Za = Variable<T>(mesh.depths[ia], 6), Zb = Variable<T>(mesh.depths[ib], 7);
+  const T Zc = Variable<T>(mesh.depths[ic], 8);
+  const T* X[3] = {&Ax, &Bx, &Cx};
+  const T* Y[3] = {&Ay, &By, &Cy};
   const int e0 = nearest, e1 = (nearest + 1) % 3;
-  const J9 ex = *X[e1] - *X[e0], ey = *Y[e1] - *Y[e0];
-  J9 s(t[nearest]);
+  const T ex = *X[e1] - *X[e0], ey = *Y[e1] - *Y[e0];
+  T s(t[nearest]);
   if (!inside && t[nearest] > 0.0 && t[nearest] < 1.0) {
-    s = ((J9(px) - *X[e0]) * ex + (J9(py) - *Y[e0]) * ey) / (ex * ex + ey * ey);
+    s = ((T(px) - *X[e0]) * ex + (T(py) - *Y[e0]) * ey) / (ex * ex + ey * ey);
   }
   if (edge < 0) {
     term->coverage = J9(1.0);
   } else {
     const int f0 = edge, f1 = (edge + 1) % 3;
-    const J9 fx = *X[f1] - *X[f0], fy = *Y[f1] - *Y[f0];
-    J9 r(t[edge]);
-    if (t[edge] > 0.0 && t[edge] < 1.0) r = ((J9(px) - *X[f0]) * fx + (J9(py) - *Y[f0]) * fy) / (fx * fx + fy * fy);
-    const J9 qx = J9(px) - (*X[f0] + r * fx), qy = J9(py) - (*Y[f0] + r * fy);
-    const J9 dist2 = qx * qx + qy * qy;
-    const J9 q = (inside ? dist2 : -dist2) / c.sigma;
-    term->coverage = 1.0 / (1.0 + exp(-q));
+    const T fx = *X[f1] - *X[f0], fy = *Y[f1] - *Y[f0];
+    T r(t[edge]);
+    if (t[edge] > 0.0 && t[edge] < 1.0) r = ((T(px) - *X[f0]) * fx + (T(py) - *Y[f0]) * fy) / (fx * fx + fy * fy);
+    const T qx = T(px) - (*X[f0] + r * fx), qy = T(py) - (*Y[f0] + r * fy);
+    const T dist2 = qx * qx + qy * qy;
+    const T q = (inside ? dist2 : -dist2) / c.sigma;
+    using std::exp;
+    Store(T(1.0) / (1.0 + exp(-q)), &term->coverage);
   }
   // Barycentrics: of p inside, of the closest boundary point outside.
-  J9 b[3];
+  T b[3];
   if (inside) {
-    const J9 A = (Bx - Ax) * (Cy - Ay) - (By - Ay) * (Cx - Ax);
+    const T A = (Bx - Ax) * (Cy - Ay) - (By - Ay) * (Cx - Ax);
     b[0] = ((Bx - pxd) * (Cy - pyd) - (By - pyd) * (Cx - pxd)) / A;
     b[1] = ((Cx - pxd) * (Ay - pyd) - (Cy - pyd) * (Ax - pxd)) / A;
     b[2] = 1.0 - b[0] - b[1];
   } else {
     b[e0] = 1.0 - s;
     b[e1] = s;
-    b[(nearest + 2) % 3] = J9(0.0);
+    b[(nearest + 2) % 3] = T(0.0);
   }
-  const J9 inv_depth = b[0] / Za + b[1] / Zb + b[2] / Zc;
-  term->depth = (inv_depth - c.inv_far) * c.depth_scale;
+  const T inv_depth = b[0] / Za + b[1] / Zb + b[2] / Zc;
+  Store((inv_depth - c.inv_far) * c.depth_scale, &term->depth);
   if (c.has_uv) {
-    J9 u(0.0), v(0.0);
+    T u(0.0), v(0.0);
     for (int k = 0; k < 3; ++k) {
       u += b[k] * mesh.corner_texcoords(0, 3 * f + k);
       v += b[k] * mesh.corner_texcoords(1, 3 * f + k);
     }
     Eigen::Vector3d color, d_du, d_dv;
-    SampleTexture(c.texture, u.a, v.a, &color, &d_du, &d_dv);
-    for (int ch = 0; ch < 3; ++ch) {
-      term->color[ch].a = color[ch];
-      term->color[ch].v = d_du[ch] * u.v + d_dv[ch] * v.v;
+    if constexpr (std::is_same_v<T, J9>) {
+      SampleTexture(c.texture, u.a, v.a, &color, &d_du, &d_dv);
+      for (int ch = 0; ch < 3; ++ch) {
+        term->color[ch].a = color[ch];
+        term->color[ch].v = d_du[ch] * u.v + d_dv[ch] * v.v;
+      }
+    } else {
+      SampleTexture(c.texture, u, v, &color, &d_du, &d_dv);
+      for (int ch = 0; ch < 3; ++ch) term->color[ch].a = color[ch];
     }
   } else {
     for (int ch = 0; ch < 3; ++ch) term->color[ch] = J9(1.0);
@@ -290,6 +316,9 @@ void ConcatenateTileGradients(const std::vector<std::vector<VertexGradient>>& ti
   for (size_t t = 0; t < tile_gradients.size(); ++t) {
     base[t + 1] = base[t] + static_cast<int>(tile_gradients[t].size());
   }
+  // With slack: a count that creeps up between renders would otherwise
+  // reallocate (and fault in) megabytes every time.
+  if (out->gradients.capacity() < static_cast<size_t>(base.back())) out->gradients.reserve(base.back() * 5 / 4);
   out->gradients.resize(base.back());
   for (size_t t = 0; t < tile_gradients.size(); ++t) {
     std::copy(tile_gradients[t].begin(), tile_gradients[t].end(), out->gradients.begin() + base[t]);
@@ -374,8 +403,8 @@ void SoftRasterizer::Render(const ScreenMesh& mesh, int width, int height, const
   out->num_covered_pixels = 0;
 
   const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
-  const std::vector<std::vector<int>> tiles =
-      BinTrianglesIntoTiles(mesh, roi, std::sqrt(o.cutoff * o.sigma), tiles_x, tiles_y);
+  std::vector<std::vector<int>>& tiles = out->tile_triangles;
+  BinTrianglesIntoTiles(mesh, roi, std::sqrt(o.cutoff * o.sigma), tiles_x, tiles_y, &tiles);
   TermContext context{mesh, texture_};
   context.sigma = o.sigma;
   context.max_distance2 = o.cutoff * o.sigma;
@@ -386,7 +415,9 @@ void SoftRasterizer::Render(const ScreenMesh& mesh, int width, int height, const
   context.has_flags = static_cast<int>(mesh.boundary_edges.size()) == num_faces;
 
   // Per tile: its pixels' gradients, concatenated afterwards.
-  std::vector<std::vector<VertexGradient>> tile_gradients(tiles.size());
+  std::vector<std::vector<VertexGradient>>& tile_gradients = out->tile_gradients;
+  tile_gradients.resize(tiles.size());
+  for (std::vector<VertexGradient>& g : tile_gradients) g.clear();
   std::vector<int> covered(tiles.size(), 0);
   std::vector<RenderScratch> scratch(ResolveNumThreads(o.num_threads));
   ParallelFor(
@@ -395,7 +426,6 @@ void SoftRasterizer::Render(const ScreenMesh& mesh, int width, int height, const
         const std::vector<int>& list = tiles[tile];
         if (list.empty()) return;
         std::vector<VertexGradient>& grads = tile_gradients[tile];
-        grads.clear();
         if (with_gradients) grads.reserve(kTile * kTile * 12);
         RenderScratch& s = scratch[thread];
         const int tx = tile % tiles_x, ty = tile / tiles_x;
@@ -404,7 +434,9 @@ void SoftRasterizer::Render(const ScreenMesh& mesh, int width, int height, const
             s.terms.clear();
             TriangleTerm term;
             for (const int f : list) {
-              if (TriangleTermAt(context, f, px, py, &term)) s.terms.push_back(term);
+              const bool reaches = with_gradients ? TriangleTermAt<J9>(context, f, px, py, &term)
+                                                  : TriangleTermAt<double>(context, f, px, py, &term);
+              if (reaches) s.terms.push_back(term);
             }
             if (s.terms.empty()) continue;
             ++covered[tile];

@@ -107,6 +107,11 @@ struct SoftRenderOutput {
   std::vector<int> begin, end;
   std::vector<VertexGradient> gradients;
   int num_covered_pixels = 0;
+  // Scratch, per tile, kept so that rendering again into the same output
+  // allocates nothing (fresh buffers cost more in page faults than the
+  // rasterization of a small mesh).
+  std::vector<std::vector<VertexGradient>> tile_gradients;
+  std::vector<std::vector<int>> tile_triangles;
 };
 
 class SoftRasterizer {

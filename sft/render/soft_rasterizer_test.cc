@@ -68,6 +68,38 @@ TEST(SoftRasterizerTest, SilhouetteAndColourAreSoftRasCompositions) {
   EXPECT_GT(out.num_covered_pixels, 150);
 }
 
+TEST(SoftRasterizerTest, ARenderWithoutGradientsIsTheSameImage) {
+  SoftRasterizerOptions options;
+  options.num_threads = 2;
+  options.gamma = 0.05;
+  const cv::Mat texture = SmoothTexture(32);
+  SoftRasterizer rasterizer(options, texture);
+  const cv::Mat background(kHeight, kWidth, CV_32FC3, cv::Scalar(0.2, 0.4, 0.6));
+  SoftRenderOutput with, without;
+  rasterizer.Render(TestMesh(), kWidth, kHeight, background, true, &with);
+  rasterizer.Render(TestMesh(), kWidth, kHeight, background, false, &without);
+  EXPECT_EQ(cv::norm(with.color, without.color, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(with.silhouette, without.silhouette, cv::NORM_INF), 0.0);
+  EXPECT_EQ(with.num_covered_pixels, without.num_covered_pixels);
+  // Rendered again into the same output (its scratch reused), after another
+  // mesh: the same image and gradients.
+  const std::vector<VertexGradient> gradients = with.gradients;
+  const std::vector<int> begin = with.begin;
+  ScreenMesh moved = TestMesh();
+  moved.pixels.array() += 3.0;
+  rasterizer.Render(moved, kWidth, kHeight, background, true, &with);
+  rasterizer.Render(TestMesh(), kWidth, kHeight, background, true, &with);
+  EXPECT_EQ(cv::norm(with.color, without.color, cv::NORM_INF), 0.0);
+  EXPECT_EQ(with.begin, begin);
+  ASSERT_EQ(with.gradients.size(), gradients.size());
+  for (size_t i = 0; i < gradients.size(); ++i) {
+    EXPECT_EQ(with.gradients[i].vertex, gradients[i].vertex);
+    for (int r = 0; r < 4; ++r) {
+      for (int k = 0; k < 3; ++k) EXPECT_EQ(with.gradients[i].d[r][k], gradients[i].d[r][k]);
+    }
+  }
+}
+
 TEST(SoftRasterizerTest, GradientsMatchFiniteDifferences) {
   SoftRasterizerOptions options;
   options.num_threads = 1;
