@@ -29,12 +29,60 @@ bool RenderCost::Evaluate(double const* const* parameters, double* residuals, do
   for (int p = 0; p < K; ++p) std::copy(parameters[p], parameters[p] + b, theta_.begin() + static_cast<size_t>(b) * p);
   bool want = jacobians != nullptr;
   for (int p = 0; want && p < K; ++p) want = jacobians[p] != nullptr;
-  return Compute(theta_.data(), residuals, want ? jacobians : nullptr, nullptr, nullptr, nullptr);
+  return Compute(theta_.data(), residuals, want ? jacobians : nullptr, false, want);
 }
 
 bool RenderCost::EvaluateNormalEquations(const double* theta, double* squared_norm, Eigen::MatrixXd* jtj,
                                          Eigen::VectorXd* jtr) const {
-  return Compute(theta, nullptr, nullptr, squared_norm, jtj, jtr);
+  const bool want_jacobian = jtj != nullptr;
+  const bool ok = Compute(theta, nullptr, nullptr, true, want_jacobian);
+  ReduceAccumulators(data_.model->num_parameters(), want_jacobian, squared_norm, jtj, jtr);
+  return ok;
+}
+
+bool RenderCost::EvaluateGroupNormalEquations(const double* theta, const PatchGroups& groups, bool want_jacobian,
+                                              std::vector<GroupSystem>* systems) const {
+  const int b = data_.model->block_size();
+  const int G = static_cast<int>(groups.groups.size());
+  systems->resize(G);
+  for (int g = 0; g < G; ++g) {
+    const int n = static_cast<int>(groups.groups[g].size()) * b;
+    (*systems)[g].squared_norm = 0.0;
+    (*systems)[g].jtj.setZero(n, n);
+    (*systems)[g].jtr.setZero(n);
+  }
+  if (G == 0) return false;
+  const bool ok = Compute(theta, nullptr, nullptr, true, want_jacobian);
+  double total = 0.0, grouped = 0.0;
+  for (ThreadState& t : threads_) total += t.squared_norm;
+  for (ThreadState& t : threads_) {
+    if (!want_jacobian) break;
+    for (Accumulator& a : t.accumulators) {
+      Flush(&a);
+      if (a.squared_norm == 0.0 && a.jtr.isZero(0.0)) continue;
+      bool whole = false;
+      const int g = groups.Find(a.patches, a.size, &whole);
+      GroupSystem& system = (*systems)[g];
+      const std::vector<int>& members = groups.groups[g];
+      a.jtj.triangularView<Eigen::StrictlyUpper>() = a.jtj.transpose();
+      system.squared_norm += a.squared_norm;
+      grouped += a.squared_norm;
+      for (int i = 0; i < a.size; ++i) {
+        const auto gi = std::lower_bound(members.begin(), members.end(), a.patches[i]);
+        if (gi == members.end() || *gi != a.patches[i]) continue;  // a column dropped
+        const Eigen::Index row = static_cast<Eigen::Index>(gi - members.begin()) * b;
+        system.jtr.segment(row, b) += a.jtr.segment(b * i, b);
+        for (int j = 0; j < a.size; ++j) {
+          const auto gj = std::lower_bound(members.begin(), members.end(), a.patches[j]);
+          if (gj == members.end() || *gj != a.patches[j]) continue;
+          system.jtj.block(row, static_cast<Eigen::Index>(gj - members.begin()) * b, b, b) +=
+              a.jtj.block(b * i, b * j, b, b);
+        }
+      }
+    }
+  }
+  (*systems)[0].squared_norm += std::max(0.0, total - grouped);
+  return ok;
 }
 
 namespace {
@@ -144,6 +192,7 @@ void RenderCost::Flush(Accumulator* a) {
   if (a->count == 0) return;
   a->jtj.selfadjointView<Eigen::Lower>().rankUpdate(a->rows.topRows(a->count).transpose());
   a->jtr.noalias() += a->rows.topRows(a->count).transpose() * a->values.head(a->count);
+  a->squared_norm += a->values.head(a->count).squaredNorm();
   a->count = 0;
 }
 
@@ -200,6 +249,7 @@ void RenderCost::ResetThreads(int threads, double** jacobians) const {
       a.jtj.setZero();
       a.jtr.setZero();
       a.count = 0;
+      a.squared_norm = 0.0;
     }
   }
   if (jacobians == nullptr) return;
@@ -238,10 +288,8 @@ bool RenderCost::AddPixelJacobian(ThreadState* state, int pixel, int r0, const d
   return true;
 }
 
-bool RenderCost::Compute(const double* theta, double* residuals, double** jacobians, double* squared_norm,
-                         Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr) const {
-  const bool normal = squared_norm != nullptr;
-  const bool want_jacobian = jacobians != nullptr || jtj != nullptr;
+bool RenderCost::Compute(const double* theta, double* residuals, double** jacobians, bool normal,
+                         bool want_jacobian) const {
   if (!Prepare(theta, want_jacobian, want_jacobian)) return false;
   const cv::Rect& roi = data_.roi;
   // Normal equations: per thread and per set of patches, Jacobian rows of
@@ -272,7 +320,6 @@ bool RenderCost::Compute(const double* theta, double* residuals, double** jacobi
         }
       },
       1);
-  if (normal) ReduceAccumulators(data_.model->num_parameters(), want_jacobian, squared_norm, jtj, jtr);
   return ok;
 }
 
@@ -315,6 +362,104 @@ bool CompressedRenderCost::EvaluateNormalEquations(double const* const* paramete
   theta_.clear();
   for (size_t p = 0; p < sizes.size(); ++p) theta_.insert(theta_.end(), parameters[p], parameters[p] + sizes[p]);
   return cost_.EvaluateNormalEquations(theta_.data(), squared_norm, jtj, jtr);
+}
+
+int PatchGroups::Find(const int* patches, int size, bool* whole) const {
+  int best = -1, best_common = 0, best_size = 0;
+  for (int g = 0; g < static_cast<int>(groups.size()); ++g) {
+    const std::vector<int>& members = groups[g];
+    int common = 0;
+    for (int i = 0; i < size; ++i) common += std::binary_search(members.begin(), members.end(), patches[i]);
+    const int n = static_cast<int>(members.size());
+    if (common > best_common || (common == best_common && common > 0 && n < best_size)) {
+      best = g;
+      best_common = common;
+      best_size = n;
+    }
+  }
+  *whole = best >= 0 && best_common == size;
+  return best;
+}
+
+PatchGroups MakePatchGroups(const JetDeformationModel& model, const Eigen::Matrix3Xi& faces) {
+  const std::vector<int>& vertex_patch = model.vertex_patches();
+  std::vector<std::vector<int>> vertex_faces(model.num_vertices());
+  for (int f = 0; f < faces.cols(); ++f) {
+    for (int c = 0; c < 3; ++c) vertex_faces[faces(c, f)].push_back(f);
+  }
+  std::vector<std::vector<int>> sets;
+  for (int f = 0; f < faces.cols(); ++f) {
+    std::vector<int> set;
+    for (int c = 0; c < 3; ++c) {
+      for (const int g : vertex_faces[faces(c, f)]) {
+        for (int k = 0; k < 3; ++k) set.push_back(vertex_patch[faces(k, g)]);
+      }
+    }
+    std::sort(set.begin(), set.end());
+    set.erase(std::unique(set.begin(), set.end()), set.end());
+    sets.push_back(std::move(set));
+  }
+  for (int p = 0; p < model.num_patches(); ++p) sets.push_back({p});  // a patch without faces still has a group
+  std::sort(sets.begin(), sets.end());
+  sets.erase(std::unique(sets.begin(), sets.end()), sets.end());
+  // Larger first, so that a set inside one kept is dropped.
+  std::stable_sort(sets.begin(), sets.end(), [](const auto& a, const auto& b) { return a.size() > b.size(); });
+  PatchGroups out;
+  for (const std::vector<int>& set : sets) {
+    const bool inside = std::any_of(out.groups.begin(), out.groups.end(), [&](const std::vector<int>& kept) {
+      return std::includes(kept.begin(), kept.end(), set.begin(), set.end());
+    });
+    if (!inside) out.groups.push_back(set);
+  }
+  return out;
+}
+
+namespace {
+
+// A residual block of a SplitRenderTerm: group g's compressed rows.
+class RenderGroupCost : public ceres::CostFunction {
+ public:
+  RenderGroupCost(const SplitRenderTerm* term, int g, int block_size) : term_(term), g_(g) {
+    const int n = static_cast<int>(term->group(g).size());
+    for (int i = 0; i < n; ++i) mutable_parameter_block_sizes()->push_back(block_size);
+    set_num_residuals(n * block_size + 1);
+  }
+  bool Evaluate(double const* const*, double* residuals, double** jacobians) const override {
+    return term_->Write(g_, residuals, jacobians);
+  }
+
+ private:
+  const SplitRenderTerm* term_;
+  int g_;
+};
+
+}  // namespace
+
+SplitRenderTerm::SplitRenderTerm(RenderCost::Data data, PatchGroups groups, const double* theta)
+    : cost_(std::move(data)),
+      groups_(std::move(groups)),
+      theta_(theta),
+      block_size_(cost_.parameter_block_sizes()[0]) {}
+
+bool SplitRenderTerm::Prepare(bool jacobians, bool new_point) {
+  if (!new_point && (have_jacobians_ || !jacobians)) return ok_;
+  ok_ = cost_.EvaluateGroupNormalEquations(theta_, groups_, jacobians, &systems_);
+  have_jacobians_ = jacobians;
+  return ok_;
+}
+
+ceres::CostFunction* SplitRenderTerm::NewGroupCost(int g) const { return new RenderGroupCost(this, g, block_size_); }
+
+bool SplitRenderTerm::Write(int g, double* residuals, double** jacobians) const {
+  if (!ok_ || (jacobians != nullptr && !have_jacobians_)) return false;
+  const RenderCost::GroupSystem& system = systems_[g];
+  const std::vector<int32_t> sizes(groups_.groups[g].size(), block_size_);
+  WriteCompressedResiduals(sizes, system.squared_norm, system.jtj, system.jtr, residuals, jacobians);
+  return true;
+}
+
+void RenderTermCallback::PrepareForEvaluation(bool evaluate_jacobians, bool new_evaluation_point) {
+  for (SplitRenderTerm* term : terms_) term->Prepare(evaluate_jacobians, new_evaluation_point);
 }
 
 InextensibilityCost::InextensibilityCost(const JetDeformationModel* model, const std::vector<int>& patches,

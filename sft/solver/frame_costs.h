@@ -9,6 +9,7 @@
 #include <vector>
 
 #include <ceres/cost_function.h>
+#include <ceres/evaluation_callback.h>
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
@@ -19,6 +20,16 @@
 #include "sft/solver/robust_loss.h"
 
 namespace polyfit {
+
+// Groups of patches whose pixels' normal equations are kept together, so
+// that the render term of an atlas is a residual block per group (over
+// its patches' blocks) instead of one dense over all of them.
+struct PatchGroups {
+  std::vector<std::vector<int>> groups;  // sorted patch lists
+  // The smallest group holding all of `patches` (sorted; *whole true), or
+  // else the one holding most of them (*whole false); -1 when empty.
+  int Find(const int* patches, int size, bool* whole) const;
+};
 
 // Photometric and silhouette residuals over the pixels of `roi`:
 //   r_rgb(p) = w_photo (I(p; theta) - I_obs(p))                (robustified per pixel)
@@ -60,6 +71,20 @@ class RenderCost : public ceres::CostFunction {
   // (where the surface fits worse than elsewhere).
   bool VertexResiduals(const double* theta, Eigen::VectorXd* squared_residuals, Eigen::VectorXd* pixels) const;
 
+  // The normal equations split by groups of patches (PatchGroups): group
+  // g's system is over its patches' blocks, in its order. A pixel's rows go
+  // to the group of its patches (PatchGroups::Find); when no group holds
+  // them all, to the one that holds most, without the other patches'
+  // columns (its cost kept, its pull on them lost). The cost of pixels
+  // without a gradient, and all of it without the Jacobian, is group 0's.
+  struct GroupSystem {
+    double squared_norm = 0.0;
+    Eigen::MatrixXd jtj;
+    Eigen::VectorXd jtr;
+  };
+  bool EvaluateGroupNormalEquations(const double* theta, const PatchGroups& groups, bool want_jacobian,
+                                    std::vector<GroupSystem>* systems) const;
+
  private:
   static constexpr int kBlockRows = 64;
   static constexpr int kMaxPatchesPerPixel = 8;
@@ -73,6 +98,7 @@ class RenderCost : public ceres::CostFunction {
     Eigen::MatrixXd rows;
     Eigen::VectorXd values;
     int count = 0;
+    double squared_norm = 0.0;  // of the rows' residuals
   };
   struct ThreadState {
     double squared_norm = 0.0;
@@ -87,8 +113,9 @@ class RenderCost : public ceres::CostFunction {
     int size = 0;
   };
 
-  bool Compute(const double* theta, double* residuals, double** jacobians, double* squared_norm, Eigen::MatrixXd* jtj,
-               Eigen::VectorXd* jtr) const;
+  // Residuals and/or Jacobians, and with `normal` the per-thread
+  // accumulators of the normal equations (when the Jacobian is wanted).
+  bool Compute(const double* theta, double* residuals, double** jacobians, bool normal, bool want_jacobian) const;
   // The surface at theta (with its Jacobian against each vertex's patch
   // block, in screen coordinates: screen_theta_), rendered (with the
   // render's gradients); false when it went behind the camera.
@@ -121,8 +148,52 @@ class RenderCost : public ceres::CostFunction {
   mutable std::vector<ThreadState> threads_;
 };
 
+// For each face, the patches of every vertex of the faces that share a
+// vertex with it (what a pixel within a soft edge's reach of the face
+// depends on, for faces of a few pixels or more), with the groups inside
+// another dropped. One patch: one group.
+PatchGroups MakePatchGroups(const JetDeformationModel& model, const Eigen::Matrix3Xi& faces);
+
+// One frame's render term split by PatchGroups: a RenderGroupCost per
+// group reads what Prepare computed at the parameters in `theta` (the
+// frame's blocks, contiguous). Ceres calls Prepare through
+// RenderTermCallback before every evaluation, so the frame is rendered
+// once however many groups read it.
+class SplitRenderTerm {
+ public:
+  SplitRenderTerm(RenderCost::Data data, PatchGroups groups, const double* theta);
+  // False when the surface went behind the camera (every group's Evaluate
+  // then fails).
+  bool Prepare(bool jacobians, bool new_point);
+  int num_groups() const { return static_cast<int>(groups_.groups.size()); }
+  const std::vector<int>& group(int g) const { return groups_.groups[g]; }
+  // A cost over group g's patches' blocks; Ceres takes ownership.
+  ceres::CostFunction* NewGroupCost(int g) const;
+  // The compressed residuals (n_g + 1) and Jacobians of group g, as
+  // WriteCompressedResiduals gives them.
+  bool Write(int g, double* residuals, double** jacobians) const;
+
+ private:
+  RenderCost cost_;
+  PatchGroups groups_;
+  const double* theta_;
+  int block_size_;
+  bool ok_ = false, have_jacobians_ = false;
+  std::vector<RenderCost::GroupSystem> systems_;
+};
+
+// Prepares every SplitRenderTerm of a problem before Ceres evaluates it.
+class RenderTermCallback : public ceres::EvaluationCallback {
+ public:
+  void Add(SplitRenderTerm* term) { terms_.push_back(term); }
+  void PrepareForEvaluation(bool evaluate_jacobians, bool new_evaluation_point) override;
+
+ private:
+  std::vector<SplitRenderTerm*> terms_;
+};
+
 // RenderCost compressed (cost_functions/compressed_cost.h) from its normal
-// equations: what the solver uses.
+// equations: what the solver uses for one patch.
 class CompressedRenderCost : public NormalEquationsCost {
  public:
   explicit CompressedRenderCost(RenderCost::Data data);

@@ -1,9 +1,11 @@
 #include "sft/solver/frame_costs.h"
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 
 #include <ceres/jet.h>
+#include <ceres/problem.h>
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
@@ -447,6 +449,131 @@ TEST_F(AtlasCostsTest, CostsOverPatchBlocksAreExact) {
   std::unique_ptr<ceres::CostFunction> shared_uv(CreateSharedUvCost(model_.get(), 3.0));
   EXPECT_EQ(shared_uv->num_residuals(), model_->num_duv());
   EXPECT_LT(RelativeJacobianError(*shared_uv, pair_theta, 1e-7), 1e-8);
+}
+
+TEST(PatchGroupsTest, FindsTheSmallestGroupHoldingAPixelsPatches) {
+  PatchGroups groups;
+  groups.groups = {{0, 1, 2}, {1, 3}, {4}};
+  bool whole = false;
+  const int a[] = {1}, b[] = {1, 3}, c[] = {0, 2}, d[] = {2, 3}, e[] = {5};
+  EXPECT_EQ(groups.Find(a, 1, &whole), 1);  // {1, 3} is smaller than {0, 1, 2}
+  EXPECT_TRUE(whole);
+  EXPECT_EQ(groups.Find(b, 2, &whole), 1);
+  EXPECT_EQ(groups.Find(c, 2, &whole), 0);
+  EXPECT_TRUE(whole);
+  EXPECT_EQ(groups.Find(d, 2, &whole), 1);  // in no group: one of those holding one
+  EXPECT_FALSE(whole);
+  EXPECT_EQ(groups.Find(e, 1, &whole), -1);
+}
+
+TEST_F(AtlasCostsTest, TheRenderTermSplitByPatchGroupsIsTheSameProblem) {
+  for (size_t k = 0; k < theta_.size(); ++k) theta_[k] += 0.001 * std::cos(0.3 + 7.0 * k);
+  const PatchGroups groups = MakePatchGroups(*model_, scene_.template_mesh.faces);
+  // Sorted, none inside another, every patch in one.
+  std::vector<int> seen(model_->num_patches(), 0);
+  for (const std::vector<int>& g : groups.groups) {
+    EXPECT_TRUE(std::is_sorted(g.begin(), g.end()));
+    for (int p : g) seen[p] = 1;
+    for (const std::vector<int>& h : groups.groups) {
+      if (&g != &h) EXPECT_FALSE(std::includes(h.begin(), h.end(), g.begin(), g.end()));
+    }
+  }
+  EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), model_->num_patches());
+  ASSERT_GT(groups.groups.size(), 1u);
+  EXPECT_LT(groups.groups.size(), 8u);
+
+  const SoftRasterizer rasterizer(SoftRasterizerOptions(), scene_.texture);
+  const SftFrame frame = LoadFrame(scene_, 1);
+  const RenderCost whole(RenderData(rasterizer, frame));
+  double squared_norm = 0.0;
+  Eigen::MatrixXd jtj;
+  Eigen::VectorXd jtr;
+  ASSERT_TRUE(whole.EvaluateNormalEquations(theta_.data(), &squared_norm, &jtj, &jtr));
+
+  // Before compression, the groups' systems add up to the whole one.
+  std::vector<RenderCost::GroupSystem> systems;
+  ASSERT_TRUE(whole.EvaluateGroupNormalEquations(theta_.data(), groups, true, &systems));
+  const int b = model_->block_size(), P = model_->num_parameters();
+  double sum = 0.0;
+  Eigen::MatrixXd sum_jtj = Eigen::MatrixXd::Zero(P, P);
+  Eigen::VectorXd sum_jtr = Eigen::VectorXd::Zero(P);
+  for (size_t g = 0; g < systems.size(); ++g) {
+    const std::vector<int>& members = groups.groups[g];
+    sum += systems[g].squared_norm;
+    for (size_t i = 0; i < members.size(); ++i) {
+      sum_jtr.segment(b * members[i], b) += systems[g].jtr.segment(b * i, b);
+      for (size_t k = 0; k < members.size(); ++k) {
+        sum_jtj.block(b * members[i], b * members[k], b, b) += systems[g].jtj.block(b * i, b * k, b, b);
+      }
+    }
+  }
+  EXPECT_NEAR(sum, squared_norm, 1e-12 * squared_norm);
+  EXPECT_LT((sum_jtj - jtj).norm(), 1e-12 * jtj.norm());
+  EXPECT_LT((sum_jtr - jtr).norm(), 1e-12 * jtr.norm());
+
+  // Compressed, the groups' blocks give the same cost, gradient and
+  // Gauss-Newton matrix as the one block over every patch does (both to
+  // the rounding of factorising a system this ill-conditioned).
+  const auto compressed = [&](const PatchGroups& split_groups, double* cost, Eigen::MatrixXd* rtr,
+                              Eigen::VectorXd* rtr_r) {
+    SplitRenderTerm split(RenderData(rasterizer, frame), split_groups, theta_.data());
+    ASSERT_TRUE(split.Prepare(true, true));
+    *cost = 0.0;
+    rtr->setZero(P, P);
+    rtr_r->setZero(P);
+    for (int g = 0; g < split.num_groups(); ++g) {
+      const std::vector<int>& members = split.group(g);
+      const int n = static_cast<int>(members.size()) * b;
+      std::vector<double> r(n + 1);
+      std::vector<std::vector<double>> j(members.size(), std::vector<double>(static_cast<size_t>(n + 1) * b));
+      std::vector<double*> jacobians;
+      for (auto& block : j) jacobians.push_back(block.data());
+      ASSERT_TRUE(split.Write(g, r.data(), jacobians.data()));
+      const Eigen::Map<const Eigen::VectorXd> R(r.data(), n + 1);
+      *cost += R.squaredNorm();
+      using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+      for (size_t i = 0; i < members.size(); ++i) {
+        const Eigen::Map<const RowMajor> Ji(j[i].data(), n + 1, b);
+        rtr_r->segment(b * members[i], b) += Ji.transpose() * R;
+        for (size_t k = 0; k < members.size(); ++k) {
+          rtr->block(b * members[i], b * members[k], b, b) +=
+              Ji.transpose() * Eigen::Map<const RowMajor>(j[k].data(), n + 1, b);
+        }
+      }
+    }
+  };
+  PatchGroups all;
+  all.groups = {{0, 1, 2, 3}};
+  double cost = 0.0, one_cost = 0.0;
+  Eigen::MatrixXd split_jtj, one_jtj;
+  Eigen::VectorXd split_jtr, one_jtr;
+  compressed(groups, &cost, &split_jtj, &split_jtr);
+  compressed(all, &one_cost, &one_jtj, &one_jtr);
+  EXPECT_NEAR(cost, squared_norm, 1e-9 * squared_norm);
+  EXPECT_NEAR(one_cost, squared_norm, 1e-9 * squared_norm);
+  EXPECT_LT((split_jtj - jtj).norm(), 2.0 * (one_jtj - jtj).norm() + 1e-9 * jtj.norm());
+  EXPECT_LT((split_jtr - jtr).norm(), 2.0 * (one_jtr - jtr).norm() + 1e-9 * jtr.norm());
+  EXPECT_LT((split_jtj - jtj).norm(), 1e-4 * jtj.norm());
+  EXPECT_LT((split_jtr - jtr).norm(), 1e-2 * jtr.norm());
+
+  // Through Ceres, each frame rendered once by the callback: the same cost.
+  SplitRenderTerm split(RenderData(rasterizer, frame), groups, theta_.data());
+  RenderTermCallback callback;
+  callback.Add(&split);
+  ceres::Problem::Options options;
+  options.evaluation_callback = &callback;
+  ceres::Problem problem(options);
+  for (int p = 0; p < model_->num_patches(); ++p) problem.AddParameterBlock(theta_.data() + b * p, b);
+  for (int g = 0; g < split.num_groups(); ++g) {
+    std::vector<double*> blocks;
+    for (int p : split.group(g)) blocks.push_back(theta_.data() + b * p);
+    problem.AddResidualBlock(split.NewGroupCost(g), nullptr, blocks);
+  }
+  double ceres_cost = 0.0;
+  std::vector<double> gradient;
+  ASSERT_TRUE(problem.Evaluate(ceres::Problem::EvaluateOptions(), &ceres_cost, nullptr, &gradient, nullptr));
+  EXPECT_NEAR(2.0 * ceres_cost, squared_norm, 1e-9 * squared_norm);
+  EXPECT_LT((Eigen::Map<const Eigen::VectorXd>(gradient.data(), P) - jtr).norm(), 1e-2 * jtr.norm());
 }
 
 TEST_F(AtlasCostsTest, SeamsAreContinuousWhenChildrenStartAndNotOnceTheyDiffer) {

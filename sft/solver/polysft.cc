@@ -194,6 +194,7 @@ class PolySftController {
     CheckTemplate();
     PrepareTemplateData();
     atlas_terms_ = GroupAtlasTerms(model_, edges_, rest_lengths_);
+    render_groups_ = MakePatchGroups(model_, scene_.template_mesh.faces);
     BuildPyramid();
     CreateRasterizers();
     const int num_frames =
@@ -472,14 +473,36 @@ class PolySftController {
     window_.push_back(std::move(data));
   }
 
+  // The split render terms of one problem, kept beside it, and the
+  // callback (the problem's evaluation_callback) that renders each frame
+  // once per evaluation for all its groups.
+  struct SplitTerms {
+    std::vector<std::unique_ptr<SplitRenderTerm>> terms;
+    RenderTermCallback callback;
+  };
+
   // The photometric and silhouette term of window frame k at a level;
-  // false when the surface went behind the camera.
-  bool AddImageTerm(int l, FrameData& frame, ceres::Problem* problem) {
+  // false when the surface went behind the camera. One residual block for
+  // one patch; for an atlas, one per group of patches (render_groups_,
+  // into `split`), so that the normal equations stay sparse by patch.
+  bool AddImageTerm(int l, FrameData& frame, ceres::Problem* problem, SplitTerms* split) {
     if (frame.mask_empty || (!use_photometric_ && !use_masks_)) return true;
     RenderCost::Data d;
     if (!ImageTerm(l, frame, window_.size() > 1, &d)) return false;
     if (d.roi.area() <= 0) return true;
-    problem->AddResidualBlock(new CompressedRenderCost(std::move(d)), nullptr, Blocks(frame.theta));
+    const std::vector<double*> blocks = Blocks(frame.theta);
+    if (model_.num_patches() == 1) {
+      problem->AddResidualBlock(new CompressedRenderCost(std::move(d)), nullptr, blocks);
+    } else {
+      split->terms.push_back(std::make_unique<SplitRenderTerm>(std::move(d), render_groups_, frame.theta.data()));
+      const SplitRenderTerm& term = *split->terms.back();
+      split->callback.Add(split->terms.back().get());
+      for (int g = 0; g < term.num_groups(); ++g) {
+        std::vector<double*> group_blocks;
+        for (int p : term.group(g)) group_blocks.push_back(blocks[p]);
+        problem->AddResidualBlock(term.NewGroupCost(g), nullptr, group_blocks);
+      }
+    }
     AddSilhouetteReach(l, frame, problem);
     return true;
   }
@@ -667,13 +690,15 @@ class PolySftController {
   // when the solve diverged or the surface went behind the camera.
   bool SolveWindow(double* cost, int* iterations) {
     for (int l = 0; l < static_cast<int>(levels_.size()); ++l) {
+      SplitTerms split;
       ceres::Problem::Options problem_options;
       problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+      problem_options.evaluation_callback = &split.callback;
       ceres::Problem problem(problem_options);
       for (size_t k = 0; k < window_.size(); ++k) {
         FrameData& frame = *window_[k];
         for (double* block : Blocks(frame.theta)) problem.AddParameterBlock(block, model_.block_size());
-        if (!AddImageTerm(l, frame, &problem)) {
+        if (!AddImageTerm(l, frame, &problem, &split)) {
           return Fail("frame " + std::to_string(frame.frame.index) + ": the surface went behind the camera");
         }
         AddRegularizers(k, &problem);
@@ -752,6 +777,7 @@ class PolySftController {
     const double before = PredictedDecrease();
     const JetDeformationModel unsplit = model_;
     const AtlasTerms unsplit_terms = atlas_terms_;
+    const PatchGroups unsplit_groups = render_groups_;
     std::vector<std::vector<double>> thetas;
     for (auto& frame : window_) thetas.push_back(frame->theta);
     const std::vector<double> previous = previous_final_theta_;
@@ -759,6 +785,7 @@ class PolySftController {
     for (auto& frame : window_) frame->theta = model_.InheritParameters(split, frame->theta);
     if (!finals_.empty()) previous_final_theta_ = model_.InheritParameters(split, previous_final_theta_);
     atlas_terms_ = GroupAtlasTerms(model_, edges_, rest_lengths_);
+    render_groups_ = MakePatchGroups(model_, scene_.template_mesh.faces);
     const double gain = PredictedDecrease() - before;
     const double noise = (split.num_children - 1) * model_.block_size() * noise_cost_;
     if (gain > options_.atlas.split_significance * noise) {
@@ -767,6 +794,7 @@ class PolySftController {
     }
     model_ = unsplit;
     atlas_terms_ = unsplit_terms;
+    render_groups_ = unsplit_groups;
     for (size_t k = 0; k < window_.size(); ++k) window_[k]->theta = thetas[k];
     previous_final_theta_ = previous;
     return false;
@@ -775,14 +803,16 @@ class PolySftController {
   // The decrease of the newest frame's cost at the finest level that one
   // Gauss-Newton step (lightly damped) would give, the other frames held.
   double PredictedDecrease() {
+    SplitTerms split;
     ceres::Problem::Options problem_options;
     problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+    problem_options.evaluation_callback = &split.callback;
     ceres::Problem problem(problem_options);
     const size_t k = window_.size() - 1;
     FrameData& frame = *window_[k];
     const std::vector<double*> blocks = Blocks(frame.theta);
     for (double* block : blocks) problem.AddParameterBlock(block, model_.block_size());
-    if (!AddImageTerm(static_cast<int>(levels_.size()) - 1, frame, &problem)) return 0.0;
+    if (!AddImageTerm(static_cast<int>(levels_.size()) - 1, frame, &problem, &split)) return 0.0;
     AddRegularizers(k, &problem);
     ceres::Problem::EvaluateOptions evaluate;
     evaluate.parameter_blocks = blocks;
@@ -960,7 +990,8 @@ class PolySftController {
   const Eigen::Matrix2Xd vertex_texcoords_;
   JetDeformationModel model_;
   AtlasTerms atlas_terms_;
-  double mean_edge_ = 0.0;  // the template's, in metres
+  PatchGroups render_groups_;  // the render term's residual blocks (an atlas's)
+  double mean_edge_ = 0.0;     // the template's, in metres
   // The image residual per vertex on the first frame (the floor a patch's
   // fit is compared with).
   Eigen::VectorXd floor_squared_, floor_pixels_;
