@@ -822,14 +822,15 @@ class PolySftController {
     ceres::CRSMatrix crs;
     if (!problem.Evaluate(evaluate, &cost, nullptr, &gradient, &crs)) return 0.0;
     const int n = crs.num_cols;
+    // J^T J from the rows' non-zeros only: a dense update per row would cost
+    // n^2 a row, most of a refinement's time on a large atlas.
     Eigen::MatrixXd jtj = Eigen::MatrixXd::Zero(n, n);
-    Eigen::VectorXd row(n);
     for (int r = 0; r < crs.num_rows; ++r) {
-      row.setZero();
-      for (int e = crs.rows[r]; e < crs.rows[r + 1]; ++e) row[crs.cols[e]] = crs.values[e];
-      jtj.selfadjointView<Eigen::Lower>().rankUpdate(row);
+      for (int e = crs.rows[r]; e < crs.rows[r + 1]; ++e) {
+        const double v = crs.values[e];
+        for (int f = crs.rows[r]; f < crs.rows[r + 1]; ++f) jtj(crs.cols[f], crs.cols[e]) += v * crs.values[f];
+      }
     }
-    jtj = jtj.selfadjointView<Eigen::Lower>();
     const Eigen::Map<const Eigen::VectorXd> g(gradient.data(), n);
     Eigen::MatrixXd damped = jtj;
     damped.diagonal() *= 1.0 + 1e-4;
