@@ -459,7 +459,9 @@ bool SplitRenderTerm::Write(int g, double* residuals, double** jacobians) const 
 }
 
 void RenderTermCallback::PrepareForEvaluation(bool evaluate_jacobians, bool new_evaluation_point) {
-  for (SplitRenderTerm* term : terms_) term->Prepare(evaluate_jacobians, new_evaluation_point);
+  ParallelFor(
+      static_cast<int>(terms_.size()), num_threads_,
+      [&](int, int i) { terms_[i]->Prepare(evaluate_jacobians, new_evaluation_point); }, 1);
 }
 
 InextensibilityCost::InextensibilityCost(const JetDeformationModel* model, const std::vector<int>& patches,

@@ -182,13 +182,17 @@ class SplitRenderTerm {
   std::vector<RenderCost::GroupSystem> systems_;
 };
 
-// Prepares every SplitRenderTerm of a problem before Ceres evaluates it.
+// Prepares every SplitRenderTerm of a problem before Ceres evaluates it,
+// the frames side by side on num_threads threads (0: all), as Ceres would
+// evaluate their residual blocks.
 class RenderTermCallback : public ceres::EvaluationCallback {
  public:
+  explicit RenderTermCallback(int num_threads = 1) : num_threads_(num_threads) {}
   void Add(SplitRenderTerm* term) { terms_.push_back(term); }
   void PrepareForEvaluation(bool evaluate_jacobians, bool new_evaluation_point) override;
 
  private:
+  int num_threads_;
   std::vector<SplitRenderTerm*> terms_;
 };
 

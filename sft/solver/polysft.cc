@@ -477,6 +477,7 @@ class PolySftController {
   // callback (the problem's evaluation_callback) that renders each frame
   // once per evaluation for all its groups.
   struct SplitTerms {
+    explicit SplitTerms(int num_threads) : callback(num_threads) {}
     std::vector<std::unique_ptr<SplitRenderTerm>> terms;
     RenderTermCallback callback;
   };
@@ -690,7 +691,9 @@ class PolySftController {
   // when the solve diverged or the surface went behind the camera.
   bool SolveWindow(double* cost, int* iterations) {
     for (int l = 0; l < static_cast<int>(levels_.size()); ++l) {
-      SplitTerms split;
+      // A lone frame's pixels are split over the threads by the rasterizer;
+      // a window's frames are rendered side by side.
+      SplitTerms split(window_.size() > 1 ? ResolveNumThreads(options_.num_threads) : 1);
       ceres::Problem::Options problem_options;
       problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
       problem_options.evaluation_callback = &split.callback;
@@ -803,7 +806,7 @@ class PolySftController {
   // The decrease of the newest frame's cost at the finest level that one
   // Gauss-Newton step (lightly damped) would give, the other frames held.
   double PredictedDecrease() {
-    SplitTerms split;
+    SplitTerms split(1);  // one frame, its render on the rasterizer's threads
     ceres::Problem::Options problem_options;
     problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
     problem_options.evaluation_callback = &split.callback;
