@@ -59,7 +59,7 @@ bool RenderCost::EvaluateGroupNormalEquations(const double* theta, const PatchGr
     if (!want_jacobian) break;
     for (Accumulator& a : t.accumulators) {
       Flush(&a);
-      if (a.squared_norm == 0.0 && a.jtr.isZero(0.0)) continue;
+      if (a.squared_norm == 0.0 && a.jtj.diagonal().isZero(0.0)) continue;  // unused this time
       bool whole = false;
       const int g = groups.Find(a.patches, a.size, &whole);
       GroupSystem& system = (*systems)[g];
