@@ -16,8 +16,8 @@
 // Off by default (max_patches 1), as measured (docs/benchmarks.md): with
 // up to 16 patches it holds creases and wave packets that one patch cannot
 // (RMSE 7.7 -> 2.6 mm, 7.6 -> 3.5 mm) and a strong smooth bend a little
-// better (1.2 -> 1.0 mm), but a smooth bend passes the score test as well
-// and then costs 2-3 s per frame instead of 0.66.
+// better (1.2 -> 0.8 mm), but a smooth bend passes the score test as well
+// and then costs 1.3-1.9 s per frame instead of 0.5-0.7.
 #ifndef POLYFIT_SFT_SOLVER_PATCH_ATLAS_H_
 #define POLYFIT_SFT_SOLVER_PATCH_ATLAS_H_
 

@@ -82,6 +82,30 @@ TEST(PolySftStressTest, SheetLeavingTheImageAndComingBack) {
   EXPECT_LT(summary.frames[8].rmse_mm, 5.0);
 }
 
+// The same with the patch atlas forced to split (every patch a candidate,
+// no score test): patches leave the image with their render groups empty.
+// Finite and defined; it is not found again by frame 12 (47 mm at frame
+// 6, 107 mm at 12 measured), where one patch is at frame 8.
+TEST(PolySftStressTest, AnAtlasLeavingTheImageAndComingBack) {
+  ScopedTempDir dir("polyfit_sft_atlas_leaves");
+  SheetSceneOptions o = Rigid(13);
+  o.sideways_amplitude = 0.3;
+  o.yaw_amplitude = 0.0;
+  GenerateSheetScene(o, dir.path().string());
+  PolySftOptions options;
+  options.num_threads = 2;
+  options.rasterizer.num_threads = 2;
+  options.atlas.max_patches = 7;
+  options.atlas.split_ratio = 1.0;
+  options.atlas.split_significance = 1e-9;
+  options.atlas.min_vertices = 10;
+  const PolySftSummary summary = SolvePolySft(options, LoadScene(dir.path().string()));
+  Report("atlas leaving the image", summary);
+  ExpectFiniteEverywhere(summary, 13);
+  EXPECT_FALSE(summary.splits.empty());
+  EXPECT_GT(summary.frames.back().patches, 1);
+}
+
 TEST(PolySftStressTest, ABlackFrame) {
   ScopedTempDir dir("polyfit_sft_black");
   const SheetSceneOptions o = Rigid(7);
