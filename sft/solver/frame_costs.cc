@@ -14,7 +14,8 @@
 
 namespace polyfit {
 
-RenderCost::RenderCost(Data data) : data_(std::move(data)) {
+RenderCost::RenderCost(Data data)
+    : data_(std::move(data)), render_(data_.render_scratch != nullptr ? data_.render_scratch : &own_render_) {
   channels_ = data_.mask.empty() ? 3 : 4;
   set_num_residuals(data_.roi.area() * channels_);
   for (int p = 0; p < data_.model->num_patches(); ++p) {
@@ -110,13 +111,13 @@ void ApplyRobustLoss(RobustLoss loss, double b, double* r, double* jacobian_scal
 }  // namespace
 
 void RenderCost::PixelResiduals(int y, int x, double* r, double* jacobian_scale, bool* in_band) const {
-  const cv::Vec3f rendered = render_.color.at<cv::Vec3f>(y, x), observed = data_.image.at<cv::Vec3f>(y, x);
+  const cv::Vec3f rendered = render_->color.at<cv::Vec3f>(y, x), observed = data_.image.at<cv::Vec3f>(y, x);
   for (int ch = 0; ch < 3; ++ch) r[ch] = data_.photometric_weight * (rendered[ch] - observed[ch]);
   *jacobian_scale = data_.photometric_weight;
   *in_band = false;
   ApplyRobustLoss(data_.robust_loss, data_.robust_scale, r, jacobian_scale);
   if (channels_ == 4) {
-    const double s = render_.silhouette.at<float>(y, x), lo = data_.mask.at<float>(y, x);
+    const double s = render_->silhouette.at<float>(y, x), lo = data_.mask.at<float>(y, x);
     const double hi = data_.mask_upper.empty() ? lo : data_.mask_upper.at<float>(y, x);
     *in_band = s > lo && s < hi;  // (lo < hi only in a band)
     r[3] = data_.silhouette_weight * (s - std::clamp(s, lo, hi));
@@ -126,8 +127,8 @@ void RenderCost::PixelResiduals(int y, int x, double* r, double* jacobian_scale,
 bool RenderCost::GatherPatches(int pixel, PixelPatches* out) const {
   const std::vector<int>& vertex_patch = data_.model->vertex_patches();
   out->size = 0;
-  for (int k = render_.begin[pixel]; k < render_.end[pixel]; ++k) {
-    const int p = vertex_patch[render_.gradients[k].vertex];
+  for (int k = render_->begin[pixel]; k < render_->end[pixel]; ++k) {
+    const int p = vertex_patch[render_->gradients[k].vertex];
     int j = 0;
     while (j < out->size && out->patches[j] < p) ++j;
     if (j < out->size && out->patches[j] == p) continue;
@@ -173,8 +174,8 @@ void RenderCost::ChainPixelJacobian(int pixel, const PixelPatches& patches, int 
   const int n = patches.size * block;
   std::fill(local, local + 4 * n, 0.0);
   const std::vector<int>& vertex_patch = data_.model->vertex_patches();
-  for (int k = render_.begin[pixel]; k < render_.end[pixel]; ++k) {
-    const VertexGradient& g = render_.gradients[k];
+  for (int k = render_->begin[pixel]; k < render_->end[pixel]; ++k) {
+    const VertexGradient& g = render_->gradients[k];
     const int slot = static_cast<int>(
         std::find(patches.patches, patches.patches + patches.size, vertex_patch[g.vertex]) - patches.patches);
     const double* s0 = screen_theta_.data() + static_cast<size_t>(3 * g.vertex) * block;
@@ -227,7 +228,7 @@ bool RenderCost::Prepare(const double* theta, bool model_jacobian, bool render_g
     model.Evaluate(theta, &vertices_);
   }
   if (!ProjectVertices(data_.camera, vertices_, &screen_, model_jacobian ? &screen_jacobian_ : nullptr)) return false;
-  data_.rasterizer->Render(screen_, data_.camera.width, data_.camera.height, data_.image, render_gradients, &render_,
+  data_.rasterizer->Render(screen_, data_.camera.width, data_.camera.height, data_.image, render_gradients, render_,
                            data_.roi);
   if (!model_jacobian) return true;
   const int n = model.num_vertices();
@@ -315,7 +316,7 @@ bool RenderCost::Compute(const double* theta, double* residuals, double** jacobi
           }
           for (int ch = 0; ch < channels_; ++ch) state.squared_norm += r[ch] * r[ch];
           const int pixel = y * data_.camera.width + x;
-          if (!want_jacobian || render_.end[pixel] == render_.begin[pixel]) continue;  // a zero row
+          if (!want_jacobian || render_->end[pixel] == render_->begin[pixel]) continue;  // a zero row
           if (!AddPixelJacobian(&state, pixel, r0, r, jacobian_scale, in_band, jacobians, normal)) ok = false;
         }
       },
@@ -333,7 +334,7 @@ bool RenderCost::VertexResiduals(const double* theta, Eigen::VectorXd* squared_r
   for (int y = roi.y; y < roi.y + roi.height; ++y) {
     for (int x = roi.x; x < roi.x + roi.width; ++x) {
       const int pixel = y * data_.camera.width + x;
-      const int begin = render_.begin[pixel], end = render_.end[pixel];
+      const int begin = render_->begin[pixel], end = render_->end[pixel];
       if (end == begin) continue;
       double r[4], jacobian_scale;
       bool in_band;
@@ -343,7 +344,7 @@ bool RenderCost::VertexResiduals(const double* theta, Eigen::VectorXd* squared_r
       // A vertex may appear once per triangle: shares by entry.
       const double share = 1.0 / (end - begin);
       for (int k = begin; k < end; ++k) {
-        const int v = render_.gradients[k].vertex;
+        const int v = render_->gradients[k].vertex;
         (*squared_residuals)[v] += share * squared;
         (*pixels)[v] += share;
       }

@@ -54,6 +54,11 @@ class RenderCost : public ceres::CostFunction {
     double silhouette_weight = 1.0;
     RobustLoss robust_loss = RobustLoss::kNone;
     double robust_scale = 0.1;
+    // The render's buffers, kept by the caller and reused by costs that
+    // are never evaluated at the same time (a frame's cost at each level
+    // and solve): fresh buffers of a few megabytes cost more in page
+    // faults than a small mesh's render. Null: the cost's own.
+    SoftRenderOutput* render_scratch = nullptr;
   };
   // Parameter blocks: one per patch of the model, in patch order.
   explicit RenderCost(Data data);
@@ -138,7 +143,8 @@ class RenderCost : public ceres::CostFunction {
   Data data_;
   int channels_;
   mutable ScreenMesh screen_;
-  mutable SoftRenderOutput render_;
+  mutable SoftRenderOutput own_render_;
+  SoftRenderOutput* render_;  // own_render_ or data_.render_scratch
   mutable Eigen::Matrix3Xd vertices_;
   mutable Eigen::MatrixXd model_jacobian_, screen_jacobian_;
   mutable std::vector<double> theta_;

@@ -36,6 +36,9 @@ double Seconds(Clock::time_point since) { return std::chrono::duration<double>(C
 // One frame's images at every pyramid level (coarsest first).
 struct FrameData {
   SftFrame frame;
+  // The render buffers of the frame's image terms, one at a time (each
+  // level's and window's problem in turn).
+  SoftRenderOutput render_scratch;
   // The silhouette's bounds per level (MaskBounds; equal without a band).
   std::vector<cv::Mat> images, masks, masks_upper;
   // The distance outside the mask's outline at the coarsest level
@@ -491,6 +494,7 @@ class PolySftController {
     RenderCost::Data d;
     if (!ImageTerm(l, frame, window_.size() > 1, &d)) return false;
     if (d.roi.area() <= 0) return true;
+    d.render_scratch = &frame.render_scratch;
     const std::vector<double*> blocks = Blocks(frame.theta);
     if (model_.num_patches() == 1) {
       problem->AddResidualBlock(new CompressedRenderCost(std::move(d)), nullptr, blocks);
