@@ -8,7 +8,7 @@ cd "$(dirname "$0")/.."
 packages=(cmake ninja-build g++ pkg-config
           libeigen3-dev libceres-dev libsuitesparse-dev libgoogle-glog-dev libgflags-dev
           libgtest-dev libgmock-dev libcgal-dev libassimp-dev libcli11-dev nlohmann-json3-dev libopencv-dev zlib1g-dev
-          python3-dev python3-numpy python3-pytest pybind11-dev libopenmpi-dev openmpi-bin)
+          python3-dev python3-numpy python3-pytest python3-matplotlib pybind11-dev libopenmpi-dev openmpi-bin)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
