@@ -9,7 +9,7 @@
 
 namespace polyfit {
 
-CotangentLaplacian MakeCotangentLaplacian(const TriangleMesh& mesh) {
+CotangentLaplacian MakeCotangentLaplacian(const TriangleMesh& mesh, bool clamp_negative_weights) {
   const int n = mesh.num_vertices();
   // Half-weights per directed edge, then summed per edge after sorting.
   std::vector<std::pair<std::pair<int, int>, double>> half;
@@ -34,7 +34,7 @@ CotangentLaplacian MakeCotangentLaplacian(const TriangleMesh& mesh) {
     size_t end = k;
     double w = 0.0;
     for (; end < half.size() && half[end].first == half[k].first; ++end) w += half[end].second;
-    if (w > 0.0) {
+    if (clamp_negative_weights ? w > 0.0 : w != 0.0) {
       laplacian.neighbour.push_back(half[k].first.second);
       laplacian.weight.push_back(w);
       ++laplacian.offsets[half[k].first.first + 1];
@@ -55,6 +55,14 @@ Eigen::MatrixXd CotangentLaplacian::Apply(const Eigen::MatrixXd& fields) const {
   return out;
 }
 
+void CotangentLaplacian::ApplyToColumns(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd* out) const {
+  for (int i = 0; i < num_vertices(); ++i) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (int k = offsets[i]; k < offsets[i + 1]; ++k) sum += weight[k] * (x.col(i) - x.col(neighbour[k]));
+    out->col(i) = sum;
+  }
+}
+
 Eigen::MatrixXd CotangentLaplacian::ToDense() const {
   Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(num_vertices(), num_vertices());
   for (int i = 0; i < num_vertices(); ++i) {
@@ -64,17 +72,6 @@ Eigen::MatrixXd CotangentLaplacian::ToDense() const {
     }
   }
   return dense;
-}
-
-Eigen::VectorXd LumpedVertexAreas(const TriangleMesh& mesh) {
-  Eigen::VectorXd areas = Eigen::VectorXd::Zero(mesh.num_vertices());
-  for (int f = 0; f < mesh.num_faces(); ++f) {
-    const Eigen::Vector3d a = mesh.vertices.col(mesh.faces(0, f)), b = mesh.vertices.col(mesh.faces(1, f)),
-                          c = mesh.vertices.col(mesh.faces(2, f));
-    const double third = (b - a).cross(c - a).norm() / 6.0;
-    for (int k = 0; k < 3; ++k) areas[mesh.faces(k, f)] += third;
-  }
-  return areas;
 }
 
 namespace {
@@ -171,7 +168,7 @@ Eigen::MatrixXd DiffuseHeat(const TriangleMesh& mesh, const Eigen::MatrixXd& fie
   }
   if (n == 0 || t == 0.0) return fields;
   const CotangentLaplacian laplacian = MakeCotangentLaplacian(mesh);
-  const Eigen::VectorXd mass = LumpedVertexAreas(mesh);
+  const Eigen::VectorXd mass = VertexAreas(mesh);
   const ImplicitStep step(laplacian, mass, rate.empty() ? std::vector<double>(n, 1.0) : rate, t / substeps);
   Eigen::MatrixXd out = fields;
   Eigen::VectorXd column(n), next(n);

@@ -21,10 +21,11 @@
 namespace polyfit {
 
 // (L f)_i = sum_j w_ij (f_i - f_j), w_ij = (cot a_ij + cot b_ij) / 2 over
-// the angles opposite edge ij: symmetric positive semi-definite, rows
-// summing to zero. Negative weights (obtuse angles on both sides) are
-// clamped to zero, so that diffusion never makes a field overshoot its
-// neighbours; degenerate faces add nothing.
+// the angles opposite edge ij: symmetric, rows summing to zero. Degenerate
+// faces add nothing. Negative weights (obtuse angles on both sides) are
+// clamped to zero by default (positive semi-definite then), so that
+// diffusion never makes a field overshoot its neighbours; a curvature
+// (bending) measure keeps them.
 struct CotangentLaplacian {
   // Vertex i's neighbours: neighbour[offsets[i] .. offsets[i + 1]), with
   // their weights w_ij >= 0.
@@ -35,14 +36,14 @@ struct CotangentLaplacian {
   int num_vertices() const { return static_cast<int>(offsets.size()) - 1; }
   // L f for #V by k fields.
   Eigen::MatrixXd Apply(const Eigen::MatrixXd& fields) const;
+  // The same for points as columns: out (3 by #V, sized by the caller) =
+  // (L x')', without allocation.
+  void ApplyToColumns(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd* out) const;
   // #V by #V (tests, small meshes).
   Eigen::MatrixXd ToDense() const;
 };
 
-CotangentLaplacian MakeCotangentLaplacian(const TriangleMesh& mesh);
-
-// #V: a third of the area of each vertex's faces (barycentric lumping).
-Eigen::VectorXd LumpedVertexAreas(const TriangleMesh& mesh);
+CotangentLaplacian MakeCotangentLaplacian(const TriangleMesh& mesh, bool clamp_negative_weights = true);
 
 // Heat diffusion of fields over the mesh's surface for time t (m^2):
 // df/dt = -rate M^-1 L f, in `substeps` implicit Euler steps

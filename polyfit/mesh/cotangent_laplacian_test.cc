@@ -30,14 +30,14 @@ TEST(CotangentLaplacianTest, IsSymmetricWithZeroRowSumsAndVanishesOnLinearFields
     ++inside;
   }
   EXPECT_GT(inside, 20);
-  EXPECT_NEAR(LumpedVertexAreas(grid).sum(), (hi - lo)[0] * (hi - lo)[1], 1e-12);
+  EXPECT_NEAR(VertexAreas(grid).sum(), (hi - lo)[0] * (hi - lo)[1], 1e-12);
 }
 
 TEST(CotangentLaplacianTest, HeightIsAnEigenfunctionOnTheSphere) {
   // On a sphere of radius r, Delta z = -2 z / r^2; L approximates -M Delta.
   const double r = 0.7;
   const TriangleMesh sphere = MakeIcosphere(4, r);
-  const Eigen::VectorXd areas = LumpedVertexAreas(sphere);
+  const Eigen::VectorXd areas = VertexAreas(sphere);
   EXPECT_NEAR(areas.sum(), 4.0 * M_PI * r * r, 0.01 * 4.0 * M_PI * r * r);
   const Eigen::VectorXd z = sphere.vertices.row(2).transpose();
   const Eigen::VectorXd lz = MakeCotangentLaplacian(sphere).Apply(z);
@@ -67,6 +67,36 @@ TEST(CotangentLaplacianTest, ClampsNegativeWeightsAndSkipsDegenerateFaces) {
   EXPECT_EQ(dense.row(4).cwiseAbs().sum(), 0.0);
 }
 
+TEST(CotangentLaplacianTest, KeptNegativeWeightsVanishOnLinearFieldsOfAnyPlanarMesh) {
+  // A grid with its inner vertices jittered (not enough to fold a triangle
+  // over): some edges get negative weights. Unclamped, L is exact on linear
+  // fields at every inner vertex of a planar mesh; clamped, it is not.
+  TriangleMesh mesh = MakeGrid(8, 8, 1.0);
+  const Eigen::Vector3d lo = mesh.vertices.rowwise().minCoeff(), hi = mesh.vertices.rowwise().maxCoeff();
+  const double spacing = (hi - lo)[0] / 8.0;
+  std::vector<bool> inner(mesh.num_vertices(), false);
+  std::srand(7);
+  for (int v = 0; v < mesh.num_vertices(); ++v) {
+    const Eigen::Vector3d p = mesh.vertices.col(v);
+    inner[v] = (p - lo).head<2>().minCoeff() > 1e-9 && (hi - p).head<2>().minCoeff() > 1e-9;
+    if (inner[v]) mesh.vertices.col(v).head<2>() += 0.2 * spacing * Eigen::Vector2d::Random();
+  }
+  const CotangentLaplacian kept = MakeCotangentLaplacian(mesh, /*clamp_negative_weights=*/false);
+  EXPECT_LT(*std::min_element(kept.weight.begin(), kept.weight.end()), 0.0);
+  const Eigen::Matrix3Xd field = (Eigen::Matrix3d() << 0.3, -1.7, 0, 2, 0.5, 0, -1, 1, 0).finished() * mesh.vertices;
+  Eigen::Matrix3Xd kept_field(3, mesh.num_vertices());
+  kept.ApplyToColumns(field, &kept_field);
+  EXPECT_LT((kept_field.transpose() - kept.Apply(field.transpose())).cwiseAbs().maxCoeff(), 1e-14);
+  const Eigen::MatrixXd clamped_field = MakeCotangentLaplacian(mesh).Apply(field.transpose());
+  double clamped_worst = 0.0;
+  for (int v = 0; v < mesh.num_vertices(); ++v) {
+    if (!inner[v]) continue;
+    EXPECT_LT(kept_field.col(v).norm(), 1e-12) << v;
+    clamped_worst = std::max(clamped_worst, clamped_field.row(v).norm());
+  }
+  EXPECT_GT(clamped_worst, 1e-3);
+}
+
 TEST(DiffuseHeatTest, MatchesTheExactDiffusionOfAStepAndConservesItsIntegral) {
   // A step in x on the square [-1, 1]^2 diffuses to (1 + erf(x / 2 sqrt(t))) / 2
   // while it is far from the (insulated) boundary; two meshings agree.
@@ -80,7 +110,7 @@ TEST(DiffuseHeatTest, MatchesTheExactDiffusionOfAStepAndConservesItsIntegral) {
       step(v, 1) = 1.0 - step(v, 0);
     }
     const Eigen::MatrixXd diffused = DiffuseHeat(grid, step, t, {}, 16);
-    const Eigen::VectorXd areas = LumpedVertexAreas(grid);
+    const Eigen::VectorXd areas = VertexAreas(grid);
     EXPECT_NEAR(areas.dot(diffused.col(0)), areas.dot(step.col(0)), 1e-9);
     double worst = 0.0;
     for (int v = 0; v < grid.num_vertices(); ++v) {

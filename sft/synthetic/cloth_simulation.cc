@@ -37,33 +37,21 @@ std::string ClothSimulationOptions::Validate() const {
 
 namespace {
 
-// The bending stiffness matrix B L' D L (#V by #V): L the cotangent
-// Laplacian's rows at interior vertices, (L x)_v = sum_u w_vu (x_u - x_v),
-// w_vu = (cot a + cot b) / 2, and D = diag(1 / A_v). Its energy
-// 0.5 x' K x = (B / 2) sum_v |(L x)_v|^2 / A_v is the plate's
+// The bending force -K x, K = B L' D L: L the cotangent Laplacian (its
+// negative weights kept), D = diag(1 / A_v) over interior vertices. Its
+// energy 0.5 x' K x = (B / 2) sum_v |(L x)_v|^2 / A_v is the plate's
 // (B / 2) integral of (2 H)^2 for the mean curvature normal
 // H n = (L x)_v / (2 A_v), and zero on the flat rest state. Boundary rows
-// are left out: a flat boundary's Laplacian is not zero.
-Eigen::SparseMatrix<double> BendingMatrix(const TriangleMesh& rest, double stiffness) {
+// are left out: a flat boundary's Laplacian is not zero. Applied as L, then
+// D, then L (L is symmetric), which is sparser than K itself.
+Eigen::VectorXd BendingWeights(const TriangleMesh& rest, double stiffness) {
   const int n = rest.num_vertices();
-  std::vector<Eigen::Triplet<double>> laplacian;
-  Eigen::VectorXd area = Eigen::VectorXd::Zero(n);
+  const Eigen::VectorXd area = VertexAreas(rest);
   const Eigen::Matrix2Xi edges = UniqueEdges(rest);
   std::vector<int> faces_per_edge(edges.cols(), 0);
   for (int f = 0; f < rest.num_faces(); ++f) {
     for (int c = 0; c < 3; ++c) {
-      const int i = rest.faces(c, f), j = rest.faces((c + 1) % 3, f), k = rest.faces((c + 2) % 3, f);
-      const Eigen::Vector3d a = rest.vertices.col(i) - rest.vertices.col(k),
-                            b = rest.vertices.col(j) - rest.vertices.col(k);
-      const double cross = a.cross(b).norm();
-      if (cross <= 0.0) continue;
-      const double w = 0.5 * a.dot(b) / cross;  // half the cotangent of the angle at k
-      laplacian.emplace_back(i, j, w);
-      laplacian.emplace_back(j, i, w);
-      laplacian.emplace_back(i, i, -w);
-      laplacian.emplace_back(j, j, -w);
-      area[i] += cross / 6.0;
-      const int e = FindEdge(edges, i, j);
+      const int e = FindEdge(edges, rest.faces(c, f), rest.faces((c + 1) % 3, f));
       if (e >= 0) ++faces_per_edge[e];
     }
   }
@@ -71,12 +59,9 @@ Eigen::SparseMatrix<double> BendingMatrix(const TriangleMesh& rest, double stiff
   for (int e = 0; e < edges.cols(); ++e) {
     if (faces_per_edge[e] < 2) boundary[edges(0, e)] = boundary[edges(1, e)] = true;
   }
-  Eigen::SparseMatrix<double> L(n, n);
-  L.setFromTriplets(laplacian.begin(), laplacian.end());
   Eigen::VectorXd weight(n);
-  for (int v = 0; v < n; ++v) weight[v] = boundary[v] || area[v] <= 0.0 ? 0.0 : stiffness / area[v];
-  const Eigen::SparseMatrix<double> K = Eigen::SparseMatrix<double>(L.transpose()) * weight.asDiagonal() * L;
-  return K;
+  for (int v = 0; v < n; ++v) weight[v] = boundary[v] || !(area[v] > 0.0) ? 0.0 : stiffness / area[v];
+  return weight;
 }
 
 Eigen::Vector3i Cell(const Eigen::Vector3d& x, double cell) {
@@ -122,7 +107,10 @@ ClothSimulation::ClothSimulation(const TriangleMesh& rest, const ClothSimulation
     rest_length_[e] = (rest_.col(edges_(0, e)) - rest_.col(edges_(1, e))).norm();
   }
   thickness_ = ClothThickness(rest, options);
-  bending_ = BendingMatrix(rest, options.bending_stiffness);
+  laplacian_ = MakeCotangentLaplacian(rest, /*clamp_negative_weights=*/false);
+  bending_weight_ = BendingWeights(rest, options.bending_stiffness);
+  curvature_.resize(3, n);
+  force_.resize(3, n);
 }
 
 void ClothSimulation::Pin(int vertex) {
@@ -164,9 +152,7 @@ void ClothSimulation::AddAirForces(Eigen::Matrix3Xd* force) const {
 }
 
 void ClothSimulation::Predict(double h) {
-  positions_by_row_ = x_.transpose();
-  bending_force_.noalias() = bending_ * positions_by_row_;
-  force_ = -bending_force_.transpose();
+  BendingForce(&force_);
   AddAirForces(&force_);
   const double keep = std::max(0.0, 1.0 - options_.damping * h);
   previous_ = x_;
@@ -306,13 +292,16 @@ void ClothSimulation::SetPositions(const Eigen::Matrix3Xd& x) {
   v_.setZero();
 }
 
+void ClothSimulation::BendingForce(Eigen::Matrix3Xd* force) {
+  laplacian_.ApplyToColumns(x_, &curvature_);
+  for (int v = 0; v < curvature_.cols(); ++v) curvature_.col(v) *= -bending_weight_[v];
+  laplacian_.ApplyToColumns(curvature_, force);
+}
+
 double ClothSimulation::BendingEnergy() const {
-  double energy = 0.0;
-  for (int k = 0; k < 3; ++k) {
-    const Eigen::VectorXd coordinate = x_.row(k).transpose();
-    energy += 0.5 * coordinate.dot(bending_ * coordinate);
-  }
-  return energy;
+  Eigen::Matrix3Xd curvature(3, x_.cols());
+  laplacian_.ApplyToColumns(x_, &curvature);
+  return 0.5 * (curvature.colwise().squaredNorm().transpose().array() * bending_weight_.array()).sum();
 }
 
 double ClothSimulation::MaxEdgeStrain() const {

@@ -13,8 +13,8 @@
 #include <vector>
 
 #include <Eigen/Core>
-#include <Eigen/SparseCore>
 
+#include "polyfit/mesh/cotangent_laplacian.h"
 #include "polyfit/mesh/triangle_mesh.h"
 
 namespace polyfit {
@@ -111,14 +111,17 @@ class ClothSimulation {
   void SolveEdges(double h);
   void SolveSelfCollisions();
   void SolveObstacle();
+  // force = -K x for the bending stiffness K (cloth_simulation.cc).
+  void BendingForce(Eigen::Matrix3Xd* force);
   void AddAirForces(Eigen::Matrix3Xd* force) const;
 
   ClothSimulationOptions options_;
   Eigen::Matrix3Xi faces_;
-  Eigen::Matrix2Xi edges_;               // 2 by #E
-  Eigen::VectorXd rest_length_;          // #E
-  Eigen::VectorXd inverse_mass_;         // #V (0: pinned)
-  Eigen::SparseMatrix<double> bending_;  // #V by #V: force = -bending_ * x (per coordinate)
+  Eigen::Matrix2Xi edges_;          // 2 by #E
+  Eigen::VectorXd rest_length_;     // #E
+  Eigen::VectorXd inverse_mass_;    // #V (0: pinned)
+  CotangentLaplacian laplacian_;    // negative weights kept
+  Eigen::VectorXd bending_weight_;  // #V: B / A_v, 0 on the boundary
   Eigen::Matrix3Xd rest_;
   Eigen::Matrix3Xd x_, v_, previous_;
   Eigen::Matrix3Xd pin_from_, pin_to_;  // per vertex; used where pinned
@@ -127,8 +130,7 @@ class ClothSimulation {
   Eigen::Vector3d wind_ = Eigen::Vector3d::Zero();
   ClothObstacle obstacle_;
   // Buffers reused across substeps: forces, and the self-collision hash.
-  Eigen::MatrixX3d positions_by_row_, bending_force_;
-  Eigen::Matrix3Xd force_;
+  Eigen::Matrix3Xd curvature_, force_;
   std::vector<Eigen::Vector3i> cell_;
   std::vector<int> cell_start_, cell_entries_;
 };
