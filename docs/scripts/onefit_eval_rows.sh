@@ -1,0 +1,52 @@
+#!/bin/bash
+# The seven rows every OneFit network is compared on in docs/benchmarks.md:
+# `onefit eval` (network against the reference drape, one thread) on the
+# suit's walk, hop and dance, the skirt's walk, the held-out sport suit's
+# walk, and the suit's walk on two unseen body shapes; two rows at a time.
+#
+#   bash docs/scripts/onefit_eval_rows.sh MODEL OUT [BUILD_DIR]
+#
+# Writes OUT/ROW/eval.md (and the rest of `onefit eval`'s outputs) per row
+# and prints one line per row: eps_c raw, post-processed, eps_e, eps_a and
+# the mean distance to the reference drape (mm). Run from the repository's
+# root; the data is taken from ../shared/data/drape.
+set -euo pipefail
+if [ $# -lt 2 ]; then
+  echo "usage: $0 MODEL OUT [BUILD_DIR]" >&2
+  exit 2
+fi
+model=$1
+out=$2
+onefit=${3:-build}/bin/onefit
+data=../shared/data/drape
+garments=$data/garments/makehuman_cc0
+suit=$garments/male_casualsuit02.mhclo
+walk=$data/motion/02_01.bvh
+for path in "$model" "$onefit" "$suit" "$walk"; do
+  [ -e "$path" ] || { echo "$0: $path does not exist" >&2; exit 1; }
+done
+mkdir -p "$out"
+
+row() {
+  local name=$1
+  shift
+  "$onefit" eval --model "$model" --body $data/body --threads 1 --out "$out/$name" "$@" >"$out/$name.log" 2>&1 ||
+    echo "$name failed: see $out/$name.log" >&2
+}
+
+row walk --garment $suit --motion $walk &
+row hop --garment $suit --motion $data/motion/131_03.bvh &
+wait
+row skirt --garment $garments/skirthelper.mhclo --motion $walk &
+row dance --garment $suit --motion $data/motion/05_06.bvh &
+wait
+row sport --garment $garments/female_sportsuit01.mhclo --motion $walk &
+row shapeA --garment $suit --motion $walk --shape gender=0.2,weight=0.9 &
+wait
+row shapeB --garment $suit --motion $walk --shape gender=0.8,weight=0.15,height=0.9,muscle=0.8
+
+echo "row: eps_c % | eps_c % post | eps_c % area | eps_e % | eps_a % | to reference mm (max frame)"
+for name in walk hop skirt dance sport shapeA shapeB; do
+  line=$(grep -E '^\| network' "$out/$name/eval.md" 2>/dev/null | cut -d'|' -f3-8 || true)
+  echo "$name:${line:- (no result)}"
+done
