@@ -12,6 +12,7 @@ void PatchLikeModel(const OneFitModel& model, DrapeSolverOptions* options) {
   options->patching.patch_area = model.patch_area;
   options->patching.max_fit_error = model.max_fit_error;
   options->patching.curved_faces = model.curved_faces;
+  options->patching.jet_order = model.jet_order;
 }
 
 PatchOutputMap MakePatchOutputMap(const DrapeSolver& solver, int jet_order, int warp_order, bool area_units) {

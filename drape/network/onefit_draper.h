@@ -17,7 +17,8 @@ namespace polyfit {
 
 // Sets what in `options` must agree with `model` for its predictions to fit
 // the garment's patches: the parameter layout (warp order) and the patching
-// (frame alignment, patch area, fit error) it was trained on.
+// (frame alignment, patch area, fit error, curved faces, jet order) it was
+// trained on.
 void PatchLikeModel(const OneFitModel& model, DrapeSolverOptions* options);
 
 // What the network's outputs are to the solver's patches (PatchOutputUnits).

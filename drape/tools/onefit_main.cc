@@ -286,7 +286,10 @@ void AddTrainRunFlags(CLI::App* train, TrainFlags* f) {
   train->add_option("--init", o.init_model_path, "fine-tune: start from this model (network, normalisers, weights)");
   train->add_option("--validate-every", t.validation_every, "a validation drape every N batches (0: none)")
       ->capture_default_str();
-  train->add_option("--validate-frames", t.validation_frames, "frames of each validation drape, spread evenly through its clip")->capture_default_str();
+  train
+      ->add_option("--validate-frames", t.validation_frames,
+                   "frames of each validation drape, spread evenly through its clip")
+      ->capture_default_str();
   train->add_option("--validation-motion", o.validation_motion_path,
                     "BVH clip held out of training for the validation drape; the model at its lowest loss is "
                     "written to MODEL.best");
@@ -398,6 +401,19 @@ std::string ShippedModel() {
       std::string("no --model given and the shipped model is missing (") + POLYFIT_SHIPPED_ONEFIT_MODEL + ")");
 }
 
+// A network's patches must be laid out and fitted as in its training, so
+// the model sets these; given on the command line they would be ignored.
+int RejectFlagsTheModelSets(const CLI::App& command) {
+  for (const char* flag : {"--patch-area", "--max-fit-error", "--curved-faces", "--jet-order"}) {
+    if (command.get_option(flag)->count() > 0) {
+      std::fprintf(stderr, "onefit %s: %s is set by the model (it lays out and fits the patches as in its training)\n",
+                   command.get_name().c_str(), flag);
+      return polyfit::kExitUsage;
+    }
+  }
+  return polyfit::kExitSuccess;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -431,6 +447,8 @@ int main(int argc, char** argv) {
   return polyfit::RunReportingErrors("onefit", [&]() -> int {
     if (train_command->parsed()) return RunTrain(train);
     if (drape_command->parsed()) {
+      if (const int rejected = RejectFlagsTheModelSets(*drape_command); rejected != polyfit::kExitSuccess)
+        return rejected;
       if (drape.options.model_path.empty()) drape.options.model_path = ShippedModel();
       return RunSimulate(drape);
     }
