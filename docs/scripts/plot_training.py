@@ -4,6 +4,9 @@ solve (a running mean over 25 batches), and the validation drape's epsilon_c and
 epsilon_e, against wall time. Needs Debian's python3-matplotlib.
 
     /usr/bin/python3 docs/scripts/plot_training.py OUT.png "LABEL=run_a.pfonefit.csv" ...
+
+A spec ending in ":loss" draws that run's loss only (a run whose validation
+read other frames than the others' cannot be compared on it).
 """
 import csv
 import sys
@@ -42,8 +45,13 @@ def main(png_path, specs):
         label, _, path = spec.partition("=")
         if not path:
             label, path = spec, spec
+        loss_only = path.endswith(":loss")
+        if loss_only:
+            path = path[: -len(":loss")]
         run = read_run(path)
         line = axes[0].plot(run["time"], run["loss"], lw=1, label=label)[0]
+        if loss_only:
+            continue
         axes[1].plot(run["val_time"], run["inside"], lw=1, color=line.get_color(), marker=".", ms=3)
         axes[2].plot(run["val_time"], run["strain"], lw=1, color=line.get_color(), marker=".", ms=3)
     axes[0].set_ylabel(f"batch loss after its solve (J, mean of {WINDOW})")
