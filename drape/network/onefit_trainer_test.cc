@@ -302,6 +302,7 @@ TEST_F(OneFitTrainerTest, AdamLowersTheLossToo) {
 TEST(AdamStepSizeTest, WarmsUpThenDecaysAlongACosine) {
   OneFitTrainerOptions options;
   options.learning_rate = 2e-4;
+  options.final_rate_fraction = 1.0;  // constant
   options.warmup_batches = 2;
   options.iterations_per_batch = 5;
   options.num_batches = 10;  // 50 steps, 10 of them warm-up
