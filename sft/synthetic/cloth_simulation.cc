@@ -2,12 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <stdexcept>
 
 #include <Eigen/Geometry>
 
 #include "polyfit/mesh/unique_edges.h"
+#include "sft/render/soft_rasterizer.h"
 
 namespace polyfit {
 
@@ -45,22 +47,16 @@ namespace {
 // are left out: a flat boundary's Laplacian is not zero. Applied as L, then
 // D, then L (L is symmetric), which is sparser than K itself.
 Eigen::VectorXd BendingWeights(const TriangleMesh& rest, double stiffness) {
-  const int n = rest.num_vertices();
   const Eigen::VectorXd area = VertexAreas(rest);
-  const Eigen::Matrix2Xi edges = UniqueEdges(rest);
-  std::vector<int> faces_per_edge(edges.cols(), 0);
+  std::vector<bool> boundary(rest.num_vertices(), false);
+  const std::vector<std::uint8_t> boundary_edges = MeshBoundaryEdgeFlags(rest.faces);
   for (int f = 0; f < rest.num_faces(); ++f) {
     for (int c = 0; c < 3; ++c) {
-      const int e = FindEdge(edges, rest.faces(c, f), rest.faces((c + 1) % 3, f));
-      if (e >= 0) ++faces_per_edge[e];
+      if (boundary_edges[f] & (1u << c)) boundary[rest.faces(c, f)] = boundary[rest.faces((c + 1) % 3, f)] = true;
     }
   }
-  std::vector<bool> boundary(n, false);
-  for (int e = 0; e < edges.cols(); ++e) {
-    if (faces_per_edge[e] < 2) boundary[edges(0, e)] = boundary[edges(1, e)] = true;
-  }
-  Eigen::VectorXd weight(n);
-  for (int v = 0; v < n; ++v) weight[v] = boundary[v] || !(area[v] > 0.0) ? 0.0 : stiffness / area[v];
+  Eigen::VectorXd weight(rest.num_vertices());
+  for (int v = 0; v < weight.size(); ++v) weight[v] = boundary[v] || !(area[v] > 0.0) ? 0.0 : stiffness / area[v];
   return weight;
 }
 
