@@ -200,5 +200,58 @@ TEST(PatchBoundaryTest, IdenticalPatchesAgreeAndJacobiansMatch) {
   EXPECT_LT(JacobianError(*cost, {alpha, {0.7}, {1, 2, 3}, other, {0.9}, {1, 2.1, 3}}), 1e-6);
 }
 
+// The hand-derived Jacobians against the autodiff functor's, at random
+// jets, frames, scales and gaps, for every order.
+TEST(PatchBoundaryTest, HandJacobiansMatchAutodiff) {
+  std::mt19937 random(5);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (int order = 1; order <= kMaxJetOrder; ++order) {
+    const int k = NumJetCoefficients(order);
+    const Eigen::Matrix3d ra = Eigen::AngleAxisd(unit(random) * 3.0, Eigen::Vector3d::Random().normalized()).matrix();
+    const Eigen::Matrix3d rb = Eigen::AngleAxisd(unit(random) * 3.0, Eigen::Vector3d::Random().normalized()).matrix();
+    const Eigen::Vector2d uv_a(unit(random), unit(random)), uv_b(unit(random), unit(random));
+    const Eigen::Vector3d position_gap = Eigen::Vector3d::Random() * 0.01, normal_gap = Eigen::Vector3d::Random() * 0.1;
+    std::unique_ptr<ceres::CostFunction> autodiff(
+        PatchBoundaryResidual::Create(order, uv_a, ra, uv_b, rb, 3.0, 0.7, position_gap, normal_gap));
+    std::unique_ptr<ceres::CostFunction> hand(
+        PatchBoundaryCost::Create(order, uv_a, ra, uv_b, rb, 3.0, 0.7, position_gap, normal_gap));
+    ASSERT_EQ(hand->parameter_block_sizes(), autodiff->parameter_block_sizes());
+    std::vector<std::vector<double>> blocks = {std::vector<double>(k), {0.8 + 0.3 * unit(random)}, {1, -2, 3},
+                                               std::vector<double>(k), {1.1 + 0.3 * unit(random)}, {0.5, 0.2, -1}};
+    for (double& c : blocks[0]) c = 0.4 * unit(random);
+    for (double& c : blocks[3]) c = 0.4 * unit(random);
+    std::vector<double*> parameters;
+    for (auto& b : blocks) parameters.push_back(b.data());
+    std::vector<double> r_auto(6), r_hand(6);
+    std::vector<std::vector<double>> j_auto(6), j_hand(6);
+    std::vector<double*> p_auto, p_hand;
+    for (int b = 0; b < 6; ++b) {
+      j_auto[b].resize(6 * blocks[b].size());
+      j_hand[b].assign(6 * blocks[b].size(), 1e9);  // every entry must be written
+      p_auto.push_back(j_auto[b].data());
+      p_hand.push_back(j_hand[b].data());
+    }
+    ASSERT_TRUE(autodiff->Evaluate(parameters.data(), r_auto.data(), p_auto.data()));
+    ASSERT_TRUE(hand->Evaluate(parameters.data(), r_hand.data(), p_hand.data()));
+    for (int i = 0; i < 6; ++i) EXPECT_NEAR(r_hand[i], r_auto[i], 1e-13) << "order " << order;
+    for (int b = 0; b < 6; ++b) {
+      for (size_t i = 0; i < j_auto[b].size(); ++i) {
+        EXPECT_NEAR(j_hand[b][i], j_auto[b][i], 1e-12) << "order " << order << " block " << b << " entry " << i;
+      }
+    }
+    EXPECT_LT(JacobianError(*hand, blocks), 1e-6) << "order " << order;
+    // Some blocks asked for, others not.
+    std::vector<double*> some = {nullptr, p_hand[1], nullptr, p_hand[3], nullptr, nullptr};
+    ASSERT_TRUE(hand->Evaluate(parameters.data(), r_hand.data(), some.data()));
+    for (size_t i = 0; i < j_auto[3].size(); ++i) EXPECT_NEAR(j_hand[3][i], j_auto[3][i], 1e-12);
+  }
+  EXPECT_THROW(PatchBoundaryCost(0, Eigen::Vector2d::Zero(), Eigen::Matrix3d::Identity(), Eigen::Vector2d::Zero(),
+                                 Eigen::Matrix3d::Identity(), 1.0, 1.0),
+               std::invalid_argument);
+  EXPECT_THROW(PatchBoundaryCost(kMaxJetOrder + 1, Eigen::Vector2d::Zero(), Eigen::Matrix3d::Identity(),
+                                 Eigen::Vector2d::Zero(), Eigen::Matrix3d::Identity(), 1.0, 1.0),
+               std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace polyfit

@@ -379,7 +379,7 @@ void DrapeSolver::Impl::CollectPatchEdges(const PolyFitModel& model) {
 }
 
 // Boundary points and the gaps the fits leave there at rest, kept rather
-// than closed (PatchBoundaryResidual's d_x, d_n).
+// than closed (PatchBoundaryCost's d_x, d_n).
 void DrapeSolver::Impl::CollectBoundary(const PolyFitModel& model) {
   boundary = model.BoundaryPoints();
   for (const PatchBoundaryPoint& b : boundary) {
@@ -464,9 +464,9 @@ void DrapeSolver::Impl::AddBoundaryTerms(const PolyFitModel& model) {
     const PatchBoundaryPoint& b = boundary[i];
     const double w = std::sqrt(2.0 * o.weights.boundary * o.boundary_base * o.material.mu * rest.vertex_area[b.vertex]);
     problem->AddResidualBlock(
-        PatchBoundaryResidual::Create(options.patching.jet_order, b.uv_a, model.patches[b.patch_a].frame.rotation,
-                                      b.uv_b, model.patches[b.patch_b].frame.rotation, w / mean_edge, w,
-                                      boundary_position_gap[i], boundary_normal_gap[i]),
+        PatchBoundaryCost::Create(options.patching.jet_order, b.uv_a, model.patches[b.patch_a].frame.rotation, b.uv_b,
+                                  model.patches[b.patch_b].frame.rotation, w / mean_edge, w, boundary_position_gap[i],
+                                  boundary_normal_gap[i]),
         nullptr, alpha(b.patch_a), scale(b.patch_a), translation(b.patch_a), alpha(b.patch_b), scale(b.patch_b),
         translation(b.patch_b));
   }
