@@ -8,8 +8,8 @@
 
 #include <Eigen/Geometry>
 
+#include "drape/collision/triangle_bvh.h"
 #include "polyfit/eval/mesh_metrics.h"
-#include "polyfit/eval/surface_distance.h"
 #include "polyfit/mesh/mesh_topology.h"
 #include "polyfit/util/parallel_for.h"
 
@@ -17,11 +17,11 @@ namespace polyfit {
 struct BodySignedDistance::Impl {
   TriangleMesh body;
   // Per connected piece of the body: its faces and a tree for closest
-  // points (SurfaceDistance: a CGAL AABB tree). A body of several closed
+  // points, built once and refitted per pose. A body of several closed
   // pieces (overlapping capsules) is their union: the signed distance is
   // the smallest of the pieces'.
   std::vector<std::vector<int>> piece_faces;
-  std::vector<std::unique_ptr<SurfaceDistance>> surfaces;
+  std::vector<TriangleBvh> trees;
   // Pseudonormals: per face, per vertex (angle-weighted), per face edge
   // (the sum of the faces on the edge; column 3 f + c for the edge from
   // corner c to c + 1).
@@ -30,13 +30,10 @@ struct BodySignedDistance::Impl {
 
   void Rebuild() {
     const int nf = body.num_faces(), nv = body.num_vertices();
-    surfaces.clear();
-    for (const std::vector<int>& faces : piece_faces) {
-      TriangleMesh piece;
-      piece.vertices = body.vertices;
-      piece.faces.resize(3, static_cast<Eigen::Index>(faces.size()));
-      for (size_t k = 0; k < faces.size(); ++k) piece.faces.col(k) = body.faces.col(faces[k]);
-      surfaces.push_back(std::make_unique<SurfaceDistance>(piece));
+    if (trees.empty()) {
+      for (const std::vector<int>& faces : piece_faces) trees.emplace_back(body.vertices, body.faces, faces);
+    } else {
+      for (TriangleBvh& tree : trees) tree.Refit(body.vertices);
     }
     face_normals.resize(3, nf);
     vertex_normals = Eigen::Matrix3Xd::Zero(3, nv);
@@ -90,7 +87,7 @@ SignedDistanceResult BodySignedDistance::Query(const Eigen::Vector3d& p) const {
   const Impl& m = *impl_;
   SignedDistanceResult best;
   best.distance = std::numeric_limits<double>::infinity();
-  for (size_t piece = 0; piece < m.surfaces.size(); ++piece) {
+  for (size_t piece = 0; piece < m.trees.size(); ++piece) {
     SignedDistanceResult r = QueryPiece(m, piece, p);
     if (r.distance < best.distance) best = r;
   }
@@ -99,9 +96,7 @@ SignedDistanceResult BodySignedDistance::Query(const Eigen::Vector3d& p) const {
 
 SignedDistanceResult BodySignedDistance::QueryPiece(const Impl& m, size_t piece, const Eigen::Vector3d& p) {
   SignedDistanceResult r;
-  int local_face = 0;
-  r.closest = m.surfaces[piece]->ClosestPoint(p, &local_face);
-  r.face = m.piece_faces[piece][local_face];
+  m.trees[piece].ClosestPoint(p, m.body.vertices, &r.closest, &r.face);
   // Which feature the closest point lies on, from its barycentrics.
   const Eigen::Vector3d a = m.body.vertices.col(m.body.faces(0, r.face));
   const Eigen::Vector3d b = m.body.vertices.col(m.body.faces(1, r.face));

@@ -1,6 +1,7 @@
 // Signed distance from garment points to a body mesh, two ways:
-//   BodySignedDistance    exact closest point (SurfaceDistance: a CGAL AABB
-//                         tree over the triangles), sign from the closest feature's
+//   BodySignedDistance    exact closest point (TriangleBvh: a tree over the
+//                         triangles built once, refitted per pose), sign
+//                         from the closest feature's
 //                         angle-weighted pseudonormal (Baerentzen and Aanaes
 //                         2005): negative inside a closed, outward-oriented body.
 //                         A body of several closed pieces (overlapping
