@@ -83,20 +83,21 @@ void BodySignedDistance::SetVertices(const Eigen::Matrix3Xd& vertices) {
   impl_->Rebuild();
 }
 
-SignedDistanceResult BodySignedDistance::Query(const Eigen::Vector3d& p) const {
+SignedDistanceResult BodySignedDistance::Query(const Eigen::Vector3d& p, int hint_face) const {
   const Impl& m = *impl_;
   SignedDistanceResult best;
   best.distance = std::numeric_limits<double>::infinity();
   for (size_t piece = 0; piece < m.trees.size(); ++piece) {
-    SignedDistanceResult r = QueryPiece(m, piece, p);
+    SignedDistanceResult r = QueryPiece(m, piece, p, hint_face);
     if (r.distance < best.distance) best = r;
   }
   return best;
 }
 
-SignedDistanceResult BodySignedDistance::QueryPiece(const Impl& m, size_t piece, const Eigen::Vector3d& p) {
+SignedDistanceResult BodySignedDistance::QueryPiece(const Impl& m, size_t piece, const Eigen::Vector3d& p,
+                                                    int hint_face) {
   SignedDistanceResult r;
-  m.trees[piece].ClosestPoint(p, m.body.vertices, &r.closest, &r.face);
+  m.trees[piece].ClosestPoint(p, m.body.vertices, &r.closest, &r.face, hint_face);
   // Which feature the closest point lies on, from its barycentrics.
   const Eigen::Vector3d a = m.body.vertices.col(m.body.faces(0, r.face));
   const Eigen::Vector3d b = m.body.vertices.col(m.body.faces(1, r.face));

@@ -38,13 +38,15 @@ class BodySignedDistance {
 
   // New vertex positions (a pose): 3 by #V, same faces.
   void SetVertices(const Eigen::Matrix3Xd& vertices);
-  SignedDistanceResult Query(const Eigen::Vector3d& point) const;
+  // hint_face: the face of a query close by (a garment vertex's answer at
+  // the last iteration), or -1; it only makes the query faster.
+  SignedDistanceResult Query(const Eigen::Vector3d& point, int hint_face = -1) const;
   // #points signed distances.
   Eigen::VectorXd SignedDistances(const Eigen::Matrix3Xd& points, int num_threads = 1) const;
 
  private:
   struct Impl;
-  static SignedDistanceResult QueryPiece(const Impl& m, size_t piece, const Eigen::Vector3d& point);
+  static SignedDistanceResult QueryPiece(const Impl& m, size_t piece, const Eigen::Vector3d& point, int hint_face);
   std::unique_ptr<Impl> impl_;
 };
 

@@ -1,6 +1,7 @@
 #include "drape/collision/triangle_bvh.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <stdexcept>
 
@@ -63,6 +64,8 @@ TriangleBvh::TriangleBvh(const Eigen::Matrix3Xd& vertices, const Eigen::Matrix3X
     }
     face_order_ = subset;
   }
+  held_.assign(faces.cols(), 0);
+  for (int f : face_order_) held_[f] = 1;
   if (face_order_.empty()) return;
   Eigen::Matrix3Xd centroids(3, faces.cols());
   for (int f : face_order_) {
@@ -118,9 +121,17 @@ void TriangleBvh::Refit(const Eigen::Matrix3Xd& vertices) {
 }
 
 bool TriangleBvh::ClosestPoint(const Eigen::Vector3d& p, const Eigen::Matrix3Xd& vertices, Eigen::Vector3d* closest,
-                               int* face) const {
+                               int* face, int hint_face) const {
   if (nodes_.empty()) return false;
   double best = std::numeric_limits<double>::infinity();
+  if (hint_face >= 0 && hint_face < faces_.cols() && held_[hint_face]) {
+    *closest = ClosestPointOnTriangle(p, vertices.col(faces_(0, hint_face)), vertices.col(faces_(1, hint_face)),
+                                      vertices.col(faces_(2, hint_face)));
+    *face = hint_face;
+    // Boxes at exactly this distance are still opened, so that a face tied
+    // with the hint is found as without it.
+    best = std::nextafter((*closest - p).squaredNorm(), std::numeric_limits<double>::infinity());
+  }
   int stack[kMaxStack];
   int top = 0;
   stack[top++] = 0;

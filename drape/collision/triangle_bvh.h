@@ -31,9 +31,12 @@ class TriangleBvh {
 
   // The closest point of the held faces to p and its face (an index into
   // the construction's faces); vertices: the positions last refitted to.
+  // hint_face: a held face near p (the answer for a point close by), or -1:
+  // it bounds the search from the start, so that far boxes are never
+  // opened; the answer does not depend on it (but for exact ties).
   // Thread-safe. Returns false when the tree holds no face.
-  bool ClosestPoint(const Eigen::Vector3d& p, const Eigen::Matrix3Xd& vertices, Eigen::Vector3d* closest,
-                    int* face) const;
+  bool ClosestPoint(const Eigen::Vector3d& p, const Eigen::Matrix3Xd& vertices, Eigen::Vector3d* closest, int* face,
+                    int hint_face = -1) const;
 
   int num_faces() const { return static_cast<int>(face_order_.size()); }
 
@@ -46,6 +49,7 @@ class TriangleBvh {
   int Build(const Eigen::Matrix3Xd& centroids, int first, int count);
 
   Eigen::Matrix3Xi faces_;
+  std::vector<char> held_;  // per face of faces_: in this tree
   std::vector<int> face_order_;
   std::vector<Node> nodes_;  // depth first: a child after its parent
 };

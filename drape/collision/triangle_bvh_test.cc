@@ -1,5 +1,6 @@
 #include "drape/collision/triangle_bvh.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -92,6 +93,14 @@ TEST(TriangleBvhTest, MatchesBruteForceBeforeAndAfterARefit) {
           ClosestPointOnTriangle(p, vertices->col(sphere.faces(0, face)), vertices->col(sphere.faces(1, face)),
                                  vertices->col(sphere.faces(2, face)));
       EXPECT_NEAR((on_face - q).norm(), 0.0, 1e-14);
+      // A hint, near or far or invalid, changes nothing but the time.
+      for (int hint : {face, static_cast<int>(rng() % sphere.num_faces()), -1, sphere.num_faces() + 3}) {
+        Eigen::Vector3d hinted;
+        int hinted_face = -1;
+        ASSERT_TRUE(bvh.ClosestPoint(p, *vertices, &hinted, &hinted_face, hint));
+        EXPECT_EQ(hinted_face, face);
+        EXPECT_EQ((hinted - q).norm(), 0.0);
+      }
     }
   }
 }
@@ -103,6 +112,8 @@ TEST(TriangleBvhTest, HoldsOnlyItsSubsetOfFaces) {
     if (sphere.vertices(2, sphere.faces(0, f)) > 0.2) upper.push_back(f);
   }
   const TriangleBvh bvh(sphere.vertices, sphere.faces, upper);
+  int outside = 0;
+  while (std::find(upper.begin(), upper.end(), outside) != upper.end()) ++outside;
   EXPECT_EQ(bvh.num_faces(), static_cast<int>(upper.size()));
   std::mt19937 rng(2);
   std::uniform_real_distribution<double> unit(-1.5, 1.5);
@@ -112,6 +123,10 @@ TEST(TriangleBvhTest, HoldsOnlyItsSubsetOfFaces) {
     int face = -1;
     ASSERT_TRUE(bvh.ClosestPoint(p, sphere.vertices, &q, &face));
     EXPECT_NE(std::find(upper.begin(), upper.end(), face), upper.end());
+    // A hint outside the subset is ignored.
+    int hinted_face = -1;
+    ASSERT_TRUE(bvh.ClosestPoint(p, sphere.vertices, &q, &hinted_face, outside));
+    EXPECT_EQ(hinted_face, face);
     EXPECT_NEAR((q - p).squaredNorm(), NearestSquaredDistance(p, sphere.vertices, sphere.faces, upper), 1e-14);
   }
 }

@@ -95,12 +95,21 @@ std::vector<OneFitTrainingBody> OneBody(const SkinnedBody& body, std::vector<One
   return bodies;
 }
 
-// Columns joined left to right.
-void AppendColumns(const Eigen::MatrixXd& columns, Eigen::MatrixXd* all) {
-  Eigen::MatrixXd joined(columns.rows(), all->cols() + columns.cols());
-  if (all->size() > 0) joined.leftCols(all->cols()) = *all;
-  joined.rightCols(columns.cols()) = columns;
-  *all = std::move(joined);
+// The blocks' columns joined left to right, copied once (appending block
+// by block copied every earlier column again: quadratic in the clips).
+Eigen::MatrixXd JoinColumns(const std::vector<Eigen::MatrixXd>& blocks) {
+  Eigen::Index rows = 0, cols = 0;
+  for (const Eigen::MatrixXd& b : blocks) {
+    rows = b.rows();
+    cols += b.cols();
+  }
+  Eigen::MatrixXd joined(rows, cols);
+  cols = 0;
+  for (const Eigen::MatrixXd& b : blocks) {
+    joined.middleCols(cols, b.cols()) = b;
+    cols += b.cols();
+  }
+  return joined;
 }
 
 }  // namespace
@@ -118,7 +127,7 @@ OneFitTrainer::OneFitTrainer(std::vector<OneFitTrainingBody> bodies, const OneFi
   DrapeSolverOptions drape = options.drape;
   drape.num_threads = 1;                                // samples run side by side instead
   drape.slide.warp_order = options.network.warp_order;  // the loss reads the warp head's slides
-  Eigen::MatrixXd all_patch_features, body_samples;
+  std::vector<Eigen::MatrixXd> patch_blocks, body_blocks;
   for (int b = 0; b < static_cast<int>(bodies.size()); ++b) {
     OneFitTrainingBody& body = bodies[b];
     if (body.garments.empty() || body.clips.empty())
@@ -129,7 +138,7 @@ OneFitTrainer::OneFitTrainer(std::vector<OneFitTrainingBody> bodies, const OneFi
     skeletons_.push_back(body.body.skeleton);
     for (const OneFitTrainingGarment& g : body.garments) {
       AddGarment(body.body, g, b, drape);
-      AppendColumns(garments_.back()->raw_features, &all_patch_features);
+      patch_blocks.push_back(garments_.back()->raw_features);
     }
     body_clips_.emplace_back();
     for (OneFitTrainingClip& clip : body.clips) {
@@ -137,10 +146,11 @@ OneFitTrainer::OneFitTrainer(std::vector<OneFitTrainingBody> bodies, const OneFi
       body_clips_.back().push_back(static_cast<int>(clips_.size()));
       clips_.push_back(std::move(clip));
       clip_body_.push_back(b);
-      AppendColumns(ClipBodyFeatures(static_cast<int>(clips_.size()) - 1), &body_samples);
+      body_blocks.push_back(ClipBodyFeatures(static_cast<int>(clips_.size()) - 1));
     }
   }
   num_training_clips_ = static_cast<int>(clips_.size());
+  const Eigen::MatrixXd all_patch_features = JoinColumns(patch_blocks), body_samples = JoinColumns(body_blocks);
   patch_normalizer_ = FeatureNormalizer::Fit(all_patch_features);
   for (auto& g : garments_) g->features = patch_normalizer_.Apply(g->raw_features);
   body_normalizer_ = FeatureNormalizer::Fit(body_samples);

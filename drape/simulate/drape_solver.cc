@@ -523,7 +523,10 @@ void DrapeSolver::Impl::Positions(const PolyFitModel& model, Eigen::Matrix3Xd* o
 
 int DrapeSolver::Impl::QueryContacts(const Eigen::Matrix3Xd& positions) {
   const int n = static_cast<int>(positions.cols());
-  ParallelFor(n, options.num_threads, [&](int, int v) { contact[v] = distance.Query(positions.col(v)); });
+  // The last answer bounds the search: a vertex moves little between
+  // iterations and frames.
+  ParallelFor(n, options.num_threads,
+              [&](int, int v) { contact[v] = distance.Query(positions.col(v), contact[v].face); });
   int inside = 0;
   for (int v = 0; v < n; ++v) inside += contact[v].distance < 0.0 ? 1 : 0;
   return inside;
