@@ -22,40 +22,74 @@ struct BodySignedDistance::Impl {
   // the smallest of the pieces'.
   std::vector<std::vector<int>> piece_faces;
   std::vector<TriangleBvh> trees;
-  // Pseudonormals: per face, per vertex (angle-weighted), per face edge
-  // (the sum of the faces on the edge; column 3 f + c for the edge from
-  // corner c to c + 1).
-  Eigen::Matrix3Xd face_normals, vertex_normals, edge_normals;
+  // Pseudonormals: per face (each pose), and from them, only where a query
+  // lands on a vertex or an edge, the angle-weighted vertex normal and the
+  // edge's sum of its faces' normals. Per pose that leaves the refit and
+  // the face normals (the angles were 80k atan2 calls per pose).
+  Eigen::Matrix3Xd face_normals;
   std::vector<std::pair<std::uint64_t, int>> edges;  // SortedEdgeCorners
+  // Per face corner 3 f + c (the edge from corner c to c + 1): its run of
+  // `edges` (every corner on the same edge).
+  std::vector<int> edge_begin, edge_end;
+  // Per vertex: the corners 3 f + c at it, by increasing face.
+  std::vector<int> corner_offsets, corners;
+
+  void BuildTopology() {
+    const int nf = body.num_faces(), nv = body.num_vertices();
+    edges = SortedEdgeCorners(body);
+    edge_begin.assign(3 * nf, 0);
+    edge_end.assign(3 * nf, 0);
+    for (size_t i = 0; i < edges.size();) {
+      size_t j = i;
+      while (j < edges.size() && edges[j].first == edges[i].first) ++j;
+      for (size_t k = i; k < j; ++k) {
+        edge_begin[edges[k].second] = static_cast<int>(i);
+        edge_end[edges[k].second] = static_cast<int>(j);
+      }
+      i = j;
+    }
+    corner_offsets.assign(nv + 1, 0);
+    for (int k = 0; k < 3 * nf; ++k) ++corner_offsets[body.faces(k % 3, k / 3) + 1];
+    for (int v = 0; v < nv; ++v) corner_offsets[v + 1] += corner_offsets[v];
+    corners.assign(3 * nf, 0);
+    std::vector<int> fill(corner_offsets.begin(), corner_offsets.end() - 1);
+    for (int k = 0; k < 3 * nf; ++k) corners[fill[body.faces(k % 3, k / 3)]++] = k;
+  }
 
   void Rebuild() {
-    const int nf = body.num_faces(), nv = body.num_vertices();
+    const int nf = body.num_faces();
     if (trees.empty()) {
       for (const std::vector<int>& faces : piece_faces) trees.emplace_back(body.vertices, body.faces, faces);
     } else {
       for (TriangleBvh& tree : trees) tree.Refit(body.vertices);
     }
     face_normals.resize(3, nf);
-    vertex_normals = Eigen::Matrix3Xd::Zero(3, nv);
     for (int f = 0; f < nf; ++f) {
-      const Eigen::Vector3d x[3] = {body.vertices.col(body.faces(0, f)), body.vertices.col(body.faces(1, f)),
-                                    body.vertices.col(body.faces(2, f))};
-      const Eigen::Vector3d n = (x[1] - x[0]).cross(x[2] - x[0]);
+      const Eigen::Vector3d n = (body.vertices.col(body.faces(1, f)) - body.vertices.col(body.faces(0, f)))
+                                    .cross(body.vertices.col(body.faces(2, f)) - body.vertices.col(body.faces(0, f)));
       face_normals.col(f) = n.norm() > 0.0 ? Eigen::Vector3d(n.normalized()) : Eigen::Vector3d::Zero();
-      for (int c = 0; c < 3; ++c) {
-        const Eigen::Vector3d a = x[(c + 1) % 3] - x[c], b = x[(c + 2) % 3] - x[c];
-        const double angle = std::atan2(a.cross(b).norm(), a.dot(b));
-        vertex_normals.col(body.faces(c, f)) += angle * face_normals.col(f);
-      }
     }
-    edge_normals = Eigen::Matrix3Xd::Zero(3, 3 * nf);
-    for (size_t i = 0; i < edges.size();) {
-      size_t j = i;
-      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      while (j < edges.size() && edges[j].first == edges[i].first) sum += face_normals.col(edges[j++].second / 3);
-      for (size_t k = i; k < j; ++k) edge_normals.col(edges[k].second) = sum;
-      i = j;
+  }
+
+  // The angle-weighted pseudonormal of vertex v (not normalised).
+  Eigen::Vector3d VertexNormal(int v) const {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (int i = corner_offsets[v]; i < corner_offsets[v + 1]; ++i) {
+      const int f = corners[i] / 3, c = corners[i] % 3;
+      const Eigen::Vector3d x = body.vertices.col(body.faces(c, f));
+      const Eigen::Vector3d a = body.vertices.col(body.faces((c + 1) % 3, f)) - x;
+      const Eigen::Vector3d b = body.vertices.col(body.faces((c + 2) % 3, f)) - x;
+      sum += std::atan2(a.cross(b).norm(), a.dot(b)) * face_normals.col(f);
     }
+    return sum;
+  }
+
+  // The sum of the normals of the faces on the edge from corner c of face
+  // f to corner c + 1.
+  Eigen::Vector3d EdgeNormal(int f, int c) const {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (int i = edge_begin[3 * f + c]; i < edge_end[3 * f + c]; ++i) sum += face_normals.col(edges[i].second / 3);
+    return sum;
   }
 };
 
@@ -64,7 +98,7 @@ BodySignedDistance::BodySignedDistance(const TriangleMesh& body) : impl_(std::ma
     throw std::invalid_argument("BodySignedDistance: " + problem);
   }
   impl_->body = body;
-  impl_->edges = SortedEdgeCorners(body);
+  impl_->BuildTopology();
   std::vector<int> labels;
   const int pieces = ConnectedComponents(FaceFaceAdjacency(body), &labels);
   impl_->piece_faces.assign(pieces, {});
@@ -125,9 +159,9 @@ SignedDistanceResult BodySignedDistance::QueryPiece(const Impl& m, size_t piece,
     pseudo = m.face_normals.col(r.face);
   } else if (zeros == 1) {
     // On the edge opposite corner last_zero: from corner last_zero + 1.
-    pseudo = m.edge_normals.col(3 * r.face + (last_zero + 1) % 3);
+    pseudo = m.EdgeNormal(r.face, (last_zero + 1) % 3);
   } else {
-    pseudo = m.vertex_normals.col(m.body.faces(nonzero, r.face));
+    pseudo = m.VertexNormal(m.body.faces(nonzero, r.face));
   }
   r.normal = pseudo.norm() > 0.0 ? Eigen::Vector3d(pseudo.normalized()) : m.face_normals.col(r.face);
   const Eigen::Vector3d offset = p - r.closest;
