@@ -196,6 +196,8 @@ TEST_P(DrapeSolverEvaluateTest, GivesTheEnergyAndItsGradientAtGivenPatchParamete
 
 // J^T J and J^T r in the packed layout: J d against central differences
 // of the residuals (so d^T J^T J d = |J d|^2), the gradient Evaluate's.
+// (Evaluate sums the terms itself, EvaluateGaussNewton goes through
+// ceres::Problem::Evaluate: the two paths agree.)
 TEST_P(DrapeSolverEvaluateTest, GivesTheGaussNewtonMatrixOfItsResiduals) {
   DrapeSolver& solver = *solver_;
   std::vector<double> theta = solver.RestPatchParameters();
