@@ -389,31 +389,9 @@ OneFitBatchSummary OneFitTrainer::AdamBatch(const std::vector<OneFitSample>& bat
   std::vector<double> gradient(n);
   OneFitBatchSummary record;
   record.batch = index;
-  // The state before the last step, to undo it (undo_rising_steps).
-  const bool undo = options_.undo_rising_steps;
-  AdamState before;
-  std::vector<double> weights_before;
-  double previous_loss = 0.0;
-  auto undo_last_step = [&] {
-    *weights = weights_before;
-    // The step count stays: the step size follows the steps tried, so the
-    // schedule ends where it would have.
-    const long long steps = state->steps;
-    *state = before;
-    state->steps = steps;
-    --record.iterations;
-    record.final_loss = previous_loss;
-    return record;
-  };
   for (int k = 0; k < options_.iterations_per_batch; ++k) {
     const double loss = Loss(weights->data(), batch, gradient.data());
     if (k == 0) record.initial_loss = loss;
-    if (undo && k > 0 && loss > previous_loss) return undo_last_step();
-    if (undo) {
-      before = *state;
-      weights_before = *weights;
-      previous_loss = loss;
-    }
     ++state->steps;
     const double c1 = 1.0 - std::pow(kBeta1, state->steps), c2 = 1.0 - std::pow(kBeta2, state->steps);
     const double rate = AdamStepSize(options_, state->steps);
@@ -425,7 +403,6 @@ OneFitBatchSummary OneFitTrainer::AdamBatch(const std::vector<OneFitSample>& bat
     ++record.iterations;
   }
   record.final_loss = Loss(weights->data(), batch, nullptr);
-  if (undo && record.iterations > 0 && record.final_loss > previous_loss) return undo_last_step();
   return record;
 }
 

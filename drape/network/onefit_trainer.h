@@ -115,13 +115,6 @@ struct OneFitTrainerOptions {
   double learning_rate = 3e-4;
   int warmup_batches = 0;
   double final_rate_fraction = 0.05;
-  // Adam's steps on a batch stop at the first one that raises the batch's
-  // loss, and that step is undone (weights and moments as before it; the
-  // step size's schedule runs on). Steps repeated on one hard batch (deep collisions in an
-  // extreme pose) otherwise compound: at a step size of 1e-3 one batch's
-  // five steps took its loss from 36k to 61k J and the training never
-  // recovered (docs/benchmarks.md, "the paper's step size").
-  bool undo_rising_steps = false;
   std::uint64_t seed = 1;
   // k_ext's epoch (DrapePhysicsOptions::k_ext) over training: batches map
   // linearly onto [0, kext_final_epoch], so that the paper's 100-epoch

@@ -453,40 +453,6 @@ TEST_F(OneFitTrainerTest, AFineTuneStartsFromTheModelsNetworkAndNormalizers) {
   EXPECT_THROW(tune.StartFrom(other), std::invalid_argument);
 }
 
-// A step size far too large: plain Adam raises some batch's loss over its
-// steps; with undo_rising_steps no batch ends above where it started, and
-// the steps that rose are not kept.
-TEST_F(OneFitTrainerTest, RisingStepsAreUndone) {
-  OneFitTrainerOptions options = options_;
-  options.optimizer = OneFitOptimizer::kAdam;
-  options.learning_rate = 0.3;
-  options.final_rate_fraction = 1.0;
-  options.num_batches = 4;
-  options.validation_every = 0;
-  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
-  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
-  bool rose = false;
-  {
-    OneFitTrainer plain(body_, {shirt}, {Bob(body_, 8)}, options);
-    std::vector<double> w = plain.InitialWeights();
-    for (const OneFitBatchSummary& b : plain.Train(&w).batches) rose = rose || b.final_loss > b.initial_loss;
-  }
-  ASSERT_TRUE(rose) << "the step size is not large enough to show anything";
-  options.undo_rising_steps = true;
-  OneFitTrainer guarded(body_, {shirt}, {Bob(body_, 8)}, options);
-  std::vector<double> w = guarded.InitialWeights();
-  OneFitAdamState state;
-  const OneFitTrainingSummary summary = guarded.Train(&w, 0, nullptr, &state);
-  int kept = 0;
-  for (const OneFitBatchSummary& b : summary.batches) {
-    EXPECT_LE(b.final_loss, b.initial_loss) << "batch " << b.batch;
-    kept += b.iterations;
-  }
-  EXPECT_LT(kept, options.num_batches * options.iterations_per_batch);
-  // The schedule runs on the steps tried, undone ones included.
-  EXPECT_GT(state.steps, kept);
-}
-
 TEST_F(OneFitTrainerTest, AResumedAdamRunWithItsMomentsEndsWhereAStraightRunEnds) {
   OneFitTrainerOptions options = options_;
   options.optimizer = OneFitOptimizer::kAdam;

@@ -298,8 +298,6 @@ void AddTrainRunFlags(CLI::App* train, TrainFlags* f) {
   train->add_option("--learning-rate", t.learning_rate, "Adam's step size")->capture_default_str();
   train->add_option("--warmup", t.warmup_batches, "Adam's step size ramps up linearly over this many batches")
       ->capture_default_str();
-  train->add_flag("--undo-rising-steps", t.undo_rising_steps,
-                  "Adam's steps on a batch stop at the first that raises its loss, which is undone");
   train
       ->add_option("--final-rate", t.final_rate_fraction,
                    "Adam's step size then follows a cosine down to this fraction of --learning-rate at the last batch "
