@@ -284,6 +284,7 @@ struct DrapeSolver::Impl {
   std::vector<double> direct_costs;
   std::vector<char> direct_failed;
   static constexpr int kMaxDirectBlocks = 8;  // parameter blocks per residual block
+  void BuildDirectBlocks(const std::vector<double*>& listed);
   bool EvaluateDirect(const std::vector<double*>& listed, double* cost, std::vector<double>* gradient);
 
   double stretch_weight() const { return options.physics.weights.inextensibility * options.physics.stretch_base; }
@@ -968,32 +969,34 @@ double DrapeSolver::Impl::EvaluatePacked(const PolyFitModel& model, const std::v
   return cost;
 }
 
+void DrapeSolver::Impl::BuildDirectBlocks(const std::vector<double*>& listed) {
+  std::unordered_map<const double*, int> offset;
+  int size = 0;
+  for (double* block : listed) {
+    offset[block] = size;
+    size += problem->ParameterBlockSize(block);
+  }
+  direct_gradient_size = size;
+  std::vector<ceres::ResidualBlockId> ids;
+  problem->GetResidualBlocks(&ids);
+  for (ceres::ResidualBlockId id : ids) {
+    DirectBlock b;
+    b.cost = problem->GetCostFunctionForResidualBlock(id);
+    problem->GetParameterBlocksForResidualBlock(id, &b.parameters);
+    if (b.parameters.size() > kMaxDirectBlocks) {
+      throw std::logic_error("DrapeSolver: a term with more parameter blocks than the direct evaluation holds");
+    }
+    for (double* block : b.parameters) {
+      const auto it = offset.find(block);
+      b.offsets.push_back(it == offset.end() || problem->IsParameterBlockConstant(block) ? -1 : it->second);
+    }
+    direct_blocks.push_back(std::move(b));
+  }
+}
+
 bool DrapeSolver::Impl::EvaluateDirect(const std::vector<double*>& listed, double* cost,
                                        std::vector<double>* gradient) {
-  if (direct_blocks.empty()) {
-    std::unordered_map<const double*, int> offset;
-    int size = 0;
-    for (double* block : listed) {
-      offset[block] = size;
-      size += problem->ParameterBlockSize(block);
-    }
-    direct_gradient_size = size;
-    std::vector<ceres::ResidualBlockId> ids;
-    problem->GetResidualBlocks(&ids);
-    for (ceres::ResidualBlockId id : ids) {
-      DirectBlock b;
-      b.cost = problem->GetCostFunctionForResidualBlock(id);
-      problem->GetParameterBlocksForResidualBlock(id, &b.parameters);
-      if (b.parameters.size() > kMaxDirectBlocks) {
-        throw std::logic_error("DrapeSolver: a term with more parameter blocks than the direct evaluation holds");
-      }
-      for (double* block : b.parameters) {
-        const auto it = offset.find(block);
-        b.offsets.push_back(it == offset.end() || problem->IsParameterBlockConstant(block) ? -1 : it->second);
-      }
-      direct_blocks.push_back(std::move(b));
-    }
-  }
+  if (direct_blocks.empty()) BuildDirectBlocks(listed);
   const int threads = std::max(1, ResolveNumThreads(options.num_threads));
   if (static_cast<int>(direct_sums.size()) != threads) {
     direct_sums.assign(threads, std::vector<double>(direct_gradient_size, 0.0));
