@@ -178,10 +178,8 @@ class PatchBoundaryCost final : public ceres::CostFunction {
       n[p] = side.rotation * local_normal;
       if (jacobians != nullptr) Jacobians(side, scale, local, local_normal, w, p == 0 ? 1.0 : -1.0, jacobians + 3 * p);
     }
-    for (int k = 0; k < 3; ++k) {
-      residuals[k] = position_weight_ * (x[0][k] - x[1][k] - position_gap_[k]);
-      residuals[3 + k] = normal_weight_ * (n[0][k] - n[1][k] - normal_gap_[k]);
-    }
+    PatchBoundaryResidual::Difference(x[0].data(), n[0].data(), x[1].data(), n[1].data(), position_weight_,
+                                      normal_weight_, residuals, position_gap_, normal_gap_);
     return true;
   }
 

@@ -56,13 +56,8 @@ struct BodySignedDistance::Impl {
     for (int k = 0; k < 3 * nf; ++k) corners[fill[body.faces(k % 3, k / 3)]++] = k;
   }
 
-  void Rebuild() {
+  void UpdateFaceNormals() {
     const int nf = body.num_faces();
-    if (trees.empty()) {
-      for (const std::vector<int>& faces : piece_faces) trees.emplace_back(body.vertices, body.faces, faces);
-    } else {
-      for (TriangleBvh& tree : trees) tree.Refit(body.vertices);
-    }
     face_normals.resize(3, nf);
     for (int f = 0; f < nf; ++f) {
       const Eigen::Vector3d n = (body.vertices.col(body.faces(1, f)) - body.vertices.col(body.faces(0, f)))
@@ -103,7 +98,8 @@ BodySignedDistance::BodySignedDistance(const TriangleMesh& body) : impl_(std::ma
   const int pieces = ConnectedComponents(FaceFaceAdjacency(body), &labels);
   impl_->piece_faces.assign(pieces, {});
   for (int f = 0; f < body.num_faces(); ++f) impl_->piece_faces[labels[f]].push_back(f);
-  impl_->Rebuild();
+  for (const std::vector<int>& faces : impl_->piece_faces) impl_->trees.emplace_back(body.vertices, body.faces, faces);
+  impl_->UpdateFaceNormals();
 }
 
 BodySignedDistance::~BodySignedDistance() = default;
@@ -114,7 +110,8 @@ void BodySignedDistance::SetVertices(const Eigen::Matrix3Xd& vertices) {
     throw std::invalid_argument("BodySignedDistance::SetVertices: wrong size or non-finite vertices");
   }
   impl_->body.vertices = vertices;
-  impl_->Rebuild();
+  for (TriangleBvh& tree : impl_->trees) tree.Refit(vertices);
+  impl_->UpdateFaceNormals();
 }
 
 SignedDistanceResult BodySignedDistance::Query(const Eigen::Vector3d& p, int hint_face) const {

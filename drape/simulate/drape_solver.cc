@@ -1007,17 +1007,13 @@ bool DrapeSolver::Impl::EvaluateDirect(const std::vector<double*>& listed, doubl
   if (gradient != nullptr) {
     for (std::vector<double>& g : direct_sums) std::fill(g.begin(), g.end(), 0.0);
   }
-  std::vector<std::vector<double>>& sums = direct_sums;
-  std::vector<std::vector<double>>& scratch = direct_scratch;
-  std::vector<double>& costs = direct_costs;
-  std::vector<char>& failed = direct_failed;
   ParallelFor(static_cast<int>(direct_blocks.size()), threads, [&](int t, int i) {
     const DirectBlock& b = direct_blocks[i];
     const std::vector<int>& sizes = b.cost->parameter_block_sizes();
     const int m = b.cost->num_residuals();
     int needed = m;
     for (size_t j = 0; j < sizes.size(); ++j) needed += gradient != nullptr && b.offsets[j] >= 0 ? m * sizes[j] : 0;
-    std::vector<double>& buffer = scratch[t];
+    std::vector<double>& buffer = direct_scratch[t];
     if (static_cast<int>(buffer.size()) < needed) buffer.resize(needed);
     double* r = buffer.data();
     double* jacobians[kMaxDirectBlocks];
@@ -1027,14 +1023,14 @@ bool DrapeSolver::Impl::EvaluateDirect(const std::vector<double*>& listed, doubl
       if (jacobians[j] != nullptr) next += m * sizes[j];
     }
     if (!b.cost->Evaluate(b.parameters.data(), r, gradient != nullptr ? jacobians : nullptr)) {
-      failed[t] = 1;
+      direct_failed[t] = 1;
       return;
     }
     double s = 0.0;
     for (int k = 0; k < m; ++k) s += r[k] * r[k];
-    costs[t] += 0.5 * s;
+    direct_costs[t] += 0.5 * s;
     if (gradient == nullptr) return;
-    std::vector<double>& g = sums[t];
+    std::vector<double>& g = direct_sums[t];
     for (size_t j = 0; j < sizes.size(); ++j) {
       if (jacobians[j] == nullptr) continue;
       double* out = g.data() + b.offsets[j];
@@ -1046,12 +1042,12 @@ bool DrapeSolver::Impl::EvaluateDirect(const std::vector<double*>& listed, doubl
   });
   *cost = 0.0;
   for (int t = 0; t < threads; ++t) {
-    if (failed[t]) return false;
-    *cost += costs[t];
+    if (direct_failed[t]) return false;
+    *cost += direct_costs[t];
   }
   if (gradient != nullptr) {
     gradient->assign(direct_gradient_size, 0.0);
-    for (const std::vector<double>& g : sums) {
+    for (const std::vector<double>& g : direct_sums) {
       for (size_t i = 0; i < g.size(); ++i) (*gradient)[i] += g[i];
     }
   }
