@@ -47,12 +47,15 @@ OneFitDraper::OneFitDraper(const OneFitModel& model, const DrapeSolver& solver, 
       PatchFeatures(solver.model(), map_.rest, map_.units, model.jet_order, weights, skeleton));
   garment_half_ = model.network.GarmentHalf(model.weights.data(), features);
   joint_weights_ = PatchJointWeights(solver.model(), weights, skeleton.num_joints());
+  body_mask_ = BodyFeatureMask(weights, skeleton, model.joint_mask_reach);
 }
 
 std::vector<double> OneFitDraper::Predict(const JointTransforms& before_previous, const JointTransforms& previous,
                                           const JointTransforms& now, double fps, const BodyShape& shape) const {
-  const Eigen::VectorXd body = model_.body_normalizer.Apply(
-      BodyFeatures(skeleton_, before_previous, previous, now, fps, shape, model_.root_rotation));
+  const Eigen::VectorXd body =
+      model_.body_normalizer
+          .Apply(BodyFeatures(skeleton_, before_previous, previous, now, fps, shape, model_.root_rotation))
+          .cwiseProduct(body_mask_);
   Eigen::MatrixXd outputs;
   model_.network.ForwardWithGarmentHalf(model_.weights.data(), garment_half_, body, &joint_weights_, &outputs);
   return PatchParametersFromOutputs(map_, outputs, model_.network.num_coefficients());

@@ -43,6 +43,7 @@ class OneFitDraper {
   PatchOutputMap map_;
   Eigen::MatrixXd garment_half_;
   Eigen::MatrixXd joint_weights_;  // #joints by #patches, for the local pose
+  Eigen::VectorXd body_mask_;      // BodyFeatureMask by the model's reach
 };
 
 }  // namespace polyfit

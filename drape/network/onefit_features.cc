@@ -121,6 +121,38 @@ Eigen::MatrixXd LocalPoseFeatures(const Eigen::VectorXd& body_features, const Ei
   return blocks * joint_weights;
 }
 
+Eigen::VectorXd JointReach(const SkinWeights& weights, const Skeleton& skeleton) {
+  const int n = skeleton.num_joints();
+  Eigen::VectorXd reach = Eigen::VectorXd::Zero(n), subtree(n);
+  for (int v = 0; v < weights.num_vertices(); ++v) {
+    subtree.setZero();
+    for (int i = weights.offsets[v]; i < weights.offsets[v + 1]; ++i) {
+      if (weights.joint[i] < 0 || weights.joint[i] >= n) {
+        throw std::invalid_argument("JointReach: skinning weights of another rig");
+      }
+      subtree[weights.joint[i]] += weights.value[i];
+    }
+    // Parents precede children: one backward pass sums every subtree.
+    for (int j = n - 1; j > 0; --j) {
+      if (skeleton.parents[j] >= 0) subtree[skeleton.parents[j]] += subtree[j];
+    }
+    reach = reach.cwiseMax(subtree);
+  }
+  return reach;
+}
+
+Eigen::VectorXd BodyFeatureMask(const SkinWeights& weights, const Skeleton& skeleton, double min_reach) {
+  const int n = skeleton.num_joints();
+  Eigen::VectorXd mask = Eigen::VectorXd::Ones(BodyFeatureSize(n));
+  if (min_reach <= 0.0) return mask;
+  const Eigen::VectorXd reach = JointReach(weights, skeleton);
+  for (int j = 0; j < n; ++j) {
+    if (reach[j] >= min_reach) continue;
+    for (int b = 0; b < 3; ++b) mask.segment<6>(6 * (b * n + j)).setZero();
+  }
+  return mask;
+}
+
 Eigen::MatrixXd PatchFeatures(const PolyFitModel& model, const std::vector<double>& rest_parameters,
                               const Eigen::MatrixXd& units, int jet_order, const SkinWeights& weights,
                               const Skeleton& skeleton) {

@@ -72,6 +72,20 @@ Eigen::MatrixXd PatchJointWeights(const PolyFitModel& model, const SkinWeights& 
 // normalised (BodyFeatureSize(#joints)); joint_weights: PatchJointWeights.
 Eigen::MatrixXd LocalPoseFeatures(const Eigen::VectorXd& body_features, const Eigen::MatrixXd& joint_weights);
 
+// Per joint, the most that any vertex of the garment is moved by it: the
+// largest, over the vertices, of the weight on the joint and its
+// descendants (a joint's rotation carries its whole subtree). #joints.
+Eigen::VectorXd JointReach(const SkinWeights& weights, const Skeleton& skeleton);
+
+// BodyFeatureSize(#joints) values, 0 on the rotations of the joints whose
+// JointReach is below min_reach and 1 elsewhere (gravity, the root's
+// velocity and the shape are kept): the body features a garment is drawn
+// from, multiplied into the normalised ones. A suit does not follow the
+// toes or the fingers, and an unseen motion's out-of-range feet (the
+// held-out dance's, 4-5 standard deviations) then cannot reach it through
+// the body embedding. min_reach <= 0: all ones.
+Eigen::VectorXd BodyFeatureMask(const SkinWeights& weights, const Skeleton& skeleton, double min_reach);
+
 // A frame's pose: the rest-to-posed transform of every joint.
 using JointTransforms = std::vector<Eigen::Isometry3d>;
 

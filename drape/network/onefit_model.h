@@ -18,9 +18,9 @@ namespace polyfit {
 // were aligned, version 4 whether the decoder reads the local pose, version
 // 5 the patching's area and fit error, version 6 the root's rotation
 // feature (RootRotation), version 7 whether the patches were fitted to
-// curved faces, version 8 the output units (area_units); earlier files
-// still load.
-inline constexpr int kOneFitModelVersion = 8;
+// curved faces, version 8 the output units (area_units), version 9 the
+// joint mask's reach; earlier files still load.
+inline constexpr int kOneFitModelVersion = 9;
 
 class OneFitModelError : public Error {
  public:
@@ -44,6 +44,9 @@ struct OneFitModel {
   // Outputs and jet features in units of each patch's area rather than of
   // its scale (PatchOutputUnits; before version 8: false).
   bool area_units = true;
+  // Each garment reads the rotations of the joints that move it by at
+  // least this weight (BodyFeatureMask; before version 9: 0, all).
+  double joint_mask_reach = 0.0;
   // How its body features hold the root's rotation (before version 6:
   // kAbsolute).
   RootRotation root_rotation = RootRotation::kHeadingFree;

@@ -69,6 +69,7 @@ std::string OneFitTrainerOptions::Validate() const {
   }
   if (d.num_processes > 1 && !d.all_reduce) return "distribution: several processes need all_reduce";
   if (!(kext_final_epoch >= 0.0) || !std::isfinite(kext_final_epoch)) return "kext_final_epoch must be >= 0";
+  if (!(joint_mask_reach >= 0.0 && joint_mask_reach <= 1.0)) return "joint_mask_reach must be in [0, 1]";
   return {};
 }
 
@@ -179,6 +180,7 @@ void OneFitTrainer::AddGarment(const SkinnedBody& body, const OneFitTrainingGarm
   data->raw_features = PatchFeatures(solver.model(), data->map.rest, data->map.units, options_.drape.patching.jet_order,
                                      g.weights, body.skeleton);
   data->joint_weights = PatchJointWeights(solver.model(), g.weights, body.skeleton.num_joints());
+  data->body_mask = BodyFeatureMask(g.weights, body.skeleton, options_.joint_mask_reach);
   garments_.push_back(std::move(data));
 }
 
@@ -202,6 +204,23 @@ std::vector<double> OneFitTrainer::InitialWeights() const {
   return weights;
 }
 
+std::string OneFitTrainer::JointMaskReport() const {
+  if (options_.joint_mask_reach <= 0.0) return {};
+  std::string report = "joints read:";
+  for (const auto& g : garments_) {
+    const Skeleton& skeleton = skeletons_[g->body];
+    const int n = skeleton.num_joints();
+    std::string unread;
+    for (int j = 0; j < n; ++j) {
+      if (g->body_mask[6 * j] == 0.0) unread += (unread.empty() ? "" : " ") + skeleton.names[j];
+    }
+    const Eigen::Index read = (g->body_mask.head(6 * n).array() != 0.0).count() / 6;
+    report += " " + g->name + " " + std::to_string(read) + "/" + std::to_string(n);
+    if (!unread.empty()) report += " (not " + unread + ")";
+  }
+  return report;
+}
+
 Eigen::VectorXd OneFitTrainer::NormalizedBodyFeatures(int clip, int frame) const {
   const OneFitTrainingClip& c = clips_[clip];
   const auto pose = [&](int f) -> const JointTransforms& { return c.poses[std::clamp(f, 0, int(c.poses.size()) - 1)]; };
@@ -219,6 +238,7 @@ OneFitModel OneFitTrainer::MakeModel(const std::vector<double>& weights) const {
   model.curved_faces = options_.drape.patching.curved_faces;
   model.root_rotation = options_.root_rotation;
   model.area_units = options_.area_units;
+  model.joint_mask_reach = options_.joint_mask_reach;
   model.network = network_;
   model.patch_normalizer = patch_normalizer_;
   model.body_normalizer = body_normalizer_;
@@ -233,10 +253,10 @@ void OneFitTrainer::StartFrom(const OneFitModel& model) {
       model.patch_area != options_.drape.patching.patch_area ||
       model.max_fit_error != options_.drape.patching.max_fit_error ||
       model.curved_faces != options_.drape.patching.curved_faces || model.root_rotation != options_.root_rotation ||
-      model.area_units != options_.area_units) {
+      model.area_units != options_.area_units || model.joint_mask_reach != options_.joint_mask_reach) {
     throw std::invalid_argument(
-        "OneFitTrainer::StartFrom: the model's jet order, warp order, patching, root feature, output units or rig "
-        "differs from the training's");
+        "OneFitTrainer::StartFrom: the model's jet order, warp order, patching, root feature, output units, joint "
+        "mask or rig differs from the training's");
   }
   if (model.patch_normalizer.mean.size() != patch_normalizer_.mean.size() ||
       model.body_normalizer.mean.size() != body_normalizer_.mean.size()) {
@@ -252,7 +272,8 @@ std::vector<double> OneFitTrainer::Predict(const double* weights, int garment, i
   const GarmentData& g = *garments_.at(garment);
   if (g.body != clip_body_.at(clip)) throw std::invalid_argument("OneFitTrainer: a garment and a clip of two bodies");
   Eigen::MatrixXd outputs;
-  network_.Forward(weights, g.features, NormalizedBodyFeatures(clip, frame), &g.joint_weights, &outputs);
+  network_.Forward(weights, g.features, NormalizedBodyFeatures(clip, frame).cwiseProduct(g.body_mask), &g.joint_weights,
+                   &outputs);
   return PatchParametersFromOutputs(g.map, outputs, network_.num_coefficients());
 }
 
@@ -271,8 +292,8 @@ void OneFitTrainer::PrepareSample(const double* weights, const double* history_w
   }
   solver.SetHistory(history[0], history[1]);
   solver.Pose(pose(sample.frame), epoch);
-  network_.Forward(weights, g.features, NormalizedBodyFeatures(sample.clip, sample.frame), &g.joint_weights, outputs,
-                   cache);
+  network_.Forward(weights, g.features, NormalizedBodyFeatures(sample.clip, sample.frame).cwiseProduct(g.body_mask),
+                   &g.joint_weights, outputs, cache);
 }
 
 double OneFitTrainer::SampleLoss(const double* weights, const double* history_weights, const OneFitSample& sample,

@@ -128,6 +128,10 @@ struct OneFitTrainerOptions {
   // the model; PatchOutputUnits): a remeshed garment's patches, whose
   // scales grow with their faces, are moved alike.
   bool area_units = true;
+  // Each garment reads only the rotations of the joints that move it by
+  // at least this skinning weight (BodyFeatureMask; recorded in the
+  // model). 0: every joint's.
+  double joint_mask_reach = 0.0;
   // A validation drape every this many batches (0: none), over this many
   // frames (see OneFitBatchSummary).
   int validation_every = 25;
@@ -220,6 +224,10 @@ class OneFitTrainer {
   int num_parameters() const { return network_.num_parameters(); }
   // New weights (seeded).
   std::vector<double> InitialWeights() const;
+  // Per garment, how many joints' rotations it reads and which it does
+  // not ("name 29/31 (not LeftToeBase RightToeBase)"), when
+  // joint_mask_reach is set; else empty.
+  std::string JointMaskReport() const;
 
   // The mean loss over `samples` and, if gradient is not null, its gradient
   // (num_parameters()); with a distribution, this process's share summed

@@ -24,6 +24,7 @@ struct OneFitTrainer::GarmentData {
   PatchOutputMap map;                                 // rest parameters, frames, output units
   Eigen::MatrixXd raw_features, features;             // per patch: raw, normalised
   Eigen::MatrixXd joint_weights;                      // #joints by #patches
+  Eigen::VectorXd body_mask;                          // BodyFeatureMask
 };
 
 }  // namespace polyfit

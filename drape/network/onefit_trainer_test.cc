@@ -699,6 +699,84 @@ TEST(LocalPoseFeaturesTest, WeightsEachJointsThreeRotationBlocks) {
   EXPECT_THROW(LocalPoseFeatures(body.head(10), weights), std::invalid_argument);
 }
 
+TEST(BodyFeatureMaskTest, KeepsTheJointsWhoseSubtreeMovesTheGarment) {
+  // 0 <- 1 <- 2 and 0 <- 3.
+  Skeleton skeleton;
+  skeleton.names = {"root", "upper", "lower", "other"};
+  skeleton.parents = {-1, 0, 1, 0};
+  skeleton.rest_heads = Eigen::Matrix3Xd::Zero(3, 4);
+  SkinWeights weights;
+  weights.offsets = {0, 2, 4};
+  weights.joint = {1, 0, 1, 2};
+  weights.value = {0.7, 0.3, 0.996, 0.004};
+  const Eigen::VectorXd reach = JointReach(weights, skeleton);
+  ASSERT_EQ(reach.size(), 4);
+  EXPECT_DOUBLE_EQ(reach[0], 1.0);
+  EXPECT_DOUBLE_EQ(reach[1], 1.0);  // vertex 1: 0.996 on it, 0.004 below
+  EXPECT_DOUBLE_EQ(reach[2], 0.004);
+  EXPECT_DOUBLE_EQ(reach[3], 0.0);
+  const int n = 4;
+  const Eigen::VectorXd mask = BodyFeatureMask(weights, skeleton, 0.01);
+  ASSERT_EQ(mask.size(), BodyFeatureSize(n));
+  for (int b = 0; b < 3; ++b) {
+    for (int j = 0; j < n; ++j) {
+      const double expected = j < 2 ? 1.0 : 0.0;
+      for (int c = 0; c < 6; ++c) EXPECT_EQ(mask[6 * (b * n + j) + c], expected) << b << " " << j;
+    }
+  }
+  // Gravity, the root's velocity and the shape are always read.
+  EXPECT_TRUE((mask.tail(BodyFeatureSize(n) - 18 * n).array() == 1.0).all());
+  EXPECT_TRUE((BodyFeatureMask(weights, skeleton, 0.0).array() == 1.0).all());
+  weights.joint[3] = 7;
+  EXPECT_THROW(JointReach(weights, skeleton), std::invalid_argument);
+}
+
+// The shirt follows the spine: with the joint mask a leg's swing changes
+// nothing it is draped with, the model file keeps the mask, and the
+// draper applies it as training does.
+TEST_F(OneFitTrainerTest, AJointMaskHidesTheJointsTheGarmentDoesNotFollow) {
+  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
+  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
+  const OneFitTrainingClip sway = Sway(body_, 8);
+  OneFitTrainingClip kick = sway;
+  const int leg = body_.skeleton.Find("LeftUpLeg");
+  const Eigen::Vector3d hip = body_.skeleton.rest_heads.col(leg);
+  for (int t = 0; t < 8; ++t) {
+    const Eigen::Isometry3d swing = Eigen::Translation3d(hip) *
+                                    Eigen::AngleAxisd(0.4 * std::sin(0.7 * t), Eigen::Vector3d::UnitX()) *
+                                    Eigen::Translation3d(-hip);
+    for (const int j : {leg, leg + 1}) kick.poses[t][j] = kick.poses[t][0] * swing;
+  }
+  for (const double reach : {0.0, 0.5}) {
+    options_.joint_mask_reach = reach;
+    OneFitTrainer trainer(body_, {shirt}, {sway, kick}, options_);
+    std::vector<double> weights = trainer.InitialWeights();
+    std::mt19937_64 rng(7);
+    std::normal_distribution<double> normal(0.0, 0.05);
+    for (double& w : weights) w += normal(rng);
+    double difference = 0.0;
+    for (const int frame : {2, 5}) {
+      const std::vector<double> a = trainer.Predict(weights.data(), 0, 0, frame);
+      const std::vector<double> b = trainer.Predict(weights.data(), 0, 1, frame);
+      for (size_t i = 0; i < a.size(); ++i) difference = std::max(difference, std::abs(a[i] - b[i]));
+    }
+    if (reach > 0.0) {
+      EXPECT_EQ(difference, 0.0);
+      EXPECT_EQ(trainer.JointMaskReport(),
+                "joints read: shirt 2/12 (not Neck Head LeftArm LeftForeArm RightArm RightForeArm LeftUpLeg LeftLeg "
+                "RightUpLeg RightLeg)");
+      const std::string path = ::testing::TempDir() + "/onefit_joint_mask.pfonefit";
+      SaveOneFitModel(path, trainer.MakeModel(weights));
+      const OneFitModel loaded = LoadOneFitModel(path);
+      EXPECT_EQ(loaded.joint_mask_reach, reach);
+      ExpectDraperPredictsAsTraining(body_, options_, kick, loaded, trainer, weights);
+    } else {
+      EXPECT_GT(difference, 1e-6);
+      EXPECT_EQ(trainer.JointMaskReport(), "");
+    }
+  }
+}
+
 TEST_F(OneFitTrainerTest, AModelFileRoundTripsAndTheDraperPredictsAsTraining) {
   std::vector<double> weights = trainer_->InitialWeights();
   std::mt19937_64 rng(2);
@@ -732,11 +810,11 @@ TEST_F(OneFitTrainerTest, AModelFileRoundTripsAndTheDraperPredictsAsTraining) {
   expect_error(bytes.substr(0, bytes.size() / 2), "truncated");
   expect_error("not a model at all", "bad magic");
   std::string wrong_version = bytes;
-  wrong_version[8] = 9;
-  expect_error(wrong_version, "version 9");
+  wrong_version[8] = 10;
+  expect_error(wrong_version, "version 10");
   std::string huge = bytes;
-  huge[60] = '\xff';  // the patch encoder's layer count
-  huge[61] = '\xff';
+  huge[68] = '\xff';  // the patch encoder's layer count
+  huge[69] = '\xff';
   expect_error(huge, "layer sizes");
   EXPECT_THROW(LoadOneFitModel(path + ".absent"), OneFitModelError);
 }
@@ -807,8 +885,26 @@ TEST(OneFitModelTest, OlderVersionsStillLoadAndTheFlagsRoundTrip) {
     std::ifstream in(path, std::ios::binary);
     bytes.assign(std::istreambuf_iterator<char>(in), {});
   }
-  ASSERT_EQ(bytes[8], 8);  // the version
-  EXPECT_TRUE(LoadOneFitModel(path).area_units);
+  ASSERT_EQ(bytes[8], 9);  // the version
+  EXPECT_EQ(LoadOneFitModel(path).joint_mask_reach, 0.0);
+  model.joint_mask_reach = 0.05;
+  SaveOneFitModel(path, model);
+  EXPECT_EQ(LoadOneFitModel(path).joint_mask_reach, 0.05);
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const std::string path8 = ::testing::TempDir() + "/onefit_v8_old.pfonefit";
+  std::string bad_reach = bytes;
+  bad_reach[67] = '\x40';  // the reach's exponent: 0.05 * 2^16
+  std::ofstream(path8, std::ios::binary) << bad_reach;
+  EXPECT_THROW(LoadOneFitModel(path8), OneFitModelError);
+  // Version 8: no joint mask (every joint read).
+  bytes[8] = 8;
+  bytes.erase(60, 8);
+  std::ofstream(path8, std::ios::binary) << bytes;
+  EXPECT_EQ(LoadOneFitModel(path8).joint_mask_reach, 0.0);
+  EXPECT_TRUE(LoadOneFitModel(path8).area_units);
   std::string bad_units = bytes;
   bad_units[56] = 2;
   const std::string path7 = ::testing::TempDir() + "/onefit_v7_old.pfonefit";

@@ -300,6 +300,7 @@ std::unique_ptr<OneFitTrainer> MakeTrainer(const OneFitTrainingRunOptions& optio
     trainer_options.network.local_pose = init.network.local_pose();
     trainer_options.root_rotation = init.root_rotation;
     trainer_options.area_units = init.area_units;
+    trainer_options.joint_mask_reach = init.joint_mask_reach;
     PatchLikeModel(init, &trainer_options.drape);
   }
   auto trainer = std::make_unique<OneFitTrainer>(LoadTrainingBodies(options, body, data_report), trainer_options);
@@ -332,7 +333,7 @@ ResumePoint Resume(const OneFitTrainingRunOptions& options, const OneFitModel& f
   if (options.resume && std::filesystem::exists(options.model_path)) {
     const OneFitModel saved = LoadOneFitModel(options.model_path);
     if (saved.weights.size() != weights->size() || saved.root_rotation != fresh.root_rotation ||
-        saved.area_units != fresh.area_units) {
+        saved.area_units != fresh.area_units || saved.joint_mask_reach != fresh.joint_mask_reach) {
       throw Error(ErrorKind::kInput, options.model_path + ": a model of another layout; cannot resume from it");
     }
     *weights = saved.weights;
@@ -428,6 +429,7 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
     }
   }
   summary.message += "; " + data_report;
+  if (const std::string mask = trainer->JointMaskReport(); !mask.empty()) summary.message += "; " + mask;
   if (options.shape_samples > 0) {
     summary.message += "; body shapes";
     for (const BodyShape& shape : TrainingShapes(options)) summary.message += " {" + shape.ToString() + "}";

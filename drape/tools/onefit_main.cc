@@ -264,6 +264,12 @@ void AddTrainModelFlags(CLI::App* train, polyfit::OneFitTrainerOptions* trainer)
                   "patch frames turned to the body's up axis (recorded in the model)");
   train->add_flag("--curved-faces", t.drape.patching.curved_faces,
                   "jets fitted to the faces' Phong tessellation, not their planes (recorded in the model)");
+  train
+      ->add_option("--joint-mask-reach", t.joint_mask_reach,
+                   "each garment reads only the rotations of the joints that move some vertex of it by at least this "
+                   "skinning weight (recorded in the model); 0: every joint's")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
   train->add_flag_callback(
       "--absolute-root", [&t] { t.root_rotation = polyfit::RootRotation::kAbsolute; },
       "the body features hold the root's rotation with its heading, as models before file version 6 did");
