@@ -48,6 +48,9 @@ struct SoftRasterizerOptions {
   double background_depth = 1e-3;
   // Coverage below sigmoid(-cutoff) is ignored.
   double cutoff = 9.2;
+  // Each triangle's derivatives at a pixel by hand (true) or by Ceres'
+  // jets (false: the reference they are tested against; slower).
+  bool analytic_derivatives = true;
   // Background colour when no background image is given (RGB in [0, 1]).
   Eigen::Vector3d background_color = Eigen::Vector3d::Zero();
   int num_threads = 0;

@@ -83,6 +83,7 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("gamma", rasterizer.gamma),
         POLYFIT_SETTING("depth_softness", depth_softness),
         POLYFIT_SETTING("depth_gradient", rasterizer.depth_gradient),
+        POLYFIT_SETTING("analytic_derivatives", rasterizer.analytic_derivatives),
         POLYFIT_SETTING("robust_scale", robust_scale),
         POLYFIT_SETTING("max_frames", max_frames),
         POLYFIT_SETTING("num_threads", num_threads),

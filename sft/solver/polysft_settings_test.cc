@@ -36,6 +36,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.rasterizer.gamma = 0.2;
   changed.depth_softness = 2e-3;
   changed.rasterizer.depth_gradient = true;
+  changed.rasterizer.analytic_derivatives = false;
   changed.robust_loss = RobustLoss::kCauchy;
   changed.robust_scale = 0.3;
   changed.max_frames = 7;
