@@ -62,15 +62,18 @@ struct TriangleTerm {
   int vertices[3];
 };
 
-// Triangles binned into kTile-square tiles by their bounding boxes grown by
-// the reach of a soft edge, within roi. Triangles with a corner behind the
+// Triangles binned into kTile-square tiles by their bounding boxes, grown
+// by the reach of a soft edge where they have one (without edge flags,
+// every edge is soft), within roi. Triangles with a corner behind the
 // camera or not finite are left out.
-void BinTrianglesIntoTiles(const ScreenMesh& mesh, const cv::Rect& roi, double reach, int tiles_x, int tiles_y,
+void BinTrianglesIntoTiles(const ScreenMesh& mesh, const cv::Rect& roi, double soft_reach, int tiles_x, int tiles_y,
                            std::vector<std::vector<int>>* tiles_out) {
   std::vector<std::vector<int>>& tiles = *tiles_out;
   tiles.resize(static_cast<size_t>(tiles_x) * tiles_y);
   for (std::vector<int>& tile : tiles) tile.clear();
+  const bool has_flags = static_cast<Eigen::Index>(mesh.boundary_edges.size()) == mesh.faces.cols();
   for (int f = 0; f < mesh.faces.cols(); ++f) {
+    const double reach = !has_flags || mesh.boundary_edges[f] != 0 ? soft_reach : 0.0;
     double min_x = 1e300, max_x = -1e300, min_y = 1e300, max_y = -1e300;
     bool visible = true;
     for (int c = 0; c < 3; ++c) {
@@ -99,6 +102,7 @@ struct TermContext {
   const cv::Mat& texture;
   double sigma = 1.0;
   double max_distance2 = 0.0;  // cutoff sigma: beyond, a soft edge is 0 or 1
+  double reach = 0.0;          // a little more than its square root
   double inv_far = 0.0, depth_scale = 1.0;
   bool has_uv = false, has_flags = false;
 };
@@ -138,28 +142,41 @@ bool LocateTriangle(const TermContext& c, int f, int px, int py, TriangleAtPixel
     g->y[k] = mesh.pixels(1, g->vertices[k]);
   }
   const double *x = g->x, *y = g->y;
-  for (int k = 0; k < 3; ++k) {
-    const int k1 = (k + 1) % 3;
-    g->d2[k] = SegmentDistance2(px, py, x[k], y[k], x[k1], y[k1], &g->t[k]);
+  // Soft edges: the mesh's boundary (all, without flags). A triangle
+  // without any reaches only the pixels inside it, and most pixels a
+  // tile's triangle is tested at are outside it: the box and the sign
+  // tests below settle them without a distance.
+  const std::uint8_t soft = c.has_flags ? mesh.boundary_edges[f] : 7;
+  const double reach = soft != 0 ? c.reach : 0.0;
+  if (px < std::min({x[0], x[1], x[2]}) - reach || px > std::max({x[0], x[1], x[2]}) + reach ||
+      py < std::min({y[0], y[1], y[2]}) - reach || py > std::max({y[0], y[1], y[2]}) + reach) {
+    return false;
   }
-  g->nearest = static_cast<int>(std::min_element(g->d2, g->d2 + 3) - g->d2);
   const double area = Cross2(x[1] - x[0], y[1] - y[0], x[2] - x[0], y[2] - y[0]);
   const double w0 = Cross2(x[1] - px, y[1] - py, x[2] - px, y[2] - py);
   const double w1 = Cross2(x[2] - px, y[2] - py, x[0] - px, y[0] - py);
   const double w2 = Cross2(x[0] - px, y[0] - py, x[1] - px, y[1] - py);
   g->inside =
       area != 0.0 && ((area > 0 && w0 >= 0 && w1 >= 0 && w2 >= 0) || (area < 0 && w0 <= 0 && w1 <= 0 && w2 <= 0));
-  // Soft edges: the mesh's boundary (all, without flags).
-  const std::uint8_t soft = c.has_flags ? mesh.boundary_edges[f] : 7;
-  g->edge = g->nearest;
+  g->edge = -1;
+  if (soft == 0) {
+    g->nearest = 0;
+    g->t[0] = g->t[1] = g->t[2] = 0.0;
+    return g->inside;
+  }
+  for (int k = 0; k < 3; ++k) {
+    const int k1 = (k + 1) % 3;
+    g->d2[k] = SegmentDistance2(px, py, x[k], y[k], x[k1], y[k1], &g->t[k]);
+  }
+  g->nearest = static_cast<int>(std::min_element(g->d2, g->d2 + 3) - g->d2);
   if (g->inside) {
-    g->edge = -1;
     for (int k = 0; k < 3; ++k) {
       if ((soft >> k & 1) && (g->edge < 0 || g->d2[k] < g->d2[g->edge])) g->edge = k;
     }
     if (g->edge >= 0 && g->d2[g->edge] > c.max_distance2) g->edge = -1;  // saturated: D = 1
     return true;
   }
+  g->edge = g->nearest;
   return (soft >> g->nearest & 1) && g->d2[g->nearest] <= c.max_distance2;
 }
 
@@ -539,6 +556,7 @@ void SoftRasterizer::Render(const ScreenMesh& mesh, int width, int height, const
   TermContext context{mesh, texture_};
   context.sigma = o.sigma;
   context.max_distance2 = o.cutoff * o.sigma;
+  context.reach = std::sqrt(context.max_distance2) * (1.0 + 1e-9) + 1e-9;
   const double inv_near = 1.0 / mesh.depth_near;
   context.inv_far = 1.0 / mesh.depth_far;
   context.depth_scale = 1.0 / (inv_near - context.inv_far);
