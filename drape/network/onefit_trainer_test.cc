@@ -3,6 +3,7 @@
 #include <cmath>
 #include <condition_variable>
 #include <fstream>
+#include <initializer_list>
 #include <iterator>
 #include <mutex>
 #include <random>
@@ -509,6 +510,29 @@ OneFitTrainingClip Sway(const SkinnedBody& body, int frames) {
   return clip;
 }
 
+// The trainer's new weights moved at random (seeded), so that every input
+// reaches the outputs.
+std::vector<double> JitteredWeights(const OneFitTrainer& trainer, std::uint64_t seed) {
+  std::vector<double> weights = trainer.InitialWeights();
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> normal(0.0, 0.05);
+  for (double& w : weights) w += normal(rng);
+  return weights;
+}
+
+// The largest difference between the patch parameters predicted for the
+// first garment on clips 0 and 1 at these frames.
+double ClipPredictionDifference(OneFitTrainer& trainer, const std::vector<double>& weights,
+                                std::initializer_list<int> frames) {
+  double difference = 0.0;
+  for (const int frame : frames) {
+    const std::vector<double> a = trainer.Predict(weights.data(), 0, 0, frame);
+    const std::vector<double> b = trainer.Predict(weights.data(), 0, 1, frame);
+    for (size_t i = 0; i < a.size(); ++i) difference = std::max(difference, std::abs(a[i] - b[i]));
+  }
+  return difference;
+}
+
 // The same motion facing elsewhere: the heading-free network drapes it
 // alike (patch parameters are in the body's rest frame); one reading the
 // root's rotation in the world does not.
@@ -524,16 +548,8 @@ TEST_F(OneFitTrainerTest, AHeadingFreeNetworkDrapesAMotionTurnedAboutTheVertical
   for (const RootRotation root : {RootRotation::kHeadingFree, RootRotation::kAbsolute}) {
     options_.root_rotation = root;
     OneFitTrainer trainer(body_, {shirt}, {sway, turned}, options_);
-    std::vector<double> weights = trainer.InitialWeights();
-    std::mt19937_64 rng(5);
-    std::normal_distribution<double> normal(0.0, 0.05);
-    for (double& w : weights) w += normal(rng);
-    double difference = 0.0;
-    for (const int frame : {0, 3, 6}) {
-      const std::vector<double> a = trainer.Predict(weights.data(), 0, 0, frame);
-      const std::vector<double> b = trainer.Predict(weights.data(), 0, 1, frame);
-      for (size_t i = 0; i < a.size(); ++i) difference = std::max(difference, std::abs(a[i] - b[i]));
-    }
+    const std::vector<double> weights = JitteredWeights(trainer, 5);
+    const double difference = ClipPredictionDifference(trainer, weights, {0, 3, 6});
     if (root == RootRotation::kHeadingFree) {
       EXPECT_LT(difference, 1e-12);
     } else {
@@ -750,16 +766,8 @@ TEST_F(OneFitTrainerTest, AJointMaskHidesTheJointsTheGarmentDoesNotFollow) {
   for (const double reach : {0.0, 0.5}) {
     options_.joint_mask_reach = reach;
     OneFitTrainer trainer(body_, {shirt}, {sway, kick}, options_);
-    std::vector<double> weights = trainer.InitialWeights();
-    std::mt19937_64 rng(7);
-    std::normal_distribution<double> normal(0.0, 0.05);
-    for (double& w : weights) w += normal(rng);
-    double difference = 0.0;
-    for (const int frame : {2, 5}) {
-      const std::vector<double> a = trainer.Predict(weights.data(), 0, 0, frame);
-      const std::vector<double> b = trainer.Predict(weights.data(), 0, 1, frame);
-      for (size_t i = 0; i < a.size(); ++i) difference = std::max(difference, std::abs(a[i] - b[i]));
-    }
+    const std::vector<double> weights = JitteredWeights(trainer, 7);
+    const double difference = ClipPredictionDifference(trainer, weights, {2, 5});
     if (reach > 0.0) {
       EXPECT_EQ(difference, 0.0);
       EXPECT_EQ(trainer.JointMaskReport(),
