@@ -157,6 +157,11 @@ def generated_seeds(build):
             "--batches", "1", "--batch-size", "1", "--decoder-hidden", "4", "--body-hidden", "4",
             "--patch-hidden", "4", "--validate-every", "0", "--patch-area", "1")
         shutil.copy(model, os.path.join(CORPUS, "onefit_model_fuzzer", "tiny.pfonefit"))
+        # The same with a joint mask (file version 9's last header field set).
+        run(os.path.join(bin_dir, "onefit"), "train", "--garments", garment, "--motions", clip, "--out", model,
+            "--batches", "1", "--batch-size", "1", "--decoder-hidden", "4", "--body-hidden", "4",
+            "--patch-hidden", "4", "--validate-every", "0", "--patch-area", "1", "--joint-mask-reach", "0.5")
+        shutil.copy(model, os.path.join(CORPUS, "onefit_model_fuzzer", "tiny_joint_mask.pfonefit"))
 
 
 def main():
