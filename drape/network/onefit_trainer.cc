@@ -221,11 +221,14 @@ std::string OneFitTrainer::JointMaskReport() const {
   return report;
 }
 
-Eigen::VectorXd OneFitTrainer::NormalizedBodyFeatures(int clip, int frame) const {
+Eigen::VectorXd OneFitTrainer::GarmentBodyFeatures(const GarmentData& g, int clip, int frame) const {
   const OneFitTrainingClip& c = clips_[clip];
   const auto pose = [&](int f) -> const JointTransforms& { return c.poses[std::clamp(f, 0, int(c.poses.size()) - 1)]; };
-  return body_normalizer_.Apply(BodyFeatures(skeletons_[clip_body_[clip]], pose(frame - 2), pose(frame - 1),
-                                             pose(frame), c.fps, c.shape, options_.root_rotation));
+  Eigen::VectorXd features =
+      body_normalizer_.Apply(BodyFeatures(skeletons_[clip_body_[clip]], pose(frame - 2), pose(frame - 1), pose(frame),
+                                          c.fps, c.shape, options_.root_rotation));
+  features.array() *= g.body_mask.array();
+  return features;
 }
 
 OneFitModel OneFitTrainer::MakeModel(const std::vector<double>& weights) const {
@@ -272,8 +275,7 @@ std::vector<double> OneFitTrainer::Predict(const double* weights, int garment, i
   const GarmentData& g = *garments_.at(garment);
   if (g.body != clip_body_.at(clip)) throw std::invalid_argument("OneFitTrainer: a garment and a clip of two bodies");
   Eigen::MatrixXd outputs;
-  network_.Forward(weights, g.features, NormalizedBodyFeatures(clip, frame).cwiseProduct(g.body_mask), &g.joint_weights,
-                   &outputs);
+  network_.Forward(weights, g.features, GarmentBodyFeatures(g, clip, frame), &g.joint_weights, &outputs);
   return PatchParametersFromOutputs(g.map, outputs, network_.num_coefficients());
 }
 
@@ -292,8 +294,8 @@ void OneFitTrainer::PrepareSample(const double* weights, const double* history_w
   }
   solver.SetHistory(history[0], history[1]);
   solver.Pose(pose(sample.frame), epoch);
-  network_.Forward(weights, g.features, NormalizedBodyFeatures(sample.clip, sample.frame).cwiseProduct(g.body_mask),
-                   &g.joint_weights, outputs, cache);
+  network_.Forward(weights, g.features, GarmentBodyFeatures(g, sample.clip, sample.frame), &g.joint_weights, outputs,
+                   cache);
 }
 
 double OneFitTrainer::SampleLoss(const double* weights, const double* history_weights, const OneFitSample& sample,

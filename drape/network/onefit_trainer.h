@@ -301,7 +301,9 @@ class OneFitTrainer {
   void AddGarment(const SkinnedBody& body, const OneFitTrainingGarment& garment, int body_index,
                   const DrapeSolverOptions& drape);
   Eigen::MatrixXd ClipBodyFeatures(int clip) const;
-  Eigen::VectorXd NormalizedBodyFeatures(int clip, int frame) const;
+  // A frame's normalised body features as garment g reads them (its
+  // BodyFeatureMask applied).
+  Eigen::VectorXd GarmentBodyFeatures(const GarmentData& g, int clip, int frame) const;
   OneFitSample DrawSample(std::mt19937_64* rng) const;
   // A sample's history and pose set on its thread's drape, and the
   // network's outputs (num_outputs() by #patches) for its frame.

@@ -130,6 +130,8 @@ struct TriangleAtPixel {
   int vertices[3];
   double x[3], y[3];
   double t[3], d2[3];
+  // w_k: the signed area p spans with the edge opposite corner k.
+  double w[3];
   int nearest = 0, edge = -1;
   bool inside = false;
 };
@@ -153,9 +155,11 @@ bool LocateTriangle(const TermContext& c, int f, int px, int py, TriangleAtPixel
     return false;
   }
   const double area = Cross2(x[1] - x[0], y[1] - y[0], x[2] - x[0], y[2] - y[0]);
-  const double w0 = Cross2(x[1] - px, y[1] - py, x[2] - px, y[2] - py);
-  const double w1 = Cross2(x[2] - px, y[2] - py, x[0] - px, y[0] - py);
-  const double w2 = Cross2(x[0] - px, y[0] - py, x[1] - px, y[1] - py);
+  for (int k = 0; k < 3; ++k) {
+    const int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
+    g->w[k] = Cross2(x[k1] - px, y[k1] - py, x[k2] - px, y[k2] - py);
+  }
+  const double w0 = g->w[0], w1 = g->w[1], w2 = g->w[2];
   g->inside =
       area != 0.0 && ((area > 0 && w0 >= 0 && w1 >= 0 && w2 >= 0) || (area < 0 && w0 <= 0 && w1 <= 0 && w2 <= 0));
   g->edge = -1;
@@ -262,16 +266,14 @@ bool TriangleTermAt(const TermContext& c, int f, int px, int py, TriangleTerm* t
 // Derivatives in a triangle's corner pixels (x0, y0, x1, y1, x2, y2).
 using Vec6 = Eigen::Matrix<double, 6, 1>;
 
-// The barycentrics of p inside triangle g (b_k = w_k / A, w_k the signed
-// area p spans with the edge opposite corner k, A = w_0 + w_1 + w_2) and
-// their derivatives: dw_k / dP_{k+1} = (y_{k+2} - p_y, p_x - x_{k+2}),
-// dw_k / dP_{k+2} = (p_y - y_{k+1}, x_{k+1} - p_x).
+// The barycentrics of p inside triangle g (b_k = w_k / A, A = w_0 + w_1 +
+// w_2) and their derivatives: dw_k / dP_{k+1} = (y_{k+2} - p_y, p_x -
+// x_{k+2}), dw_k / dP_{k+2} = (p_y - y_{k+1}, x_{k+1} - p_x).
 void InsideBarycentrics(const TriangleAtPixel& g, double px, double py, double b[3], Vec6 db[3]) {
-  double w[3];
+  const double* w = g.w;
   Vec6 dw[3], d_area = Vec6::Zero();
   for (int k = 0; k < 3; ++k) {
     const int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
-    w[k] = Cross2(g.x[k1] - px, g.y[k1] - py, g.x[k2] - px, g.y[k2] - py);
     dw[k].setZero();
     dw[k][2 * k1] = g.y[k2] - py;
     dw[k][2 * k1 + 1] = px - g.x[k2];
@@ -484,6 +486,21 @@ void ConcatenateTileGradients(const std::vector<std::vector<VertexGradient>>& ti
   }
 }
 
+// What a render's triangle terms read: the options' softness and the
+// mesh's depth range, texture coordinates and edge flags.
+TermContext MakeTermContext(const ScreenMesh& mesh, const cv::Mat& texture, const SoftRasterizerOptions& o) {
+  const int num_faces = static_cast<int>(mesh.faces.cols());
+  TermContext context{mesh, texture};
+  context.sigma = o.sigma;
+  context.max_distance2 = o.cutoff * o.sigma;
+  context.reach = std::sqrt(context.max_distance2) * (1.0 + 1e-9) + 1e-9;
+  context.inv_far = 1.0 / mesh.depth_far;
+  context.depth_scale = 1.0 / (1.0 / mesh.depth_near - context.inv_far);
+  context.has_uv = mesh.corner_texcoords.cols() == 3 * num_faces;
+  context.has_flags = static_cast<int>(mesh.boundary_edges.size()) == num_faces;
+  return context;
+}
+
 // Per thread, reused across tiles and pixels.
 struct RenderScratch {
   std::vector<TriangleTerm> terms;
@@ -529,7 +546,6 @@ SoftRasterizer::SoftRasterizer(const SoftRasterizerOptions& options, const cv::M
 void SoftRasterizer::Render(const ScreenMesh& mesh, int width, int height, const cv::Mat& background,
                             bool with_gradients, SoftRenderOutput* out, const cv::Rect& roi_in) const {
   const SoftRasterizerOptions& o = options_;
-  const int num_faces = static_cast<int>(mesh.faces.cols());
   if (!background.empty() && (background.cols != width || background.rows != height || background.type() != CV_32FC3)) {
     throw std::invalid_argument("SoftRasterizer::Render: the background must be CV_32FC3 of the image's size");
   }
@@ -552,16 +568,8 @@ void SoftRasterizer::Render(const ScreenMesh& mesh, int width, int height, const
 
   const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
   std::vector<std::vector<int>>& tiles = out->tile_triangles;
-  BinTrianglesIntoTiles(mesh, roi, std::sqrt(o.cutoff * o.sigma), tiles_x, tiles_y, &tiles);
-  TermContext context{mesh, texture_};
-  context.sigma = o.sigma;
-  context.max_distance2 = o.cutoff * o.sigma;
-  context.reach = std::sqrt(context.max_distance2) * (1.0 + 1e-9) + 1e-9;
-  const double inv_near = 1.0 / mesh.depth_near;
-  context.inv_far = 1.0 / mesh.depth_far;
-  context.depth_scale = 1.0 / (inv_near - context.inv_far);
-  context.has_uv = mesh.corner_texcoords.cols() == 3 * num_faces;
-  context.has_flags = static_cast<int>(mesh.boundary_edges.size()) == num_faces;
+  const TermContext context = MakeTermContext(mesh, texture_, o);
+  BinTrianglesIntoTiles(mesh, roi, context.reach, tiles_x, tiles_y, &tiles);
 
   // Per tile: its pixels' gradients, concatenated afterwards.
   std::vector<std::vector<VertexGradient>>& tile_gradients = out->tile_gradients;
