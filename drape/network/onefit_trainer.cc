@@ -49,6 +49,10 @@ class BatchLoss : public ceres::FirstOrderFunction {
 
 std::string OneFitTrainerOptions::Validate() const {
   if (std::string p = network.Validate(); !p.empty()) return "network: " + p;
+  if (network.warp_order > kMaxTrainedWarpOrder) {
+    return "network: warp_order " + std::to_string(network.warp_order) + " does not train (its slides leave the " +
+           "patches and the loss diverges); at most " + std::to_string(kMaxTrainedWarpOrder);
+  }
   if (std::string p = drape.Validate(); !p.empty()) return "drape: " + p;
   if (batch_size < 1 || iterations_per_batch < 1 || num_batches < 0 || (num_batches == 0 && polish.iterations == 0)) {
     return "batch_size and iterations_per_batch must be >= 1, num_batches >= 1 (0 with a polish)";
@@ -81,6 +85,10 @@ std::string OneFitTrainingSummary::BriefReport() const {
                 TerminationTypeToString(termination_type), batches.size(), first, last, total_time_s);
   std::string report = line;
   if (!message.empty()) report += " (" + message + ")";
+  if (undone_batches > 0) {
+    report += "; " + std::to_string(undone_batches) + " batches undone (their loss grew over " +
+              std::to_string(static_cast<int>(kSpikeRatio)) + "-fold)";
+  }
   if (!polish.steps.empty()) report += "\n" + polish.BriefReport();
   return report;
 }
@@ -494,12 +502,21 @@ OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights, int fir
   std::vector<double> best = *weights;
   AdamState local_adam;
   AdamState& adam = adam_state != nullptr ? *adam_state : local_adam;
+  AdamState adam_before;
   for (int b = 0; b < options_.num_batches; ++b) {
     for (OneFitSample& s : batch) s = DrawSample(&rng);
     if (b < first_batch) continue;
     epoch_ = options_.kext_final_epoch * b / options_.num_batches;
-    const OneFitBatchSummary record = options_.optimizer == OneFitOptimizer::kAdam ? AdamBatch(batch, b, &adam, weights)
-                                                                                   : LbfgsBatch(batch, b, weights);
+    adam_before = adam;
+    OneFitBatchSummary record = options_.optimizer == OneFitOptimizer::kAdam ? AdamBatch(batch, b, &adam, weights)
+                                                                             : LbfgsBatch(batch, b, weights);
+    // Every process sees the same losses, so all undo the same batches.
+    if (record.final_loss > kSpikeRatio * record.initial_loss) {
+      record.undone = true;
+      ++summary.undone_batches;
+      *weights = best;
+      adam = adam_before;
+    }
     summary.batches.push_back(record);
     if (options_.validation_every > 0 && (b + 1) % options_.validation_every == 0 &&
         options_.distribution.process == 0) {

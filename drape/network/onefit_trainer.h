@@ -148,6 +148,11 @@ struct OneFitBatchSummary {
   double initial_loss = 0.0;  // the batch's mean energy (J) before its solve
   double final_loss = 0.0;    // and after
   int iterations = 0;
+  // The loss grew over kSpikeRatio-fold within the batch (its steps threw
+  // the patches off, as a warp head of order 3 or 4 did): the batch was
+  // undone, weights and optimiser state restored (final_loss is what it
+  // reached).
+  bool undone = false;
   double time_s = 0.0;  // since training started
   // The validation drape (every validation_every batches, else NaN; on
   // process 0 only): the network alone on the first garment over frames
@@ -187,11 +192,24 @@ struct OneFitTrainingSummary {
   TerminationType termination_type = TerminationType::kConvergence;
   std::string message;
   std::vector<OneFitBatchSummary> batches;
+  int undone_batches = 0;  // OneFitBatchSummary::undone
   double total_time_s = 0.0;
   OneFitPolishSummary polish;  // its steps empty without a polish
 
   std::string BriefReport() const;
 };
+
+// The highest warp order (OneFitNetworkOptions::warp_order) a network
+// trains at: its warp bounds each coefficient, not the slide, and at
+// orders 3 and 4 the terms summed carry points off their patches, where
+// the jets' extrapolation threw the loss to 1e20 J within 25 batches
+// (docs/benchmarks.md).
+inline constexpr int kMaxTrainedWarpOrder = 2;
+
+// A batch whose loss ends more than this many times where it began is
+// undone (OneFitBatchSummary::undone): no batch of a healthy run comes near
+// it (the shipped runs stay under 3-fold).
+inline constexpr double kSpikeRatio = 10.0;
 
 // Adam's step size at its step `step` (counted over the whole run, from 0):
 // linear over the warm-up, then learning_rate, or a cosine from it down to

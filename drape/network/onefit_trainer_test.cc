@@ -298,6 +298,44 @@ TEST_F(OneFitTrainerTest, AdamLowersTheLossToo) {
   EXPECT_NEAR(largest, options.learning_rate / 4.0, 1e-3 * options.learning_rate);
 }
 
+// A batch whose loss grows over kSpikeRatio-fold is undone: the weights
+// after it are those before it, and Adam's moments too (the batch after it
+// steps as if it had not happened).
+TEST_F(OneFitTrainerTest, ABatchWhoseLossExplodesIsUndone) {
+  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
+  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
+  OneFitTrainerOptions options = options_;
+  options.optimizer = OneFitOptimizer::kAdam;
+  options.learning_rate = 1.0;  // every output thrown to its bound within a batch
+  options.final_rate_fraction = 1.0;
+  options.num_batches = 4;
+  OneFitTrainer trainer(body_, {shirt}, {Bob(body_, 8)}, options);
+  std::vector<double> weights = trainer.InitialWeights();
+  std::vector<std::vector<double>> after;  // the weights after each batch
+  OneFitAdamState adam;
+  const OneFitTrainingSummary summary = trainer.Train(
+      &weights, 0, [&](const OneFitBatchSummary&, const std::vector<double>& w) { after.push_back(w); }, &adam);
+  ASSERT_EQ(summary.batches.size(), 4u);
+  ASSERT_GT(summary.undone_batches, 0) << summary.BriefReport();
+  const std::vector<double> initial = trainer.InitialWeights();
+  int undone = 0;
+  for (size_t b = 0; b < summary.batches.size(); ++b) {
+    const OneFitBatchSummary& record = summary.batches[b];
+    EXPECT_EQ(record.undone, record.final_loss > kSpikeRatio * record.initial_loss) << "batch " << b;
+    if (!record.undone) continue;
+    ++undone;
+    EXPECT_EQ(after[b], b == 0 ? initial : after[b - 1]) << "batch " << b;
+  }
+  EXPECT_EQ(undone, summary.undone_batches);
+  EXPECT_NE(summary.BriefReport().find("undone"), std::string::npos);
+  // Adam's step count covers only the batches kept.
+  EXPECT_EQ(adam.steps, options.iterations_per_batch * (4 - undone));
+
+  // Warp heads above order 2 diverge in training: refused, with the reason.
+  options.network.warp_order = options.drape.slide.warp_order = kMaxTrainedWarpOrder + 1;
+  EXPECT_NE(options.Validate().find("does not train"), std::string::npos) << options.Validate();
+}
+
 // The step size's schedule: linear warm-up, then constant or a cosine down
 // to the final fraction at the last batch's last step.
 TEST(AdamStepSizeTest, WarmsUpThenDecaysAlongACosine) {

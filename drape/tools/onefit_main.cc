@@ -256,7 +256,7 @@ void AddTrainModelFlags(CLI::App* train, polyfit::OneFitTrainerOptions* trainer)
       ->capture_default_str();
   train
       ->add_option("--warp-order", t.network.warp_order,
-                   "order of each patch's predicted in-plane warp (its vertices' slides); -1: none")
+                   "order of each patch's predicted in-plane warp (its vertices' slides), at most 2; -1: none")
       ->capture_default_str();
   train->add_flag("--local-pose", t.network.local_pose,
                   "each patch also reads its own joints' pose, skinning-weighted (recorded in the model)");
@@ -338,6 +338,7 @@ int RunTrainOn(TrainFlags& f, bool quiet) {
         if (quiet) return;
         std::printf("batch %4d  loss %.5g -> %.5g J  %2d it  %7.1f s", b.batch, b.initial_loss, b.final_loss,
                     b.iterations, b.time_s);
+        if (b.undone) std::printf("  undone (the loss grew over %g-fold)", polyfit::kSpikeRatio);
         if (std::isfinite(b.validation_inside_percent)) {
           std::printf("  validation epsilon_c %.2f%% epsilon_e %.2f%% loss %.5g J", b.validation_inside_percent,
                       b.validation_edge_strain_percent, b.validation_loss);
