@@ -15,6 +15,7 @@
 #include "drape/motion/perturb_pose.h"
 #include "drape/network/onefit_draper.h"
 #include "drape/simulate/drape_inputs.h"
+#include "polyfit/eval/mesh_metrics.h"
 #include "polyfit/mesh/decimation.h"
 #include "polyfit/util/atomic_file.h"
 
@@ -23,6 +24,14 @@ namespace {
 
 constexpr char kDecimatedTag[] = "~decimated";
 constexpr char kRepatchedTag[] = "~patched";
+constexpr char kOffsetTag[] = "~offset";
+
+// The garment moved `distance` along its vertex normals.
+TriangleMesh OffsetAlongNormals(const TriangleMesh& mesh, double distance) {
+  TriangleMesh moved = mesh;
+  moved.vertices += distance * VertexNormals(mesh);
+  return moved;
+}
 
 std::vector<OneFitTrainingGarment> LoadGarments(const OneFitTrainingRunOptions& options, const SkinnedBody& body) {
   std::vector<OneFitTrainingGarment> garments;
@@ -51,6 +60,22 @@ std::vector<OneFitTrainingGarment> LoadGarments(const OneFitTrainingRunOptions& 
         throw Error(ErrorKind::kInput, options.garment_paths[i] + ": --decimate: " + e.what());
       }
       garments.push_back(std::move(d));
+    }
+  }
+  const size_t given = options.garment_paths.size();
+  for (size_t i = 0; i < given; ++i) {
+    for (double distance : options.garment_offsets) {
+      OneFitTrainingGarment o;
+      std::ostringstream name;
+      name << garments[i].name << kOffsetTag << (distance > 0.0 ? "+" : "") << distance * 1e3 << "mm";
+      o.name = name.str();
+      try {
+        o.mesh = OffsetAlongNormals(garments[i].mesh, distance);
+        o.weights = TransferSkinWeights(body, o.mesh, options.skin);
+      } catch (const std::invalid_argument& e) {
+        throw Error(ErrorKind::kInput, options.garment_paths[i] + ": --garment-offsets: " + e.what());
+      }
+      garments.push_back(std::move(o));
     }
   }
   const size_t meshings = garments.size();
@@ -112,12 +137,16 @@ std::string ClipReport(const std::vector<OneFitTrainingClip>& clips) {
          std::to_string(mixed) + " mixed" + (perturbed > 0 ? ", each also perturbed)" : ")");
 }
 
-// "N garments per body (G given, D decimated, R re-patched)".
+// "N garments per body (G given, D decimated[, O offset], R re-patched)".
 std::string GarmentReport(const std::vector<OneFitTrainingGarment>& garments) {
   const auto [repatched, decimated] = CountTagged(garments, kRepatchedTag, kDecimatedTag);
-  const long given = static_cast<long>(garments.size()) - decimated - repatched;
+  const long offset = std::count_if(garments.begin(), garments.end(), [](const OneFitTrainingGarment& g) {
+    return g.name.find(kOffsetTag) != std::string::npos && g.name.find(kRepatchedTag) == std::string::npos;
+  });
+  const long given = static_cast<long>(garments.size()) - decimated - repatched - offset;
   return std::to_string(garments.size()) + " garments per body (" + std::to_string(given) + " given, " +
-         std::to_string(decimated) + " decimated, " + std::to_string(repatched) + " re-patched)";
+         std::to_string(decimated) + " decimated, " + (offset > 0 ? std::to_string(offset) + " offset, " : "") +
+         std::to_string(repatched) + " re-patched)";
 }
 
 // Frame f of a clip played forth and back (a donor shorter than its base
@@ -248,6 +277,9 @@ std::string OneFitTrainingRunOptions::Validate() const {
   if (mix_clips < 0 || mix_clips > 1000) return "mix_clips must be in [0, 1000]";
   if (!(decimate >= 0.0 && decimate < 1.0)) return "decimate must be in [0, 1)";
   if (repatch < 0 || repatch > 16) return "repatch must be in [0, 16]";
+  for (double d : garment_offsets) {
+    if (!(std::abs(d) <= 0.03) || d == 0.0) return "garment_offsets must be non-zero and within 0.03 m";
+  }
   if (shape_samples > 0 && body_dir.empty()) return "shape_samples needs the MakeHuman body (a body folder)";
   if (std::string p = shape.Validate(); !p.empty()) return "shape: " + p;
   if (std::string p = trainer.Validate(); !p.empty()) return "trainer: " + p;

@@ -52,7 +52,13 @@ struct OneFitTrainingRunOptions {
   // transferred as a mesh file's is), so that the network sees more than
   // one meshing of it; 0: none.
   double decimate = 0.0;
-  // Augmentation: each garment (decimated ones too) also patched under this
+  // Augmentation: each given garment also moved along its vertex normals
+  // by each of these distances (m; |d| <= 0.03): a looser (d > 0) or a
+  // tighter (d < 0) garment of the same cut, its rest shape the moved one
+  // (so a tighter copy must stretch where it meets the body), so that the
+  // network sees more fits than the garments given; none by default.
+  std::vector<double> garment_offsets;
+  // Augmentation: each garment (decimated and offset ones too) also patched under this
   // many other clustering seeds, so that the network sees more than one
   // layout of patches on it (a network trained on one leaves more of the
   // same garment inside under another); 0: none.

@@ -226,10 +226,14 @@ void AddTrainDataFlags(CLI::App* train, TrainFlags* f) {
       ->add_option("--decimate", o.decimate,
                    "augmentation: each garment also decimated to this fraction of its edges (0: none)")
       ->capture_default_str();
+  train->add_option("--garment-offsets", o.garment_offsets,
+                    "augmentation: each garment also moved along its normals by these distances (m; > 0 looser, "
+                    "< 0 tighter; |d| <= 0.03)");
   train
-      ->add_option("--repatch", o.repatch,
-                   "augmentation: each garment (decimated ones too) also patched under this many other clustering "
-                   "seeds (0: none)")
+      ->add_option(
+          "--repatch", o.repatch,
+          "augmentation: each garment (decimated and offset ones too) also patched under this many other clustering "
+          "seeds (0: none)")
       ->capture_default_str();
   train
       ->add_option("--shape-samples", o.shape_samples,
