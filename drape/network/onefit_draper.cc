@@ -15,17 +15,20 @@ void PatchLikeModel(const OneFitModel& model, DrapeSolverOptions* options) {
   options->patching.jet_order = model.jet_order;
 }
 
-PatchOutputMap MakePatchOutputMap(const DrapeSolver& solver, int jet_order, int warp_order, bool area_units) {
+PatchOutputMap MakePatchOutputMap(const DrapeSolver& solver, int jet_order, int warp_order, bool area_units,
+                                  double warp_slide_bound) {
   PatchOutputMap map;
   map.rest = solver.RestPatchParameters();
   const PolyFitModel& model = solver.model();
   const int stride = solver.num_patch_parameters(), k = NumJetCoefficients(jet_order);
   const std::vector<double> areas = solver.PatchRestAreas();
   map.units.resize(stride, model.num_patches());
+  if (warp_order >= 0) map.warp_bounds.resize(model.num_patches());
   for (int p = 0; p < model.num_patches(); ++p) {
     map.frames.push_back(model.patches[p].frame.rotation);
     map.units.col(p) =
         PatchOutputUnits(jet_order, warp_order, map.rest[p * stride + k], areas[p], solver.WarpRadii()[p], area_units);
+    if (warp_order >= 0) map.warp_bounds[p] = PatchWarpBound(map.units.col(p), k, warp_slide_bound);
   }
   return map;
 }
@@ -42,7 +45,8 @@ OneFitDraper::OneFitDraper(const OneFitModel& model, const DrapeSolver& solver, 
     throw OneFitModelError("the model predicts jets or warps of another order than the drape's",
                            ErrorKind::kInvalidArgument);
   }
-  map_ = MakePatchOutputMap(solver, model.jet_order, model.network.warp_order(), model.area_units);
+  map_ =
+      MakePatchOutputMap(solver, model.jet_order, model.network.warp_order(), model.area_units, model.warp_slide_bound);
   const Eigen::MatrixXd features = model.patch_normalizer.Apply(
       PatchFeatures(solver.model(), map_.rest, map_.units, model.jet_order, weights, skeleton));
   garment_half_ = model.network.GarmentHalf(model.weights.data(), features);

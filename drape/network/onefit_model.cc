@@ -74,6 +74,7 @@ std::string OneFitModel::Validate() const {
   if (jet_order < 1 || jet_order > kMaxJetOrder) return "jet order out of range";
   if (num_joints < 1) return "no joint";
   if (!(joint_mask_reach >= 0.0 && joint_mask_reach <= 1.0)) return "joint_mask_reach out of [0, 1]";
+  if (!(warp_slide_bound >= 0.0 && warp_slide_bound <= 1.0)) return "warp_slide_bound out of [0, 1]";
   if (network.num_coefficients() != NumJetCoefficients(jet_order)) return "the decoder does not fit the jet order";
   if (network.patch_encoder().input_size() != PatchFeatureSize(jet_order, num_joints)) {
     return "the patch encoder does not read this rig's patch features";
@@ -116,6 +117,7 @@ void SaveOneFitModel(const std::string& path, const OneFitModel& model) {
   w.Put<std::int32_t>(model.curved_faces ? 1 : 0);
   w.Put<std::int32_t>(model.area_units ? 1 : 0);
   w.Put<double>(model.joint_mask_reach);
+  w.Put<double>(model.warp_slide_bound);
   PutMlp(model.network.patch_encoder(), &w);
   PutMlp(model.network.body_encoder(), &w);
   PutMlp(model.network.decoder(), &w);
@@ -205,6 +207,8 @@ OneFitModel LoadOneFitModel(const std::string& path) {
   model.area_units = area_units == 1;
   model.joint_mask_reach = version >= 9 ? r.Get<double>("the header") : 0.0;
   if (!(model.joint_mask_reach >= 0.0 && model.joint_mask_reach <= 1.0)) r.Fail("joint mask reach out of [0, 1]");
+  model.warp_slide_bound = version >= 10 ? r.Get<double>("the header") : 0.0;
+  if (!(model.warp_slide_bound >= 0.0 && model.warp_slide_bound <= 1.0)) r.Fail("warp slide bound out of [0, 1]");
   if (aligned != 0 && aligned != 1) r.Fail("frame alignment flag out of range");
   if (local_pose != 0 && local_pose != 1) r.Fail("local pose flag out of range");
   model.aligned_frames = aligned == 1;

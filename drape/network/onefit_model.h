@@ -19,8 +19,9 @@ namespace polyfit {
 // 5 the patching's area and fit error, version 6 the root's rotation
 // feature (RootRotation), version 7 whether the patches were fitted to
 // curved faces, version 8 the output units (area_units), version 9 the
-// joint mask's reach; earlier files still load.
-inline constexpr int kOneFitModelVersion = 9;
+// joint mask's reach, version 10 the warp's slide bound; earlier files
+// still load.
+inline constexpr int kOneFitModelVersion = 10;
 
 class OneFitModelError : public Error {
  public:
@@ -47,6 +48,9 @@ struct OneFitModel {
   // Each garment reads the rotations of the joints that move it by at
   // least this weight (BodyFeatureMask; before version 9: 0, all).
   double joint_mask_reach = 0.0;
+  // The warp head's bound on each point's slide, in units of its patch's
+  // radius (PatchWarpBound; 0, and before version 10: each coefficient's).
+  double warp_slide_bound = 0.0;
   // How its body features hold the root's rotation (before version 6:
   // kAbsolute).
   RootRotation root_rotation = RootRotation::kHeadingFree;

@@ -193,13 +193,24 @@ Eigen::VectorXd PatchOutputUnits(int jet_order, int warp_order, double s0, doubl
   return units;
 }
 
+double PatchWarpBound(const Eigen::VectorXd& units, int num_coefficients, double slide_bound) {
+  const int w = static_cast<int>(units.size()) - num_coefficients - 4;
+  if (w <= 0 || w % 2 != 0) throw std::invalid_argument("PatchWarpBound: units without a warp");
+  if (!(slide_bound >= 0.0)) throw std::invalid_argument("PatchWarpBound: a negative slide bound");
+  if (slide_bound == 0.0) return kOutputBoundWarp;
+  const double sum = units.segment(num_coefficients + 4, w / 2).cwiseAbs().sum();
+  if (!(sum > 0.0) || !std::isfinite(sum)) throw std::invalid_argument("PatchWarpBound: warp units not positive");
+  return slide_bound / sum;
+}
+
 std::vector<double> PatchParametersFromOutputs(const PatchOutputMap& map, const Eigen::MatrixXd& outputs,
                                                int num_coefficients) {
   const int num_patches = static_cast<int>(outputs.cols());
   const int stride = static_cast<int>(outputs.rows());
   const int k = num_coefficients;
   if (static_cast<int>(map.rest.size()) != stride * num_patches || map.num_patches() != num_patches ||
-      map.units.rows() != stride || map.units.cols() != num_patches || stride < k + 4) {
+      map.units.rows() != stride || map.units.cols() != num_patches || stride < k + 4 ||
+      (stride > k + 4 && map.warp_bounds.size() != num_patches)) {
     throw std::invalid_argument("PatchParametersFromOutputs: sizes disagree");
   }
   std::vector<double> params(map.rest.size());
@@ -212,7 +223,7 @@ std::vector<double> PatchParametersFromOutputs(const PatchOutputMap& map, const 
     Eigen::Vector3d d;
     for (int c = 0; c < 3; ++c) d[c] = u[k + 1 + c] * Bound(outputs(k + 1 + c, p), kOutputBoundTranslation);
     Eigen::Map<Eigen::Vector3d>(out + k + 1) = Eigen::Map<const Eigen::Vector3d>(r + k + 1) + map.frames[p] * d;
-    for (int c = k + 4; c < stride; ++c) out[c] = r[c] + u[c] * Bound(outputs(c, p), kOutputBoundWarp);
+    for (int c = k + 4; c < stride; ++c) out[c] = r[c] + u[c] * Bound(outputs(c, p), map.warp_bounds[p]);
   }
   return params;
 }
@@ -223,7 +234,7 @@ Eigen::MatrixXd ChainPatchParameterGradient(const PatchOutputMap& map, const Eig
   const int stride = static_cast<int>(outputs.rows());
   const int k = num_coefficients;
   if (static_cast<int>(gradient.size()) != stride * num_patches || map.units.rows() != stride ||
-      map.units.cols() != num_patches || stride < k + 4) {
+      map.units.cols() != num_patches || stride < k + 4 || (stride > k + 4 && map.warp_bounds.size() != num_patches)) {
     throw std::invalid_argument("ChainPatchParameterGradient: sizes disagree");
   }
   Eigen::MatrixXd d(stride, num_patches);
@@ -238,7 +249,7 @@ Eigen::MatrixXd ChainPatchParameterGradient(const PatchOutputMap& map, const Eig
     for (int c = 0; c < 3; ++c) {
       d(k + 1 + c, p) = dt[c] * u[k + 1 + c] * BoundSlope(outputs(k + 1 + c, p), kOutputBoundTranslation);
     }
-    for (int c = k + 4; c < stride; ++c) d(c, p) = g[c] * u[c] * BoundSlope(outputs(c, p), kOutputBoundWarp);
+    for (int c = k + 4; c < stride; ++c) d(c, p) = g[c] * u[c] * BoundSlope(outputs(c, p), map.warp_bounds[p]);
   }
   return d;
 }

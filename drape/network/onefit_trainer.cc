@@ -49,9 +49,11 @@ class BatchLoss : public ceres::FirstOrderFunction {
 
 std::string OneFitTrainerOptions::Validate() const {
   if (std::string p = network.Validate(); !p.empty()) return "network: " + p;
-  if (network.warp_order > kMaxTrainedWarpOrder) {
+  if (!(warp_slide_bound >= 0.0 && warp_slide_bound <= 1.0)) return "warp_slide_bound must be in [0, 1]";
+  if (network.warp_order > kMaxTrainedWarpOrder && warp_slide_bound == 0.0) {
     return "network: warp_order " + std::to_string(network.warp_order) + " does not train (its slides leave the " +
-           "patches and the loss diverges); at most " + std::to_string(kMaxTrainedWarpOrder);
+           "patches and the loss diverges); at most " + std::to_string(kMaxTrainedWarpOrder) +
+           " without a warp_slide_bound";
   }
   if (std::string p = drape.Validate(); !p.empty()) return "drape: " + p;
   if (batch_size < 1 || iterations_per_batch < 1 || num_batches < 0 || (num_batches == 0 && polish.iterations == 0)) {
@@ -183,8 +185,8 @@ void OneFitTrainer::AddGarment(const SkinnedBody& body, const OneFitTrainingGarm
     throw std::invalid_argument("OneFitTrainer: garment '" + g.name + "': " + e.what());
   }
   const DrapeSolver& solver = *data->solvers.front();
-  data->map =
-      MakePatchOutputMap(solver, options_.drape.patching.jet_order, options_.network.warp_order, options_.area_units);
+  data->map = MakePatchOutputMap(solver, options_.drape.patching.jet_order, options_.network.warp_order,
+                                 options_.area_units, options_.warp_slide_bound);
   data->raw_features = PatchFeatures(solver.model(), data->map.rest, data->map.units, options_.drape.patching.jet_order,
                                      g.weights, body.skeleton);
   data->joint_weights = PatchJointWeights(solver.model(), g.weights, body.skeleton.num_joints());
@@ -250,6 +252,7 @@ OneFitModel OneFitTrainer::MakeModel(const std::vector<double>& weights) const {
   model.root_rotation = options_.root_rotation;
   model.area_units = options_.area_units;
   model.joint_mask_reach = options_.joint_mask_reach;
+  model.warp_slide_bound = options_.warp_slide_bound;
   model.network = network_;
   model.patch_normalizer = patch_normalizer_;
   model.body_normalizer = body_normalizer_;
@@ -264,10 +267,11 @@ void OneFitTrainer::StartFrom(const OneFitModel& model) {
       model.patch_area != options_.drape.patching.patch_area ||
       model.max_fit_error != options_.drape.patching.max_fit_error ||
       model.curved_faces != options_.drape.patching.curved_faces || model.root_rotation != options_.root_rotation ||
-      model.area_units != options_.area_units || model.joint_mask_reach != options_.joint_mask_reach) {
+      model.area_units != options_.area_units || model.joint_mask_reach != options_.joint_mask_reach ||
+      model.warp_slide_bound != options_.warp_slide_bound) {
     throw std::invalid_argument(
-        "OneFitTrainer::StartFrom: the model's jet order, warp order, patching, root feature, output units, joint "
-        "mask or rig differs from the training's");
+        "OneFitTrainer::StartFrom: the model's jet order, warp order, slide bound, patching, root feature, output "
+        "units, joint mask or rig differs from the training's");
   }
   if (model.patch_normalizer.mean.size() != patch_normalizer_.mean.size() ||
       model.body_normalizer.mean.size() != body_normalizer_.mean.size()) {

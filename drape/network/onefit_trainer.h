@@ -132,6 +132,10 @@ struct OneFitTrainerOptions {
   // at least this skinning weight (BodyFeatureMask; recorded in the
   // model). 0: every joint's.
   double joint_mask_reach = 0.0;
+  // The warp head's bound on each point's slide in units of its patch's
+  // radius (PatchWarpBound; recorded in the model). 0: each coefficient is
+  // bounded instead, which trains only up to kMaxTrainedWarpOrder.
+  double warp_slide_bound = 0.0;
   // A validation drape every this many batches (0: none), over this many
   // frames (see OneFitBatchSummary).
   int validation_every = 25;

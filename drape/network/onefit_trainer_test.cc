@@ -334,6 +334,11 @@ TEST_F(OneFitTrainerTest, ABatchWhoseLossExplodesIsUndone) {
   // Warp heads above order 2 diverge in training: refused, with the reason.
   options.network.warp_order = options.drape.slide.warp_order = kMaxTrainedWarpOrder + 1;
   EXPECT_NE(options.Validate().find("does not train"), std::string::npos) << options.Validate();
+  // With a bound on the slides themselves they train (at most order 4).
+  options.warp_slide_bound = 1.0;
+  EXPECT_EQ(options.Validate(), "");
+  options.warp_slide_bound = 1.5;
+  EXPECT_NE(options.Validate().find("warp_slide_bound"), std::string::npos);
 }
 
 // The step size's schedule: linear warm-up, then constant or a cosine down
@@ -931,15 +936,29 @@ TEST(OneFitModelTest, OlderVersionsStillLoadAndTheFlagsRoundTrip) {
     std::ifstream in(path, std::ios::binary);
     bytes.assign(std::istreambuf_iterator<char>(in), {});
   }
-  ASSERT_EQ(bytes[8], 9);  // the version
+  ASSERT_EQ(bytes[8], 10);  // the version
   EXPECT_EQ(LoadOneFitModel(path).joint_mask_reach, 0.0);
+  EXPECT_EQ(LoadOneFitModel(path).warp_slide_bound, 0.0);
   model.joint_mask_reach = 0.05;
+  model.warp_slide_bound = 0.5;
   SaveOneFitModel(path, model);
   EXPECT_EQ(LoadOneFitModel(path).joint_mask_reach, 0.05);
+  EXPECT_EQ(LoadOneFitModel(path).warp_slide_bound, 0.5);
   {
     std::ifstream in(path, std::ios::binary);
     bytes.assign(std::istreambuf_iterator<char>(in), {});
   }
+  const std::string path9 = ::testing::TempDir() + "/onefit_v9_old.pfonefit";
+  std::string bad_bound = bytes;
+  bad_bound[75] = '\x40';  // the bound's exponent: 0.5 * 2^16
+  std::ofstream(path9, std::ios::binary) << bad_bound;
+  EXPECT_THROW(LoadOneFitModel(path9), OneFitModelError);
+  // Version 9: no slide bound (each warp coefficient bounded).
+  bytes[8] = 9;
+  bytes.erase(68, 8);
+  std::ofstream(path9, std::ios::binary) << bytes;
+  EXPECT_EQ(LoadOneFitModel(path9).warp_slide_bound, 0.0);
+  EXPECT_EQ(LoadOneFitModel(path9).joint_mask_reach, 0.05);
   const std::string path8 = ::testing::TempDir() + "/onefit_v8_old.pfonefit";
   std::string bad_reach = bytes;
   bad_reach[67] = '\x40';  // the reach's exponent: 0.05 * 2^16
@@ -1046,6 +1065,7 @@ TEST(OneFitNetworkTest, OutputsMapToPatchParametersAndBack) {
     map.units.resize(k + 4 + warp, patches);
     map.units.col(0) = PatchOutputUnits(1, 1, 0.05, 0.006, 1.2, area_units);
     map.units.col(1) = PatchOutputUnits(1, 1, 0.08, 0.01, 1.3, area_units);
+    map.warp_bounds = Eigen::Vector2d(kOutputBoundWarp, PatchWarpBound(map.units.col(1), k, 0.7));
     Eigen::MatrixXd outputs = Eigen::MatrixXd::Zero(k + 4 + warp, patches);
     EXPECT_EQ(PatchParametersFromOutputs(map, outputs, k), map.rest);
     outputs.setRandom();
@@ -1070,8 +1090,49 @@ TEST(OneFitNetworkTest, OutputsMapToPatchParametersAndBack) {
     outputs.setZero();
     outputs(k + 4 + 1, 1) = 100.0;
     const std::vector<double> p = PatchParametersFromOutputs(map, outputs, k);
-    EXPECT_NEAR(p[(k + 4 + warp) + k + 4 + 1], kOutputBoundWarp * map.units(k + 4 + 1, 1), 1e-12);
+    EXPECT_NEAR(p[(k + 4 + warp) + k + 4 + 1], map.warp_bounds[1] * map.units(k + 4 + 1, 1), 1e-12);
+    outputs(k + 4 + 1, 0) = 100.0;
+    EXPECT_NEAR(PatchParametersFromOutputs(map, outputs, k)[k + 4 + 1], kOutputBoundWarp * map.units(k + 4 + 1, 0),
+                1e-12);
   }
+}
+
+TEST(OneFitNetworkTest, ASlideBoundHoldsEveryPointOnItsPatchAtAnyWarpOrder) {
+  // (du, dv) = r sum_c a_c m_c(u / r, v / r), |m_c| <= 1 on the patch: with
+  // every output saturated, sum_c |a_c| is the bound B itself, so no point
+  // slides further than B r; per coefficient (B = 0) the sum grows with
+  // the order.
+  const int order = 4, k = NumJetCoefficients(order);
+  double unbounded_sum[5];
+  for (int warp_order = 0; warp_order <= 4; ++warp_order) {
+    const int w = NumJetCoefficients(warp_order);
+    PatchOutputMap map;
+    map.units = PatchOutputUnits(order, warp_order, 0.11, 0.01, 0.9, true);
+    map.rest.assign(k + 4 + 2 * w, 0.0);
+    map.rest[k] = 0.11;
+    map.frames = {Eigen::Matrix3d::Identity()};
+    for (const double bound : {0.0, 0.6}) {
+      map.warp_bounds = Eigen::VectorXd::Constant(1, PatchWarpBound(map.units.col(0), k, bound));
+      Eigen::MatrixXd outputs = Eigen::MatrixXd::Zero(k + 4 + 2 * w, 1);
+      for (int c = 0; c < 2 * w; ++c) outputs(k + 4 + c, 0) = c % 3 == 0 ? -50.0 : 50.0;
+      const std::vector<double> p = PatchParametersFromOutputs(map, outputs, k);
+      double sum_a = 0.0, sum_b = 0.0;
+      for (int c = 0; c < w; ++c) {
+        sum_a += std::abs(p[k + 4 + c]);
+        sum_b += std::abs(p[k + 4 + w + c]);
+      }
+      if (bound > 0.0) {
+        EXPECT_NEAR(sum_a, bound, 1e-12) << warp_order;
+        EXPECT_NEAR(sum_b, bound, 1e-12) << warp_order;
+      } else {
+        unbounded_sum[warp_order] = sum_a;
+      }
+    }
+  }
+  EXPECT_GT(unbounded_sum[4], 2.0 * unbounded_sum[2]);
+  EXPECT_EQ(PatchWarpBound(PatchOutputUnits(order, 2, 0.11, 0.01, 0.9, true), k, 0.0), kOutputBoundWarp);
+  EXPECT_THROW(PatchWarpBound(PatchOutputUnits(order, -1, 0.11, 0.01, 0.9, true), k, 0.5), std::invalid_argument);
+  EXPECT_THROW(PatchWarpBound(PatchOutputUnits(order, 2, 0.11, 0.01, 0.9, true), k, -0.1), std::invalid_argument);
 }
 
 TEST(OneFitNetworkTest, AreaUnitsMoveAPatchAlikeWhateverItsScale) {

@@ -333,6 +333,7 @@ std::unique_ptr<OneFitTrainer> MakeTrainer(const OneFitTrainingRunOptions& optio
     trainer_options.root_rotation = init.root_rotation;
     trainer_options.area_units = init.area_units;
     trainer_options.joint_mask_reach = init.joint_mask_reach;
+    trainer_options.warp_slide_bound = init.warp_slide_bound;
     PatchLikeModel(init, &trainer_options.drape);
   }
   auto trainer = std::make_unique<OneFitTrainer>(LoadTrainingBodies(options, body, data_report), trainer_options);
@@ -365,7 +366,8 @@ ResumePoint Resume(const OneFitTrainingRunOptions& options, const OneFitModel& f
   if (options.resume && std::filesystem::exists(options.model_path)) {
     const OneFitModel saved = LoadOneFitModel(options.model_path);
     if (saved.weights.size() != weights->size() || saved.root_rotation != fresh.root_rotation ||
-        saved.area_units != fresh.area_units || saved.joint_mask_reach != fresh.joint_mask_reach) {
+        saved.area_units != fresh.area_units || saved.joint_mask_reach != fresh.joint_mask_reach ||
+        saved.warp_slide_bound != fresh.warp_slide_bound) {
       throw Error(ErrorKind::kInput, options.model_path + ": a model of another layout; cannot resume from it");
     }
     *weights = saved.weights;

@@ -260,8 +260,15 @@ void AddTrainModelFlags(CLI::App* train, polyfit::OneFitTrainerOptions* trainer)
       ->capture_default_str();
   train
       ->add_option("--warp-order", t.network.warp_order,
-                   "order of each patch's predicted in-plane warp (its vertices' slides), at most 2; -1: none")
+                   "order of each patch's predicted in-plane warp (its vertices' slides), at most 2 without "
+                   "--warp-slide-bound, else 4; -1: none")
       ->capture_default_str();
+  train
+      ->add_option("--warp-slide-bound", t.warp_slide_bound,
+                   "bound on each point's slide by the warp, in units of its patch's radius (recorded in the model); "
+                   "0: each warp coefficient bounded instead")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
   train->add_flag("--local-pose", t.network.local_pose,
                   "each patch also reads its own joints' pose, skinning-weighted (recorded in the model)");
   train->add_flag("--align-frames", t.drape.patching.align_frames,
