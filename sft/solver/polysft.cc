@@ -53,8 +53,10 @@ struct FrameData {
   std::vector<cv::Mat> compensated;
   // The parameters (JetDeformationModel layout).
   std::vector<double> theta;
-  // The atlas's patches when the frame was last solved.
+  // The atlas's patches when the frame was last solved, and the patch of
+  // each vertex then.
   int patches = 1;
+  std::vector<int> vertex_patches;
 };
 
 // Stops a level once `patience` iterations in a row improved the cost by
@@ -736,6 +738,7 @@ class PolySftController {
       *iterations += callback.iterations();
       for (const auto& frame : window_) {
         frame->patches = model_.num_patches();
+        frame->vertex_patches = model_.vertex_patches();
         for (double v : frame->theta) {
           if (!std::isfinite(v)) {
             return Fail("frame " + std::to_string(window_.back()->frame.index) +
@@ -950,6 +953,7 @@ class PolySftController {
     result.cost = cost;
     result.iterations = iterations;
     result.patches = data.patches;
+    result.vertex_patches = data.vertex_patches;
     if (scene_.ground_truth_kind == GroundTruthKind::kVertices) {
       const Eigen::Matrix3Xd& gt = data.frame.ground_truth;
       result.e3d = ComputeE3D(result.vertices, gt);

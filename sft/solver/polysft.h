@@ -155,8 +155,10 @@ struct SftFrameSummary {
   // frame of that window.
   double cost = 0.0;
   int iterations = 0;
-  // The atlas the frame was solved with.
+  // The atlas the frame was solved with: its patches, and each vertex's
+  // (#V; empty for a frame never solved).
   int patches = 1;
+  std::vector<int> vertex_patches;
   double e3d = std::numeric_limits<double>::quiet_NaN();
   double normal_error_deg = std::numeric_limits<double>::quiet_NaN();
   double rmse_mm = std::numeric_limits<double>::quiet_NaN();

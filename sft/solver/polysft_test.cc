@@ -1,5 +1,6 @@
 #include "sft/solver/polysft.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -81,6 +82,17 @@ TEST(PolySftTest, TheAtlasSplitsACreaseAndFollowsItBetterThanOnePatch) {
   EXPECT_EQ(atlas.patch_vertices.size(), 1u + 3u * atlas.splits.size());
   EXPECT_EQ(atlas.frames.back().patches, 1 + 3 * static_cast<int>(atlas.splits.size()));
   EXPECT_EQ(one.frames.back().patches, 1);
+  // Each frame names its vertices' patches, all of its atlas's in use.
+  for (const SftFrameSummary& f : atlas.frames) {
+    ASSERT_EQ(f.vertex_patches.size(), static_cast<size_t>(scene.template_mesh.num_vertices())) << f.index;
+    std::vector<int> used(f.patches, 0);
+    for (const int p : f.vertex_patches) {
+      ASSERT_TRUE(p >= 0 && p < f.patches) << f.index;
+      used[p] = 1;
+    }
+    EXPECT_EQ(std::count(used.begin(), used.end(), 1), f.patches) << f.index;
+  }
+  EXPECT_EQ(one.frames.back().vertex_patches, std::vector<int>(scene.template_mesh.num_vertices(), 0));
   // Measured: RMSE 8.7 mm with one patch (18.1 at the last frame), 5.3 mm
   // with the atlas (8.5), after two splits.
   EXPECT_LT(atlas.mean_rmse_mm, 0.8 * one.mean_rmse_mm);

@@ -30,7 +30,18 @@
 
 namespace {
 
-// The reconstruction's edges drawn over each frame.
+// A colour per patch of the atlas (BGR): green for the first, then hues
+// a golden angle apart, so that neighbouring indices differ.
+cv::Scalar PatchColor(int patch) {
+  const double hue = std::fmod(120.0 + 137.508 * patch, 360.0);
+  cv::Mat3b hsv(1, 1, cv::Vec3b(static_cast<uchar>(hue / 2.0), 220, 255)), bgr;
+  cv::cvtColor(hsv, bgr, cv::COLOR_HSV2BGR);
+  const cv::Vec3b c = bgr(0, 0);
+  return cv::Scalar(c[0], c[1], c[2]);
+}
+
+// The reconstruction's edges drawn over each frame, coloured by the patch
+// of the atlas they lie on; edges between two patches white.
 void WriteOverlays(const std::string& out_dir, const polyfit::SftScene& scene, const polyfit::PolySftSummary& summary) {
   namespace fs = std::filesystem;
   fs::create_directories(fs::path(out_dir) / "overlays");
@@ -42,10 +53,12 @@ void WriteOverlays(const std::string& out_dir, const polyfit::SftScene& scene, c
       const Eigen::Vector2d p = scene.camera.Project(f.vertices.col(v));
       return cv::Point2d(p.x(), p.y());
     };
+    const auto patch_of = [&f](int v) { return f.vertex_patches.empty() ? 0 : f.vertex_patches[v]; };
     for (int k = 0; k < scene.template_mesh.num_faces(); ++k) {
       for (int c = 0; c < 3; ++c) {
-        cv::line(image, project(scene.template_mesh.faces(c, k)), project(scene.template_mesh.faces((c + 1) % 3, k)),
-                 cv::Scalar(40, 255, 40), 1, cv::LINE_AA);
+        const int a = scene.template_mesh.faces(c, k), b = scene.template_mesh.faces((c + 1) % 3, k);
+        const cv::Scalar color = patch_of(a) == patch_of(b) ? PatchColor(patch_of(a)) : cv::Scalar(255, 255, 255);
+        cv::line(image, project(a), project(b), color, 1, cv::LINE_AA);
       }
     }
     char name[32];
