@@ -502,9 +502,31 @@ TermContext MakeTermContext(const ScreenMesh& mesh, const cv::Mat& texture, cons
 }
 
 // Per thread, reused across tiles and pixels.
+// A tile's triangle with the box LocateTriangle tests first (the same
+// bounds, so that skipping a pixel outside it changes nothing), kept
+// contiguous: most of a tile's triangle-pixel pairs fail it, and this way
+// without reading the mesh.
+struct TriangleBox {
+  int face;
+  double x0, x1, y0, y1;
+};
+
+TriangleBox MakeTriangleBox(const TermContext& c, int f) {
+  const ScreenMesh& mesh = c.mesh;
+  double x[3], y[3];
+  for (int k = 0; k < 3; ++k) {
+    x[k] = mesh.pixels(0, mesh.faces(k, f));
+    y[k] = mesh.pixels(1, mesh.faces(k, f));
+  }
+  const double reach = (c.has_flags ? mesh.boundary_edges[f] : 7) != 0 ? c.reach : 0.0;
+  return {f, std::min({x[0], x[1], x[2]}) - reach, std::max({x[0], x[1], x[2]}) + reach,
+          std::min({y[0], y[1], y[2]}) - reach, std::max({y[0], y[1], y[2]}) + reach};
+}
+
 struct RenderScratch {
   std::vector<TriangleTerm> terms;
   std::vector<double> e;
+  std::vector<TriangleBox> boxes;
 };
 
 }  // namespace
@@ -585,12 +607,16 @@ void SoftRasterizer::Render(const ScreenMesh& mesh, int width, int height, const
         std::vector<VertexGradient>& grads = tile_gradients[tile];
         if (with_gradients) grads.reserve(kTile * kTile * 12);
         RenderScratch& s = scratch[thread];
+        s.boxes.clear();
+        for (const int f : list) s.boxes.push_back(MakeTriangleBox(context, f));
         const int tx = tile % tiles_x, ty = tile / tiles_x;
         for (int py = std::max(ty * kTile, roi.y); py < std::min((ty + 1) * kTile, roi.y + roi.height); ++py) {
           for (int px = std::max(tx * kTile, roi.x); px < std::min((tx + 1) * kTile, roi.x + roi.width); ++px) {
             s.terms.clear();
             TriangleTerm term;
-            for (const int f : list) {
+            for (const TriangleBox& box : s.boxes) {
+              if (px < box.x0 || px > box.x1 || py < box.y0 || py > box.y1) continue;
+              const int f = box.face;
               const bool reaches = !with_gradients          ? TriangleTermAt<double>(context, f, px, py, &term)
                                    : o.analytic_derivatives ? TriangleTermWithDerivatives(context, f, px, py, &term)
                                                             : TriangleTermAt<J9>(context, f, px, py, &term);

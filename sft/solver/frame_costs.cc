@@ -280,12 +280,20 @@ bool RenderCost::AddPixelJacobian(ThreadState* state, int pixel, int r0, const d
   }
   if (!normal) return true;
   Accumulator& a = FindAccumulator(state, patches, b);
-  if (a.count + channels_ > kBlockRows) Flush(&a);
-  for (int ch = 0; ch < channels_; ++ch) {
+  // The silhouette's row is zero in the band and wherever the coverage is
+  // saturated (most of the surface's pixels): its residual counts, its row
+  // would only cost the rank update a quarter more.
+  int rows = channels_;
+  if (channels_ == 4 && std::all_of(local + 3 * m, local + 4 * m, [](double v) { return v == 0.0; })) {
+    rows = 3;
+    a.squared_norm += r[3] * r[3];
+  }
+  if (a.count + rows > kBlockRows) Flush(&a);
+  for (int ch = 0; ch < rows; ++ch) {
     a.rows.row(a.count + ch) = Eigen::Map<const Eigen::RowVectorXd>(local + ch * m, m);
     a.values[a.count + ch] = r[ch];
   }
-  a.count += channels_;
+  a.count += rows;
   return true;
 }
 
