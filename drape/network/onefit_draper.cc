@@ -23,12 +23,11 @@ PatchOutputMap MakePatchOutputMap(const DrapeSolver& solver, int jet_order, int 
   const int stride = solver.num_patch_parameters(), k = NumJetCoefficients(jet_order);
   const std::vector<double> areas = solver.PatchRestAreas();
   map.units.resize(stride, model.num_patches());
-  if (warp_order >= 0) map.warp_bounds.resize(model.num_patches());
+  map.warp_slide_bound = warp_slide_bound;
   for (int p = 0; p < model.num_patches(); ++p) {
     map.frames.push_back(model.patches[p].frame.rotation);
     map.units.col(p) =
         PatchOutputUnits(jet_order, warp_order, map.rest[p * stride + k], areas[p], solver.WarpRadii()[p], area_units);
-    if (warp_order >= 0) map.warp_bounds[p] = PatchWarpBound(map.units.col(p), k, warp_slide_bound);
   }
   return map;
 }

@@ -22,7 +22,7 @@ namespace polyfit {
 void PatchLikeModel(const OneFitModel& model, DrapeSolverOptions* options);
 
 // What the network's outputs are to the solver's patches (PatchOutputUnits,
-// PatchWarpBound). jet_order, warp_order: the solver's (GarmentPatchOptions,
+// BoundWarpComponent). jet_order, warp_order: the solver's (GarmentPatchOptions,
 // DrapeSlideOptions).
 PatchOutputMap MakePatchOutputMap(const DrapeSolver& solver, int jet_order, int warp_order, bool area_units,
                                   double warp_slide_bound);

@@ -193,14 +193,55 @@ Eigen::VectorXd PatchOutputUnits(int jet_order, int warp_order, double s0, doubl
   return units;
 }
 
-double PatchWarpBound(const Eigen::VectorXd& units, int num_coefficients, double slide_bound) {
-  const int w = static_cast<int>(units.size()) - num_coefficients - 4;
-  if (w <= 0 || w % 2 != 0) throw std::invalid_argument("PatchWarpBound: units without a warp");
-  if (!(slide_bound >= 0.0)) throw std::invalid_argument("PatchWarpBound: a negative slide bound");
-  if (slide_bound == 0.0) return kOutputBoundWarp;
-  const double sum = units.segment(num_coefficients + 4, w / 2).cwiseAbs().sum();
-  if (!(sum > 0.0) || !std::isfinite(sum)) throw std::invalid_argument("PatchWarpBound: warp units not positive");
-  return slide_bound / sum;
+namespace {
+
+// Smooths |t| in S so that S >= sum |t_c| everywhere and S > 0.
+constexpr double kWarpNormSmoothing = 1e-6;
+
+// g(S) = B tanh(S / B) / S and g'(S), by their series where S << B.
+void WarpShrink(double s, double bound, double* g, double* dg) {
+  const double x = s / bound;
+  if (x < 1e-4) {
+    *g = 1.0 - x * x / 3.0;
+    *dg = -2.0 * x / (3.0 * bound);
+    return;
+  }
+  const double t = std::tanh(x);
+  *g = t / x;
+  *dg = ((1.0 - t * t) - *g) / s;
+}
+
+double WarpNorm(const double* u, const double* y, int n) {
+  double s = 0.0;
+  for (int c = 0; c < n; ++c) s += std::hypot(u[c] * y[c], kWarpNormSmoothing);
+  return s;
+}
+
+}  // namespace
+
+void BoundWarpComponent(const double* u, const double* y, int n, double slide_bound, double* a) {
+  if (slide_bound == 0.0) {
+    for (int c = 0; c < n; ++c) a[c] = u[c] * Bound(y[c], kOutputBoundWarp);
+    return;
+  }
+  double g, dg;
+  WarpShrink(WarpNorm(u, y, n), slide_bound, &g, &dg);
+  for (int c = 0; c < n; ++c) a[c] = g * u[c] * y[c];
+}
+
+void ChainWarpComponent(const double* u, const double* y, int n, double slide_bound, const double* d_a, double* d_y) {
+  if (slide_bound == 0.0) {
+    for (int c = 0; c < n; ++c) d_y[c] = d_a[c] * u[c] * BoundSlope(y[c], kOutputBoundWarp);
+    return;
+  }
+  // a_c = g(S) t_c, t_c = u_c y_c, dS/dt_c = t_c / hypot(t_c, smoothing).
+  double g, dg, t_dot_da = 0.0;
+  WarpShrink(WarpNorm(u, y, n), slide_bound, &g, &dg);
+  for (int c = 0; c < n; ++c) t_dot_da += u[c] * y[c] * d_a[c];
+  for (int c = 0; c < n; ++c) {
+    const double t = u[c] * y[c];
+    d_y[c] = u[c] * (g * d_a[c] + dg * t / std::hypot(t, kWarpNormSmoothing) * t_dot_da);
+  }
 }
 
 std::vector<double> PatchParametersFromOutputs(const PatchOutputMap& map, const Eigen::MatrixXd& outputs,
@@ -209,10 +250,10 @@ std::vector<double> PatchParametersFromOutputs(const PatchOutputMap& map, const 
   const int stride = static_cast<int>(outputs.rows());
   const int k = num_coefficients;
   if (static_cast<int>(map.rest.size()) != stride * num_patches || map.num_patches() != num_patches ||
-      map.units.rows() != stride || map.units.cols() != num_patches || stride < k + 4 ||
-      (stride > k + 4 && map.warp_bounds.size() != num_patches)) {
+      map.units.rows() != stride || map.units.cols() != num_patches || stride < k + 4 || (stride - k - 4) % 2 != 0) {
     throw std::invalid_argument("PatchParametersFromOutputs: sizes disagree");
   }
+  const int w = (stride - k - 4) / 2;
   std::vector<double> params(map.rest.size());
   for (int p = 0; p < num_patches; ++p) {
     const double* r = map.rest.data() + p * stride;
@@ -223,7 +264,11 @@ std::vector<double> PatchParametersFromOutputs(const PatchOutputMap& map, const 
     Eigen::Vector3d d;
     for (int c = 0; c < 3; ++c) d[c] = u[k + 1 + c] * Bound(outputs(k + 1 + c, p), kOutputBoundTranslation);
     Eigen::Map<Eigen::Vector3d>(out + k + 1) = Eigen::Map<const Eigen::Vector3d>(r + k + 1) + map.frames[p] * d;
-    for (int c = k + 4; c < stride; ++c) out[c] = r[c] + u[c] * Bound(outputs(c, p), map.warp_bounds[p]);
+    for (int half = 0; half < 2 * w; half += w) {
+      const int c0 = k + 4 + half;
+      BoundWarpComponent(u + c0, outputs.col(p).data() + c0, w, map.warp_slide_bound, out + c0);
+      for (int c = c0; c < c0 + w; ++c) out[c] += r[c];
+    }
   }
   return params;
 }
@@ -234,9 +279,10 @@ Eigen::MatrixXd ChainPatchParameterGradient(const PatchOutputMap& map, const Eig
   const int stride = static_cast<int>(outputs.rows());
   const int k = num_coefficients;
   if (static_cast<int>(gradient.size()) != stride * num_patches || map.units.rows() != stride ||
-      map.units.cols() != num_patches || stride < k + 4 || (stride > k + 4 && map.warp_bounds.size() != num_patches)) {
+      map.units.cols() != num_patches || stride < k + 4 || (stride - k - 4) % 2 != 0) {
     throw std::invalid_argument("ChainPatchParameterGradient: sizes disagree");
   }
+  const int w = (stride - k - 4) / 2;
   Eigen::MatrixXd d(stride, num_patches);
   for (int p = 0; p < num_patches; ++p) {
     const double* g = gradient.data() + p * stride;
@@ -249,7 +295,10 @@ Eigen::MatrixXd ChainPatchParameterGradient(const PatchOutputMap& map, const Eig
     for (int c = 0; c < 3; ++c) {
       d(k + 1 + c, p) = dt[c] * u[k + 1 + c] * BoundSlope(outputs(k + 1 + c, p), kOutputBoundTranslation);
     }
-    for (int c = k + 4; c < stride; ++c) d(c, p) = g[c] * u[c] * BoundSlope(outputs(c, p), map.warp_bounds[p]);
+    for (int half = 0; half < 2 * w; half += w) {
+      const int c0 = k + 4 + half;
+      ChainWarpComponent(u + c0, outputs.col(p).data() + c0, w, map.warp_slide_bound, g + c0, d.col(p).data() + c0);
+    }
   }
   return d;
 }

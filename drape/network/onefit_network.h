@@ -25,8 +25,8 @@
 // skinning's in-plane distortion, which patch parameters alone cannot.
 // b_c(y) = c tanh(y / c) (about y near zero): the bounds (jet coefficients
 // by 1, scale by e^(+-0.25), centre by half the patch's size, warp by a
-// quarter of it, or, with a slide bound B, by B / sum of one component's
-// warp units, so that no point slides further than B r: PatchWarpBound)
+// quarter of it, or, with a slide bound B, the warp as a whole so that no
+// point slides further than B r: BoundWarpComponent)
 // keep a pose far from training (a cartwheel) from throwing patches away. Inputs are normalised features
 // (onefit_features.h).
 #ifndef POLYFIT_DRAPE_NETWORK_ONEFIT_NETWORK_H_
@@ -129,13 +129,13 @@ inline constexpr double kOutputBoundWarp = 0.25;
 // What a network's outputs are to one garment's patches: their rest
 // parameters (DrapeSolver's layout, warps zero), frames R_0, per patch
 // the unit of every output (num_outputs() by #patches: u_c for alpha's and
-// the warp's rows, 1 for the scale's, L for the centre's three), and per
-// patch the bound c of its warp's outputs (PatchWarpBound; empty: none).
+// the warp's rows, 1 for the scale's, L for the centre's three), and the
+// warp's slide bound B (BoundWarpComponent).
 struct PatchOutputMap {
   std::vector<double> rest;
   std::vector<Eigen::Matrix3d> frames;
   Eigen::MatrixXd units;
-  Eigen::VectorXd warp_bounds;
+  double warp_slide_bound = 0.0;
 
   int num_patches() const { return static_cast<int>(frames.size()); }
 };
@@ -149,15 +149,19 @@ struct PatchOutputMap {
 Eigen::VectorXd PatchOutputUnits(int jet_order, int warp_order, double s0, double area, double warp_radius,
                                  bool area_units);
 
-// The bound c of a patch's warp outputs, given its units (PatchOutputUnits;
-// the warp's 2 W rows after alpha's k and the 4 of scale and centre).
-// slide_bound B = 0: kOutputBoundWarp per coefficient (models before file
+// One component of a patch's warp (a or b: n coefficients) from its n
+// outputs y and units u. slide_bound B = 0: each coefficient bounded,
+// a_c = u_c b(y_c) with b(y) = 0.25 tanh(y / 0.25) (models before file
 // version 10), which at orders above 2 lets the terms together carry points
-// off their patch (the 4-jet's extrapolation then explodes). B > 0: the
-// warp is (du, dv) = r sum_c a_c m_c(u/r, v/r) with |m_c| <= 1 on the patch
-// and |a_c| <= c u_c, so c = B / sum_c u_c keeps |du|, |dv| <= B r at any
-// order.
-double PatchWarpBound(const Eigen::VectorXd& units, int num_coefficients, double slide_bound);
+// off their patch, where the 4-jet's extrapolation explodes. B > 0: the
+// component as a whole, a = g(S) t with t_c = u_c y_c,
+// S = sum_c sqrt(t_c^2 + 1e-12) >= sum_c |t_c| and g(S) = B tanh(S / B) / S
+// (about 1 for S << B): the warp is (du, dv) = r sum_c a_c m_c(u/r, v/r)
+// with |m_c| <= 1 on the patch, so |du|, |dv| <= r sum_c |a_c| < B r at
+// any order, while any one coefficient may use the whole budget.
+void BoundWarpComponent(const double* u, const double* y, int n, double slide_bound, double* a);
+// d_y (n) = (da/dy)^T d_a at the same u, y.
+void ChainWarpComponent(const double* u, const double* y, int n, double slide_bound, const double* d_a, double* d_y);
 
 // alpha, s, T (and the warp) per patch, packed as DrapeSolver's patch
 // parameters, from the network's outputs (num_outputs() by #patches, the

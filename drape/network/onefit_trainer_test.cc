@@ -1061,11 +1061,11 @@ TEST(OneFitNetworkTest, OutputsMapToPatchParametersAndBack) {
   for (int p = patches - 1; p >= 0; --p) map.rest.insert(map.rest.begin() + (p + 1) * (k + 4), warp, 0.0);
   map.frames = {Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitX()).toRotationMatrix(),
                 Eigen::AngleAxisd(-0.7, Eigen::Vector3d(1, 1, 0).normalized()).toRotationMatrix()};
-  for (const bool area_units : {false, true}) {
+  for (const auto& [area_units, slide_bound] : {std::pair{false, 0.0}, {true, 0.0}, {true, 0.2}}) {
     map.units.resize(k + 4 + warp, patches);
     map.units.col(0) = PatchOutputUnits(1, 1, 0.05, 0.006, 1.2, area_units);
     map.units.col(1) = PatchOutputUnits(1, 1, 0.08, 0.01, 1.3, area_units);
-    map.warp_bounds = Eigen::Vector2d(kOutputBoundWarp, PatchWarpBound(map.units.col(1), k, 0.7));
+    map.warp_slide_bound = slide_bound;
     Eigen::MatrixXd outputs = Eigen::MatrixXd::Zero(k + 4 + warp, patches);
     EXPECT_EQ(PatchParametersFromOutputs(map, outputs, k), map.rest);
     outputs.setRandom();
@@ -1086,53 +1086,68 @@ TEST(OneFitNetworkTest, OutputsMapToPatchParametersAndBack) {
       minus.data()[i] -= 1e-6;
       EXPECT_NEAR(d.data()[i], (loss(plus) - loss(minus)) / 2e-6, 1e-8) << i;
     }
-    // A warp output moves only its own coefficient, within its bound.
+    // A warp output moves only its own coefficient, within its bound (each
+    // coefficient's, or with a slide bound the whole component's).
     outputs.setZero();
     outputs(k + 4 + 1, 1) = 100.0;
     const std::vector<double> p = PatchParametersFromOutputs(map, outputs, k);
-    EXPECT_NEAR(p[(k + 4 + warp) + k + 4 + 1], map.warp_bounds[1] * map.units(k + 4 + 1, 1), 1e-12);
-    outputs(k + 4 + 1, 0) = 100.0;
-    EXPECT_NEAR(PatchParametersFromOutputs(map, outputs, k)[k + 4 + 1], kOutputBoundWarp * map.units(k + 4 + 1, 0),
-                1e-12);
+    const double bound = slide_bound > 0.0 ? slide_bound : kOutputBoundWarp * map.units(k + 4 + 1, 1);
+    EXPECT_NEAR(p[(k + 4 + warp) + k + 4 + 1], bound, 1e-7);
+    for (int c = 0; c < warp; ++c) {
+      if (c != 1) EXPECT_EQ(p[(k + 4 + warp) + k + 4 + c], 0.0) << c;
+    }
   }
 }
 
 TEST(OneFitNetworkTest, ASlideBoundHoldsEveryPointOnItsPatchAtAnyWarpOrder) {
   // (du, dv) = r sum_c a_c m_c(u / r, v / r), |m_c| <= 1 on the patch: with
-  // every output saturated, sum_c |a_c| is the bound B itself, so no point
-  // slides further than B r; per coefficient (B = 0) the sum grows with
-  // the order.
+  // a slide bound B, sum_c |a_c| < B however large the outputs, and tends
+  // to B; near zero the outputs act as they do without it. Each
+  // coefficient bounded instead (B = 0), the sum grows with the order.
   const int order = 4, k = NumJetCoefficients(order);
   double unbounded_sum[5];
   for (int warp_order = 0; warp_order <= 4; ++warp_order) {
     const int w = NumJetCoefficients(warp_order);
-    PatchOutputMap map;
-    map.units = PatchOutputUnits(order, warp_order, 0.11, 0.01, 0.9, true);
-    map.rest.assign(k + 4 + 2 * w, 0.0);
-    map.rest[k] = 0.11;
-    map.frames = {Eigen::Matrix3d::Identity()};
-    for (const double bound : {0.0, 0.6}) {
-      map.warp_bounds = Eigen::VectorXd::Constant(1, PatchWarpBound(map.units.col(0), k, bound));
-      Eigen::MatrixXd outputs = Eigen::MatrixXd::Zero(k + 4 + 2 * w, 1);
-      for (int c = 0; c < 2 * w; ++c) outputs(k + 4 + c, 0) = c % 3 == 0 ? -50.0 : 50.0;
-      const std::vector<double> p = PatchParametersFromOutputs(map, outputs, k);
-      double sum_a = 0.0, sum_b = 0.0;
-      for (int c = 0; c < w; ++c) {
-        sum_a += std::abs(p[k + 4 + c]);
-        sum_b += std::abs(p[k + 4 + w + c]);
-      }
-      if (bound > 0.0) {
-        EXPECT_NEAR(sum_a, bound, 1e-12) << warp_order;
-        EXPECT_NEAR(sum_b, bound, 1e-12) << warp_order;
-      } else {
-        unbounded_sum[warp_order] = sum_a;
-      }
+    const Eigen::VectorXd units = PatchOutputUnits(order, warp_order, 0.11, 0.01, 0.9, true);
+    const double* u = units.data() + k + 4;
+    std::vector<double> y(w), a(w);
+    for (int c = 0; c < w; ++c) y[c] = c % 3 == 0 ? -50.0 : 50.0;
+    BoundWarpComponent(u, y.data(), w, 0.6, a.data());
+    double sum = 0.0;
+    for (int c = 0; c < w; ++c) {
+      sum += std::abs(a[c]);
+      EXPECT_EQ(a[c] > 0.0, y[c] > 0.0) << warp_order;  // the direction kept
+    }
+    EXPECT_LT(sum, 0.6) << warp_order;
+    EXPECT_GT(sum, 0.6 * (1.0 - 1e-9)) << warp_order;
+    BoundWarpComponent(u, y.data(), w, 0.0, a.data());
+    unbounded_sum[warp_order] = 0.0;
+    for (int c = 0; c < w; ++c) unbounded_sum[warp_order] += std::abs(a[c]);
+    // Small outputs pass nearly unchanged: a_c = u_c y_c (1 - O(S^2 / B^2)).
+    for (int c = 0; c < w; ++c) y[c] = 1e-4 * (c + 1);
+    BoundWarpComponent(u, y.data(), w, 0.6, a.data());
+    double s = 0.0;
+    for (int c = 0; c < w; ++c) s += std::abs(u[c] * y[c]);
+    const double shrink = (s / 0.6) * (s / 0.6) / 3.0;  // 1 - tanh(x) / x <= x^2 / 3
+    ASSERT_LT(shrink, 0.01);
+    for (int c = 0; c < w; ++c) EXPECT_NEAR(a[c], u[c] * y[c], (shrink + 1e-9) * std::abs(u[c] * y[c])) << c;
+    // Its chain against central differences, at moderate outputs.
+    for (int c = 0; c < w; ++c) y[c] = 0.3 * std::sin(1.0 + c);
+    std::vector<double> d_a(w), d_y(w);
+    for (int c = 0; c < w; ++c) d_a[c] = std::cos(2.0 + c);
+    ChainWarpComponent(u, y.data(), w, 0.6, d_a.data(), d_y.data());
+    for (int c = 0; c < w; ++c) {
+      std::vector<double> plus = y, minus = y, ap(w), am(w);
+      plus[c] += 1e-6;
+      minus[c] -= 1e-6;
+      BoundWarpComponent(u, plus.data(), w, 0.6, ap.data());
+      BoundWarpComponent(u, minus.data(), w, 0.6, am.data());
+      double numeric = 0.0;
+      for (int i = 0; i < w; ++i) numeric += d_a[i] * (ap[i] - am[i]) / 2e-6;
+      EXPECT_NEAR(d_y[c], numeric, 1e-7) << warp_order << " " << c;
     }
   }
   EXPECT_GT(unbounded_sum[4], 2.0 * unbounded_sum[2]);
-  EXPECT_EQ(PatchWarpBound(PatchOutputUnits(order, 2, 0.11, 0.01, 0.9, true), k, 0.0), kOutputBoundWarp);
-  EXPECT_THROW(PatchWarpBound(PatchOutputUnits(order, -1, 0.11, 0.01, 0.9, true), k, 0.5), std::invalid_argument);
-  EXPECT_THROW(PatchWarpBound(PatchOutputUnits(order, 2, 0.11, 0.01, 0.9, true), k, -0.1), std::invalid_argument);
 }
 
 TEST(OneFitNetworkTest, AreaUnitsMoveAPatchAlikeWhateverItsScale) {
