@@ -501,7 +501,6 @@ TermContext MakeTermContext(const ScreenMesh& mesh, const cv::Mat& texture, cons
   return context;
 }
 
-// Per thread, reused across tiles and pixels.
 // A tile's triangle with the box LocateTriangle tests first (the same
 // bounds, so that skipping a pixel outside it changes nothing), kept
 // contiguous: most of a tile's triangle-pixel pairs fail it, and this way
@@ -523,6 +522,7 @@ TriangleBox MakeTriangleBox(const TermContext& c, int f) {
           std::min({y[0], y[1], y[2]}) - reach, std::max({y[0], y[1], y[2]}) + reach};
 }
 
+// Per thread, reused across tiles and pixels.
 struct RenderScratch {
   std::vector<TriangleTerm> terms;
   std::vector<double> e;
