@@ -261,7 +261,7 @@ void AddTrainModelFlags(CLI::App* train, polyfit::OneFitTrainerOptions* trainer)
   train
       ->add_option("--warp-order", t.network.warp_order,
                    "order of each patch's predicted in-plane warp (its vertices' slides), at most 2 without "
-                   "--warp-slide-bound, else 4; -1: none")
+                   "--warp-slide-bound; -1: none")
       ->capture_default_str();
   train
       ->add_option("--warp-slide-bound", t.warp_slide_bound,
