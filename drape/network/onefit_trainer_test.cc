@@ -861,11 +861,11 @@ TEST_F(OneFitTrainerTest, AModelFileRoundTripsAndTheDraperPredictsAsTraining) {
   expect_error(bytes.substr(0, bytes.size() / 2), "truncated");
   expect_error("not a model at all", "bad magic");
   std::string wrong_version = bytes;
-  wrong_version[8] = 10;
-  expect_error(wrong_version, "version 10");
+  wrong_version[8] = kOneFitModelVersion + 1;
+  expect_error(wrong_version, "version " + std::to_string(kOneFitModelVersion + 1));
   std::string huge = bytes;
-  huge[68] = '\xff';  // the patch encoder's layer count
-  huge[69] = '\xff';
+  huge[76] = '\xff';  // the patch encoder's layer count
+  huge[77] = '\xff';
   expect_error(huge, "layer sizes");
   EXPECT_THROW(LoadOneFitModel(path + ".absent"), OneFitModelError);
 }
