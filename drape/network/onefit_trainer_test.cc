@@ -948,52 +948,43 @@ TEST(OneFitModelTest, OlderVersionsStillLoadAndTheFlagsRoundTrip) {
     std::ifstream in(path, std::ios::binary);
     bytes.assign(std::istreambuf_iterator<char>(in), {});
   }
+  // `bytes` with byte `at` set to `value` is refused.
+  const auto expect_refused = [&bytes](size_t at, char value, const std::string& file) {
+    std::string damaged = bytes;
+    damaged[at] = value;
+    std::ofstream(file, std::ios::binary) << damaged;
+    EXPECT_THROW(LoadOneFitModel(file), OneFitModelError) << at;
+  };
+  // `bytes` as `version` wrote them: without the field at [at, at + size).
+  const auto downgrade = [&bytes](char version, size_t at, size_t size, const std::string& file) {
+    bytes[8] = version;
+    bytes.erase(at, size);
+    std::ofstream(file, std::ios::binary) << bytes;
+  };
   const std::string path9 = ::testing::TempDir() + "/onefit_v9_old.pfonefit";
-  std::string bad_bound = bytes;
-  bad_bound[75] = '\x40';  // the bound's exponent: 0.5 * 2^16
-  std::ofstream(path9, std::ios::binary) << bad_bound;
-  EXPECT_THROW(LoadOneFitModel(path9), OneFitModelError);
+  expect_refused(75, '\x40', path9);  // the bound's exponent: 0.5 * 2^16
   // Version 9: no slide bound (each warp coefficient bounded).
-  bytes[8] = 9;
-  bytes.erase(68, 8);
-  std::ofstream(path9, std::ios::binary) << bytes;
+  downgrade(9, 68, 8, path9);
   EXPECT_EQ(LoadOneFitModel(path9).warp_slide_bound, 0.0);
   EXPECT_EQ(LoadOneFitModel(path9).joint_mask_reach, 0.05);
   const std::string path8 = ::testing::TempDir() + "/onefit_v8_old.pfonefit";
-  std::string bad_reach = bytes;
-  bad_reach[67] = '\x40';  // the reach's exponent: 0.05 * 2^16
-  std::ofstream(path8, std::ios::binary) << bad_reach;
-  EXPECT_THROW(LoadOneFitModel(path8), OneFitModelError);
+  expect_refused(67, '\x40', path8);  // the reach's exponent: 0.05 * 2^16
   // Version 8: no joint mask (every joint read).
-  bytes[8] = 8;
-  bytes.erase(60, 8);
-  std::ofstream(path8, std::ios::binary) << bytes;
+  downgrade(8, 60, 8, path8);
   EXPECT_EQ(LoadOneFitModel(path8).joint_mask_reach, 0.0);
   EXPECT_TRUE(LoadOneFitModel(path8).area_units);
-  std::string bad_units = bytes;
-  bad_units[56] = 2;
   const std::string path7 = ::testing::TempDir() + "/onefit_v7_old.pfonefit";
-  std::ofstream(path7, std::ios::binary) << bad_units;
-  EXPECT_THROW(LoadOneFitModel(path7), OneFitModelError);
+  expect_refused(56, 2, path7);
   // Version 7: no units flag (the patches' scales).
-  bytes[8] = 7;
-  bytes.erase(56, 4);
-  std::ofstream(path7, std::ios::binary) << bytes;
+  downgrade(7, 56, 4, path7);
   EXPECT_FALSE(LoadOneFitModel(path7).area_units);
   EXPECT_TRUE(LoadOneFitModel(path7).curved_faces);
-  std::string bad_curved = bytes;
-  bad_curved[52] = 2;
   const std::string path6 = ::testing::TempDir() + "/onefit_v6_old.pfonefit";
-  std::ofstream(path6, std::ios::binary) << bad_curved;
-  EXPECT_THROW(LoadOneFitModel(path6), OneFitModelError);
+  expect_refused(52, 2, path6);
   // Version 6: no curved faces flag (planar faces).
-  std::string v6 = bytes;
-  v6[8] = 6;
-  v6.erase(52, 4);
-  std::ofstream(path6, std::ios::binary) << v6;
+  downgrade(6, 52, 4, path6);
   EXPECT_FALSE(LoadOneFitModel(path6).curved_faces);
   EXPECT_EQ(LoadOneFitModel(path6).root_rotation, RootRotation::kHeadingFree);
-  bytes = v6;
   // Version 5: no root rotation flag (the root's rotation in the world).
   std::string v5 = bytes;
   v5[8] = 5;
