@@ -627,6 +627,29 @@ TEST_F(OneFitTrainerTest, TheLocalPoseHasTheRightGradientRoundTripsAndDrapesAsTr
   EXPECT_GT(change, 1e-6);
 }
 
+// A warp head of order 3 under a slide bound: the gradient through the
+// bound's coupling of its coefficients is right, and a drape from the
+// saved model (version 10) predicts as training does.
+TEST_F(OneFitTrainerTest, AWarpUnderASlideBoundHasTheRightGradientAndDrapesAsTraining) {
+  options_.network.warp_order = options_.drape.slide.warp_order = 3;
+  options_.warp_slide_bound = 0.5;
+  ASSERT_EQ(options_.Validate(), "");
+  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
+  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
+  OneFitTrainer trainer(body_, {shirt}, {Sway(body_, 8)}, options_);
+  ExpectGradientMatchesCentralDifferences(&trainer, 2, true);
+  std::vector<double> weights = trainer.InitialWeights();
+  std::mt19937_64 rng(4);
+  std::normal_distribution<double> normal(0.0, 0.05);
+  for (double& w : weights) w += normal(rng);
+  const std::string path = ::testing::TempDir() + "/onefit_slide_bound.pfonefit";
+  SaveOneFitModel(path, trainer.MakeModel(weights));
+  const OneFitModel loaded = LoadOneFitModel(path);
+  EXPECT_EQ(loaded.warp_slide_bound, 0.5);
+  EXPECT_EQ(loaded.network.warp_order(), 3);
+  ExpectDraperPredictsAsTraining(body_, options_, Sway(body_, 8), loaded, trainer, weights);
+}
+
 TEST_F(OneFitTrainerTest, AValidationClipIsValidatedButNeverTrainedOn) {
   options_.validation_every = 2;
   options_.validation_frames = 3;
