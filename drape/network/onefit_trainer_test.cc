@@ -602,18 +602,29 @@ TEST_F(OneFitTrainerTest, AHeadingFreeNetworkDrapesAMotionTurnedAboutTheVertical
   }
 }
 
-TEST_F(OneFitTrainerTest, TheLocalPoseHasTheRightGradientRoundTripsAndDrapesAsTraining) {
-  options_.network.local_pose = true;
+// A tube shirt on joint 1 swaying for 8 frames, trained under `options`.
+OneFitTrainer ShirtTrainer(const SkinnedBody& body, const OneFitTrainerOptions& options) {
   OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
   shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
-  OneFitTrainer trainer(body_, {shirt}, {Sway(body_, 8)}, options_);
+  return OneFitTrainer(body, {shirt}, {Sway(body, 8)}, options);
+}
+
+// The trainer's initial weights, each moved by N(0, 0.05) under `seed`.
+std::vector<double> JiggledWeights(const OneFitTrainer& trainer, std::uint64_t seed) {
+  std::vector<double> weights = trainer.InitialWeights();
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> normal(0.0, 0.05);
+  for (double& w : weights) w += normal(rng);
+  return weights;
+}
+
+TEST_F(OneFitTrainerTest, TheLocalPoseHasTheRightGradientRoundTripsAndDrapesAsTraining) {
+  options_.network.local_pose = true;
+  OneFitTrainer trainer = ShirtTrainer(body_, options_);
   // With the history held: the loss the gradient is exactly of (the
   // history's own share varies with the features, here about 1e-3).
   ExpectGradientMatchesCentralDifferences(&trainer, 2, true);
-  std::vector<double> weights = trainer.InitialWeights();
-  std::mt19937_64 rng(3);
-  std::normal_distribution<double> normal(0.0, 0.05);
-  for (double& w : weights) w += normal(rng);
+  const std::vector<double> weights = JiggledWeights(trainer, 3);
   const std::string path = ::testing::TempDir() + "/onefit_local_pose.pfonefit";
   SaveOneFitModel(path, trainer.MakeModel(weights));
   const OneFitModel loaded = LoadOneFitModel(path);
@@ -634,14 +645,9 @@ TEST_F(OneFitTrainerTest, AWarpUnderASlideBoundHasTheRightGradientAndDrapesAsTra
   options_.network.warp_order = options_.drape.slide.warp_order = 3;
   options_.warp_slide_bound = 0.5;
   ASSERT_EQ(options_.Validate(), "");
-  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
-  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
-  OneFitTrainer trainer(body_, {shirt}, {Sway(body_, 8)}, options_);
+  OneFitTrainer trainer = ShirtTrainer(body_, options_);
   ExpectGradientMatchesCentralDifferences(&trainer, 2, true);
-  std::vector<double> weights = trainer.InitialWeights();
-  std::mt19937_64 rng(4);
-  std::normal_distribution<double> normal(0.0, 0.05);
-  for (double& w : weights) w += normal(rng);
+  const std::vector<double> weights = JiggledWeights(trainer, 4);
   const std::string path = ::testing::TempDir() + "/onefit_slide_bound.pfonefit";
   SaveOneFitModel(path, trainer.MakeModel(weights));
   const OneFitModel loaded = LoadOneFitModel(path);
