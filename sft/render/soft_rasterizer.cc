@@ -145,15 +145,10 @@ bool LocateTriangle(const TermContext& c, int f, int px, int py, TriangleAtPixel
   }
   const double *x = g->x, *y = g->y;
   // Soft edges: the mesh's boundary (all, without flags). A triangle
-  // without any reaches only the pixels inside it, and most pixels a
-  // tile's triangle is tested at are outside it: the box and the sign
-  // tests below settle them without a distance.
+  // without any reaches only the pixels inside it: the sign tests below
+  // settle it without a distance. Pixels outside the triangle's box grown
+  // by its reach never get here (TriangleBox, tested by Render first).
   const std::uint8_t soft = c.has_flags ? mesh.boundary_edges[f] : 7;
-  const double reach = soft != 0 ? c.reach : 0.0;
-  if (px < std::min({x[0], x[1], x[2]}) - reach || px > std::max({x[0], x[1], x[2]}) + reach ||
-      py < std::min({y[0], y[1], y[2]}) - reach || py > std::max({y[0], y[1], y[2]}) + reach) {
-    return false;
-  }
   const double area = Cross2(x[1] - x[0], y[1] - y[0], x[2] - x[0], y[2] - y[0]);
   for (int k = 0; k < 3; ++k) {
     const int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
@@ -501,10 +496,11 @@ TermContext MakeTermContext(const ScreenMesh& mesh, const cv::Mat& texture, cons
   return context;
 }
 
-// A tile's triangle with the box LocateTriangle tests first (the same
-// bounds, so that skipping a pixel outside it changes nothing), kept
-// contiguous: most of a tile's triangle-pixel pairs fail it, and this way
-// without reading the mesh.
+// A tile's triangle with its box grown by the reach of its soft edges:
+// beyond it the triangle cannot reach a pixel (LocateTriangle would find it
+// outside and further than the cutoff). Kept contiguous, so that the many
+// triangle-pixel pairs of a tile that fail it are settled without reading
+// the mesh.
 struct TriangleBox {
   int face;
   double x0, x1, y0, y1;
