@@ -76,12 +76,20 @@ def angles(a, b):
 def main():
     if len(sys.argv) < 4:
         sys.exit(__doc__)
-    names, clip = local_rotations(sys.argv[1])
-    joints = [names.index(j) for j in sys.argv[2].split(",")]
-    train = []
-    for path in sys.argv[3:]:
-        _, rotations = local_rotations(path)
-        train += [rotations, mirrored(names, rotations)]
+    try:
+        names, clip = local_rotations(sys.argv[1])
+        unknown = [j for j in sys.argv[2].split(",") if j not in names]
+        if unknown:
+            sys.exit(f"pose_coverage: {sys.argv[1]} has no joint {', '.join(unknown)}")
+        joints = [names.index(j) for j in sys.argv[2].split(",")]
+        train = []
+        for path in sys.argv[3:]:
+            _, rotations = local_rotations(path)
+            if len(rotations) != len(names):
+                sys.exit(f"pose_coverage: {path} has {len(rotations)} joints, {sys.argv[1]} {len(names)}")
+            train += [rotations, mirrored(names, rotations)]
+    except (OSError, ValueError) as e:
+        sys.exit(f"pose_coverage: {e}")
     nearest, whole = [], None
     for j in joints:
         d = angles(clip[j][::2], np.concatenate([t[j][::3] for t in train]))
