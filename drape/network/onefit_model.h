@@ -64,10 +64,14 @@ struct OneFitModel {
 
 // Adam's moments and step count: a training checkpoint's optimiser state,
 // kept beside the model (MODEL.adam: magic "PFADAM01", int64 size, int64
-// steps, then size doubles of m and of v).
+// steps, then size doubles of m and of v, then, with averaging, size
+// doubles of the average).
 struct OneFitAdamState {
   std::vector<double> m, v;
   long long steps = 0;
+  // The weights' running average (OneFitTrainerOptions::average_batches);
+  // empty without averaging.
+  std::vector<double> average;
 };
 // Atomic; throws OneFitModelError (kOutput) naming the file.
 void SaveOneFitAdamState(const std::string& path, const OneFitAdamState& state);

@@ -67,6 +67,10 @@ std::string OneFitTrainerOptions::Validate() const {
   if (!(learning_rate > 0.0)) return "learning_rate must be > 0";
   if (warmup_batches < 0) return "warmup_batches must be >= 0";
   if (!(final_rate_fraction > 0.0 && final_rate_fraction <= 1.0)) return "final_rate_fraction must be in (0, 1]";
+  if (average_batches < 0) return "average_batches must be >= 0";
+  if (average_batches > 0 && optimizer != OneFitOptimizer::kAdam) {
+    return "average_batches needs the Adam optimiser (its average is checkpointed with Adam's moments)";
+  }
   if (validation_every < 0 || validation_frames < 1) return "validation_every >= 0 and validation_frames >= 1";
   if (num_threads < 1) return "num_threads must be >= 1";
   const OneFitDistribution& d = distribution;
@@ -484,6 +488,16 @@ void OneFitTrainer::ValidationDrape(const double* weights, int garment, int clip
   }
 }
 
+namespace {
+
+// avg += (w - avg) / n: an exponential average over about n batches.
+void UpdateAverage(const std::vector<double>& weights, int n, std::vector<double>* average) {
+  const double share = 1.0 / n;
+  for (size_t i = 0; i < weights.size(); ++i) (*average)[i] += share * (weights[i] - (*average)[i]);
+}
+
+}  // namespace
+
 OneFitSample OneFitTrainer::DrawSample(std::mt19937_64* rng) const {
   OneFitSample s;
   s.garment = std::uniform_int_distribution<int>(0, static_cast<int>(garments_.size()) - 1)(*rng);
@@ -507,6 +521,12 @@ OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights, int fir
   AdamState local_adam;
   AdamState& adam = adam_state != nullptr ? *adam_state : local_adam;
   AdamState adam_before;
+  // The average starts at the weights the run starts from (a resumed run's
+  // comes with Adam's moments).
+  const bool averaging = options_.average_batches > 0;
+  if (averaging && adam.average.size() != weights->size()) adam.average = *weights;
+  if (!averaging) adam.average.clear();
+  const std::vector<double>& validated = averaging ? adam.average : *weights;
   for (int b = 0; b < options_.num_batches; ++b) {
     for (OneFitSample& s : batch) s = DrawSample(&rng);
     if (b < first_batch) continue;
@@ -522,24 +542,27 @@ OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights, int fir
       adam = adam_before;
     }
     summary.batches.push_back(record);
-    if (options_.validation_every > 0 && (b + 1) % options_.validation_every == 0 &&
-        options_.distribution.process == 0) {
-      OneFitBatchSummary& record_back = summary.batches.back();
-      ValidationDrape(weights->data(), 0, validation_clip_, options_.validation_frames,
-                      &record_back.validation_inside_percent, &record_back.validation_edge_strain_percent,
-                      &record_back.validation_loss);
-    }
-    summary.batches.back().time_s = Seconds(start);
     const bool finite = std::all_of(weights->begin(), weights->end(), [](double w) { return std::isfinite(w); });
     if (!finite || !std::isfinite(record.final_loss)) {
       *weights = best;
+      summary.batches.back().time_s = Seconds(start);
       summary.termination_type = TerminationType::kFailure;
       summary.message = "batch " + std::to_string(b) + " left non-finite weights; the last good ones are kept";
       break;
     }
+    if (averaging) UpdateAverage(*weights, options_.average_batches, &adam.average);
+    if (options_.validation_every > 0 && (b + 1) % options_.validation_every == 0 &&
+        options_.distribution.process == 0) {
+      OneFitBatchSummary& record_back = summary.batches.back();
+      ValidationDrape(validated.data(), 0, validation_clip_, options_.validation_frames,
+                      &record_back.validation_inside_percent, &record_back.validation_edge_strain_percent,
+                      &record_back.validation_loss);
+    }
+    summary.batches.back().time_s = Seconds(start);
     best = *weights;
-    if (on_batch) on_batch(summary.batches.back(), *weights);
+    if (on_batch) on_batch(summary.batches.back(), *weights, validated);
   }
+  if (averaging) *weights = adam.average;
   if (summary.termination_type != TerminationType::kFailure) {
     summary.termination_type = TerminationType::kNoConvergence;
     summary.message = "the batch budget ran out (training runs a fixed number of batches)";

@@ -115,6 +115,12 @@ struct OneFitTrainerOptions {
   double learning_rate = 3e-4;
   int warmup_batches = 0;
   double final_rate_fraction = 0.05;
+  // Polyak averaging (Adam only): the weights validated, kept in MODEL.best
+  // and returned by Train are an exponential average of the weights after
+  // each batch over about this many batches (decay 1 - 1 / N), while Adam
+  // steps on the weights themselves; the average smooths the scatter of
+  // the last batches' steps. 0: none (the last batch's weights).
+  int average_batches = 0;
   std::uint64_t seed = 1;
   // k_ext's epoch (DrapePhysicsOptions::k_ext) over training: batches map
   // linearly onto [0, kext_final_epoch], so that the paper's 100-epoch
@@ -267,12 +273,15 @@ class OneFitTrainer {
 
   // Trains `weights` in place, batches first_batch .. num_batches - 1 (the
   // earlier ones are drawn and skipped, so that a resumed run sees the same
-  // data order); after each batch, on_batch (when given) sees its summary
-  // and the weights (to checkpoint them).
-  // adam: Adam's moments, carried in and out (a resumed run passes the
-  // checkpointed ones, so that it ends where a straight run ends); null:
-  // fresh ones.
-  using BatchCallback = std::function<void(const OneFitBatchSummary&, const std::vector<double>&)>;
+  // data order); after each batch, on_batch (when given) sees its summary,
+  // the weights (to checkpoint them) and the weights its validation drape
+  // ran on (their average with average_batches, else the weights). With
+  // average_batches, *weights ends as the average.
+  // adam: Adam's moments and the weights' average, carried in and out (a
+  // resumed run passes the checkpointed ones, so that it ends where a
+  // straight run ends); null: fresh ones.
+  using BatchCallback = std::function<void(const OneFitBatchSummary&, const std::vector<double>& weights,
+                                           const std::vector<double>& validated)>;
   OneFitTrainingSummary Train(std::vector<double>* weights, int first_batch = 0,
                               const BatchCallback& on_batch = nullptr, OneFitAdamState* adam = nullptr);
 

@@ -314,7 +314,9 @@ TEST_F(OneFitTrainerTest, ABatchWhoseLossExplodesIsUndone) {
   std::vector<std::vector<double>> after;  // the weights after each batch
   OneFitAdamState adam;
   const OneFitTrainingSummary summary = trainer.Train(
-      &weights, 0, [&](const OneFitBatchSummary&, const std::vector<double>& w) { after.push_back(w); }, &adam);
+      &weights, 0,
+      [&](const OneFitBatchSummary&, const std::vector<double>& w, const std::vector<double>&) { after.push_back(w); },
+      &adam);
   ASSERT_EQ(summary.batches.size(), 4u);
   ASSERT_GT(summary.undone_batches, 0) << summary.BriefReport();
   const std::vector<double> initial = trainer.InitialWeights();
@@ -452,9 +454,10 @@ TEST_F(OneFitTrainerTest, TwoProcessesSharingEachBatchTakeTheSameSteps) {
 
 TEST_F(OneFitTrainerTest, AResumedRunEndsWhereAStraightRunEnds) {
   std::vector<double> straight = trainer_->InitialWeights(), checkpoint;
-  trainer_->Train(&straight, 0, [&](const OneFitBatchSummary& b, const std::vector<double>& w) {
-    if (b.batch == 2) checkpoint = w;  // killed after batch 2
-  });
+  trainer_->Train(&straight, 0,
+                  [&](const OneFitBatchSummary& b, const std::vector<double>& w, const std::vector<double>&) {
+                    if (b.batch == 2) checkpoint = w;  // killed after batch 2
+                  });
   ASSERT_FALSE(checkpoint.empty());
   std::vector<double> resumed = checkpoint;
   const OneFitTrainingSummary summary = trainer_->Train(&resumed, 3);
@@ -507,7 +510,7 @@ TEST_F(OneFitTrainerTest, AResumedAdamRunWithItsMomentsEndsWhereAStraightRunEnds
   OneFitAdamState state, saved;
   adam.Train(
       &straight, 0,
-      [&](const OneFitBatchSummary& b, const std::vector<double>& w) {
+      [&](const OneFitBatchSummary& b, const std::vector<double>& w, const std::vector<double>&) {
         if (b.batch == 2) checkpoint = w, saved = state;
       },
       &state);
@@ -522,6 +525,58 @@ TEST_F(OneFitTrainerTest, AResumedAdamRunWithItsMomentsEndsWhereAStraightRunEnds
   std::vector<double> resumed = checkpoint;
   adam.Train(&resumed, 3, nullptr, &loaded);
   EXPECT_EQ(resumed, straight);
+}
+
+// Polyak averaging: the weights validated and returned are the exponential
+// average of each batch's, Adam's own steps are those of a run without it,
+// and a run resumed from a checkpoint (the average through its file) ends
+// where a straight run ends.
+TEST_F(OneFitTrainerTest, AveragedWeightsAreTheBatchesMeanAndResumeWithIt) {
+  OneFitTrainerOptions options = options_;
+  options.optimizer = OneFitOptimizer::kAdam;
+  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
+  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
+  OneFitTrainer plain(body_, {shirt}, {Bob(body_, 8)}, options);
+  std::vector<std::vector<double>> raw;  // each batch's weights, no averaging
+  std::vector<double> weights = plain.InitialWeights();
+  plain.Train(&weights, 0, [&](const OneFitBatchSummary&, const std::vector<double>& w, const std::vector<double>& v) {
+    raw.push_back(w);
+    EXPECT_EQ(v, w);  // without averaging the weights themselves are validated
+  });
+  ASSERT_EQ(raw.size(), static_cast<size_t>(options.num_batches));
+
+  options.average_batches = 3;
+  OneFitTrainer averaging(body_, {shirt}, {Bob(body_, 8)}, options);
+  std::vector<double> expected = averaging.InitialWeights(), straight = expected, checkpoint;
+  OneFitAdamState state, saved;
+  int batch = 0;
+  averaging.Train(
+      &straight, 0,
+      [&](const OneFitBatchSummary& b, const std::vector<double>& w, const std::vector<double>& v) {
+        ASSERT_EQ(w, raw[batch]) << "batch " << batch;
+        for (size_t i = 0; i < w.size(); ++i) expected[i] += (w[i] - expected[i]) / 3.0;
+        for (size_t i = 0; i < w.size(); ++i) ASSERT_NEAR(v[i], expected[i], 1e-15) << "batch " << batch;
+        if (b.batch == 2) checkpoint = w, saved = state;
+        ++batch;
+      },
+      &state);
+  EXPECT_EQ(straight, state.average);
+  EXPECT_NE(straight, raw.back());
+  ASSERT_EQ(saved.average.size(), checkpoint.size());
+
+  const std::string path = ::testing::TempDir() + "/onefit_average.adam";
+  SaveOneFitAdamState(path, saved);
+  OneFitAdamState loaded = LoadOneFitAdamState(path, checkpoint.size());
+  EXPECT_EQ(loaded.average, saved.average);
+  std::vector<double> resumed = checkpoint;
+  averaging.Train(&resumed, 3, nullptr, &loaded);
+  EXPECT_EQ(resumed, straight);
+  // A state written without averaging has no average.
+  SaveOneFitAdamState(path, OneFitAdamState{saved.m, saved.v, saved.steps, {}});
+  EXPECT_TRUE(LoadOneFitAdamState(path, checkpoint.size()).average.empty());
+
+  options.optimizer = OneFitOptimizer::kLbfgs;
+  EXPECT_NE(options.Validate().find("average_batches needs the Adam optimiser"), std::string::npos);
 }
 
 // The draper (garment half precomputed, as inference runs) predicts what

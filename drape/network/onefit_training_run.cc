@@ -438,7 +438,8 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
   // Shared over processes, every one holds the same weights: the first
   // writes them.
   const bool writer = options.trainer.distribution.process == 0;
-  const auto checkpoint = [&](const OneFitBatchSummary& batch, const std::vector<double>& w) {
+  const auto checkpoint = [&](const OneFitBatchSummary& batch, const std::vector<double>& w,
+                              const std::vector<double>& validated) {
     if (!writer) return;
     if (options.trainer.optimizer == OneFitOptimizer::kAdam)
       SaveOneFitAdamState(options.model_path + ".adam", resume.adam);
@@ -446,7 +447,7 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
     // The model that generalises best to the held-out motion so far.
     if (!options.validation_motion_path.empty() && batch.validation_loss < best_loss) {
       best_loss = batch.validation_loss;
-      SaveOneFitModel(options.model_path + ".best", trainer->MakeModel(w));
+      SaveOneFitModel(options.model_path + ".best", trainer->MakeModel(validated));
     }
     resume.csv += ProgressRow(batch);
     WriteFileAtomically(options.model_path + ".csv", [&](std::ostream& out) { out << resume.csv; });
@@ -454,6 +455,9 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
   };
   OneFitTrainingSummary summary = trainer->Train(&weights, resume.first_batch, checkpoint, &resume.adam);
   if (resume.first_batch > 0) summary.message += "; resumed at batch " + std::to_string(resume.first_batch);
+  // MODEL held the weights Adam steps on (a checkpoint); the run's result is
+  // their average.
+  if (options.trainer.average_batches > 0 && writer) SaveOneFitModel(options.model_path, trainer->MakeModel(weights));
   if (options.trainer.polish.iterations > 0 && summary.termination_type != TerminationType::kFailure) {
     summary.polish = trainer->PolishOutputLayer(&weights, writer ? polish_progress : nullptr);
     if (writer) {

@@ -321,6 +321,11 @@ void AddTrainRunFlags(CLI::App* train, TrainFlags* f) {
                    "(1: constant)")
       ->capture_default_str();
   train
+      ->add_option("--average-batches", t.average_batches,
+                   "validate, keep in MODEL.best and return the weights averaged exponentially over about N "
+                   "batches (Adam only; 0: the last batch's)")
+      ->capture_default_str();
+  train
       ->add_option("--polish", t.polish.iterations,
                    "then this many Levenberg-Marquardt iterations on the output layer, features frozen (with "
                    "--batches 0: a polish of --init's model); progress in MODEL.polish.csv")
