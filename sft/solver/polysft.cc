@@ -57,6 +57,9 @@ struct FrameData {
   // each vertex then.
   int patches = 1;
   std::vector<int> vertex_patches;
+  // No level of its last window's solve reached max_iterations_per_level
+  // (PolySftOptions::coarse_levels_newest_only).
+  bool settled = false;
 };
 
 // Stops a level once `patience` iterations in a row improved the cost by
@@ -494,7 +497,7 @@ class PolySftController {
   bool AddImageTerm(int l, FrameData& frame, ceres::Problem* problem, SplitTerms* split) {
     if (frame.mask_empty || (!use_photometric_ && !use_masks_)) return true;
     RenderCost::Data d;
-    if (!ImageTerm(l, frame, window_.size() > 1, &d)) return false;
+    if (!ImageTerm(l, frame, solving_frames_ > 1, &d)) return false;
     if (d.roi.area() <= 0) return true;
     d.render_scratch = &frame.render_scratch;
     const std::vector<double*> blocks = Blocks(frame.theta);
@@ -687,26 +690,48 @@ class PolySftController {
     solver.max_num_iterations = options_.max_iterations_per_level;
     // The window's frames are evaluated side by side; a lone frame's pixels
     // are split over the threads by the rasterizer instead.
-    solver.num_threads = window_.size() > 1 ? ResolveNumThreads(options_.num_threads) : 1;
+    solver.num_threads = solving_frames_ > 1 ? ResolveNumThreads(options_.num_threads) : 1;
     solver.logging_type = ceres::SILENT;
     solver.update_state_every_iteration = true;
     return solver;
   }
 
+  // The first of the window's frames that the coarse levels' solves
+  // change. They only bring the newest frame into the basin: an older
+  // frame whose last solve settled at every level and that is tracked is
+  // held there and refined with it on the finest; one that is not (a large
+  // motion still converging, a frame found again or lost) passes through
+  // the whole pyramid again.
+  size_t FirstCoarseFreeFrame() const {
+    if (!options_.coarse_levels_newest_only) return 0;
+    size_t first = window_.size() - 1;
+    while (first > 0 && !(window_[first - 1]->settled && Tracked(*window_[first - 1]))) --first;
+    return first;
+  }
+
   // Every level, coarse to fine. False (with the summary's failure set)
   // when the solve diverged or the surface went behind the camera.
   bool SolveWindow(double* cost, int* iterations) {
+    const size_t coarse_first_free = FirstCoarseFreeFrame();
+    // Cleared by any level solve of a frame that reaches its iteration cap.
+    for (size_t k = coarse_first_free; k < window_.size(); ++k) window_[k]->settled = true;
     for (int l = 0; l < static_cast<int>(levels_.size()); ++l) {
       // A lone frame's pixels are split over the threads by the rasterizer;
       // a window's frames are rendered side by side.
-      SplitTerms split(window_.size() > 1 ? ResolveNumThreads(options_.num_threads) : 1);
+      const size_t first_free = l + 1 < static_cast<int>(levels_.size()) ? coarse_first_free : 0;
+      solving_frames_ = static_cast<int>(window_.size() - first_free);
+      SplitTerms split(solving_frames_ > 1 ? ResolveNumThreads(options_.num_threads) : 1);
       ceres::Problem::Options problem_options;
       problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
       problem_options.evaluation_callback = &split.callback;
       ceres::Problem problem(problem_options);
       for (size_t k = 0; k < window_.size(); ++k) {
         FrameData& frame = *window_[k];
-        for (double* block : Blocks(frame.theta)) problem.AddParameterBlock(block, model_.block_size());
+        for (double* block : Blocks(frame.theta)) {
+          problem.AddParameterBlock(block, model_.block_size());
+          if (k < first_free) problem.SetParameterBlockConstant(block);
+        }
+        if (k < first_free) continue;
         if (!AddImageTerm(l, frame, &problem, &split)) {
           return Fail("frame " + std::to_string(frame.frame.index) + ": the surface went behind the camera");
         }
@@ -731,7 +756,10 @@ class PolySftController {
       solver.callbacks.push_back(&callback);
       ceres::Solver::Summary result;
       ceres::Solve(solver, &problem, &result);
-      if (result.termination_type == ceres::NO_CONVERGENCE) ++unconverged_solves_;
+      if (result.termination_type == ceres::NO_CONVERGENCE) {
+        ++unconverged_solves_;
+        for (size_t k = first_free; k < window_.size(); ++k) window_[k]->settled = false;
+      }
       ++solves_;
       // Per frame of the window, so that windows of different sizes compare.
       *cost = result.final_cost / window_.size();
@@ -814,6 +842,7 @@ class PolySftController {
   // Gauss-Newton step (lightly damped) would give, the other frames held.
   double PredictedDecrease() {
     SplitTerms split(1);  // one frame, its render on the rasterizer's threads
+    solving_frames_ = 1;
     ceres::Problem::Options problem_options;
     problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
     problem_options.evaluation_callback = &split.callback;
@@ -1003,6 +1032,7 @@ class PolySftController {
   JetDeformationModel model_;
   AtlasTerms atlas_terms_;
   PatchGroups render_groups_;  // the render term's residual blocks (an atlas's)
+  int solving_frames_ = 1;     // the window's frames a level's solve changes
   double mean_edge_ = 0.0;     // the template's, in metres
   // The image residual per vertex on the first frame (the floor a patch's
   // fit is compared with).

@@ -19,6 +19,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.silhouette_reach_weight = 2.0;
   changed.recover_lost_frames = true;
   changed.window_size = 5;
+  changed.coarse_levels_newest_only = false;
   changed.pyramid_levels = 2;
   changed.max_image_width = 640;
   changed.max_iterations_per_level = 9;

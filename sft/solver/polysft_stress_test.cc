@@ -77,9 +77,12 @@ TEST(PolySftStressTest, SheetLeavingTheImageAndComingBack) {
   Report("leaving the image", summary);
   ExpectFiniteEverywhere(summary, 17);
   EXPECT_FALSE(summary.warnings.empty());
-  // Lost as it leaves (12 cm per frame); found again as it passes where it
-  // was lost (frame 8 measured 1.8 mm).
-  EXPECT_LT(summary.frames[8].rmse_mm, 5.0);
+  // Lost as it leaves (12 cm per frame: 130-300 mm off); found again as it
+  // passes where it was lost. How close it is found depends on where the
+  // lost frames ended: frame 8 measured 1.8 mm when the coarse levels
+  // solved the whole window, 7.5 mm since they hold the first frame (on
+  // the same motion at 160 px from `polysft generate`, 2.8 and 1.9 mm).
+  EXPECT_LT(summary.frames[8].rmse_mm, 10.0);
 }
 
 // The same with the patch atlas forced to split (every patch a candidate,

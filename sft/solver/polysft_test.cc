@@ -142,13 +142,34 @@ TEST(PolySftTest, StiffInextensibilityStaysFiniteAndIsWarnedAbout) {
   EXPECT_NE(summary.warnings[0].find("stiff weights"), std::string::npos) << summary.warnings[0];
 }
 
+// The coarse levels hold a window's older frames once they settled: the
+// same error as solving the whole window at every level (measured 1.99 mm
+// both ways at this size).
+TEST(PolySftTest, HoldingSettledFramesOnTheCoarseLevelsKeepsTheError) {
+  ScopedTempDir dir("polyfit_sft_hold");
+  GenerateSheetScene(SmallScene(SheetMotion::kMixed, 8), dir.path().string());
+  const SftScene scene = LoadScene(dir.path().string());
+  PolySftOptions options;
+  ASSERT_TRUE(options.coarse_levels_newest_only);
+  const PolySftSummary held = SolvePolySft(options, scene);
+  options.coarse_levels_newest_only = false;
+  const PolySftSummary whole = SolvePolySft(options, scene);
+  ASSERT_EQ(held.frames.size(), whole.frames.size());
+  EXPECT_NEAR(held.mean_rmse_mm, whole.mean_rmse_mm, 0.3);
+  EXPECT_NEAR(held.mean_normal_error_deg, whole.mean_normal_error_deg, 0.5);
+  for (size_t t = 0; t < held.frames.size(); ++t) EXPECT_LT(held.frames[t].rmse_mm, 5.0) << "frame " << t;
+}
+
 TEST(PolySftTest, LargeMotionBetweenFramesStaysFiniteAndIsWarnedAbout) {
   ScopedTempDir dir("polyfit_sft_large");
   // Five frames over the whole mixed motion: tens of pixels per frame.
   GenerateSheetScene(SmallScene(SheetMotion::kMixed, 5), dir.path().string());
   const PolySftSummary summary = SolvePolySft(PolySftOptions(), LoadScene(dir.path().string()));
   ExpectFinite(summary);
-  EXPECT_LT(summary.mean_rmse_mm, 6.0);  // measured 3.0 mm: the pyramid's coarse levels reach that far
+  // Measured 1.9 mm: the pyramid's coarse levels reach that far. Frames
+  // that reach the iteration cap pass through them again in the next
+  // window (holding them instead: 18 mm).
+  EXPECT_LT(summary.mean_rmse_mm, 6.0);
 }
 
 TEST(PolySftTest, AFrameThatFitsFarWorseIsWarnedAbout) {
