@@ -33,13 +33,19 @@ OneFitTrainingClip Bob(const SkinnedBody& body, int frames) {
   return clip;
 }
 
+// A tube shirt (radius 0.145 m) skinned rigidly to joint 1, the torso.
+OneFitTrainingGarment TubeShirt() {
+  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
+  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
+  return shirt;
+}
+
 class OneFitTrainerTest : public ::testing::Test {
  protected:
   void SetUp() override {
     body_ = MakeProceduralBody();
     // A shirt just around the torso (radius 0.14 m): collisions matter.
-    OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
-    shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
+    OneFitTrainingGarment shirt = TubeShirt();
     options_.drape.patching.patch_area = 0.09;
     options_.network.patch_hidden = {16};
     options_.network.patch_embedding = 8;
@@ -217,8 +223,7 @@ TEST_F(OneFitTrainerTest, ThePolishLowersTheLossChangingOnlyTheOutputLayer) {
 }
 
 TEST_F(OneFitTrainerTest, SeveralBodiesPairTheirOwnGarmentsAndClipsAndTheShapeIsRead) {
-  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
-  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
+  OneFitTrainingGarment shirt = TubeShirt();
   std::vector<OneFitTrainingBody> bodies(2);
   bodies[0] = {body_, {shirt}, {Bob(body_, 8)}};
   bodies[1] = bodies[0];
@@ -270,8 +275,7 @@ TEST_F(OneFitTrainerTest, TheValidationDrapeMeasuresTheNetworksGarment) {
 }
 
 TEST_F(OneFitTrainerTest, AdamLowersTheLossToo) {
-  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
-  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
+  OneFitTrainingGarment shirt = TubeShirt();
   OneFitTrainerOptions options = options_;
   options.optimizer = OneFitOptimizer::kAdam;
   options.learning_rate = 1e-4;
@@ -302,8 +306,7 @@ TEST_F(OneFitTrainerTest, AdamLowersTheLossToo) {
 // after it are those before it, and Adam's moments too (the batch after it
 // steps as if it had not happened).
 TEST_F(OneFitTrainerTest, ABatchWhoseLossExplodesIsUndone) {
-  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
-  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
+  OneFitTrainingGarment shirt = TubeShirt();
   OneFitTrainerOptions options = options_;
   options.optimizer = OneFitOptimizer::kAdam;
   options.learning_rate = 1.0;  // every output thrown to its bound within a batch
@@ -400,8 +403,7 @@ class InMemoryAllReduce {
 };
 
 TEST_F(OneFitTrainerTest, TwoProcessesSharingEachBatchTakeTheSameSteps) {
-  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
-  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
+  OneFitTrainingGarment shirt = TubeShirt();
   OneFitTrainerOptions options = options_;
   options.optimizer = OneFitOptimizer::kAdam;
   options.num_batches = 3;
@@ -503,8 +505,7 @@ TEST_F(OneFitTrainerTest, AFineTuneStartsFromTheModelsNetworkAndNormalizers) {
 TEST_F(OneFitTrainerTest, AResumedAdamRunWithItsMomentsEndsWhereAStraightRunEnds) {
   OneFitTrainerOptions options = options_;
   options.optimizer = OneFitOptimizer::kAdam;
-  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
-  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
+  OneFitTrainingGarment shirt = TubeShirt();
   OneFitTrainer adam(body_, {shirt}, {Bob(body_, 8)}, options);
   std::vector<double> straight = adam.InitialWeights(), checkpoint;
   OneFitAdamState state, saved;
@@ -534,8 +535,7 @@ TEST_F(OneFitTrainerTest, AResumedAdamRunWithItsMomentsEndsWhereAStraightRunEnds
 TEST_F(OneFitTrainerTest, AveragedWeightsAreTheBatchesMeanAndResumeWithIt) {
   OneFitTrainerOptions options = options_;
   options.optimizer = OneFitOptimizer::kAdam;
-  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
-  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
+  OneFitTrainingGarment shirt = TubeShirt();
   OneFitTrainer plain(body_, {shirt}, {Bob(body_, 8)}, options);
   std::vector<std::vector<double>> raw;  // each batch's weights, no averaging
   std::vector<double> weights = plain.InitialWeights();
@@ -584,8 +584,7 @@ TEST_F(OneFitTrainerTest, AveragedWeightsAreTheBatchesMeanAndResumeWithIt) {
 void ExpectDraperPredictsAsTraining(const SkinnedBody& body, const OneFitTrainerOptions& options,
                                     const OneFitTrainingClip& clip, const OneFitModel& model, OneFitTrainer& trainer,
                                     const std::vector<double>& weights) {
-  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
-  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
+  OneFitTrainingGarment shirt = TubeShirt();
   DrapeSolver solver(body, shirt.mesh, shirt.weights, options.drape);
   const OneFitDraper draper(model, solver, shirt.weights, body.skeleton);
   const std::vector<double> a = draper.Predict(clip.poses[1], clip.poses[2], clip.poses[3], clip.fps, clip.shape);
@@ -635,8 +634,7 @@ double ClipPredictionDifference(OneFitTrainer& trainer, const std::vector<double
 // alike (patch parameters are in the body's rest frame); one reading the
 // root's rotation in the world does not.
 TEST_F(OneFitTrainerTest, AHeadingFreeNetworkDrapesAMotionTurnedAboutTheVerticalAlike) {
-  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
-  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
+  OneFitTrainingGarment shirt = TubeShirt();
   const OneFitTrainingClip sway = Sway(body_, 8);
   OneFitTrainingClip turned = sway;
   const Eigen::Isometry3d turn(Eigen::AngleAxisd(2.0, Eigen::Vector3d::UnitY()));
@@ -659,8 +657,7 @@ TEST_F(OneFitTrainerTest, AHeadingFreeNetworkDrapesAMotionTurnedAboutTheVertical
 
 // A tube shirt on joint 1 swaying for 8 frames, trained under `options`.
 OneFitTrainer ShirtTrainer(const SkinnedBody& body, const OneFitTrainerOptions& options) {
-  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
-  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
+  OneFitTrainingGarment shirt = TubeShirt();
   return OneFitTrainer(body, {shirt}, {Sway(body, 8)}, options);
 }
 
@@ -715,8 +712,7 @@ TEST_F(OneFitTrainerTest, AValidationClipIsValidatedButNeverTrainedOn) {
   options_.validation_every = 2;
   options_.validation_frames = 3;
   options_.num_batches = 4;
-  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
-  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
+  OneFitTrainingGarment shirt = TubeShirt();
   OneFitTrainer plain(body_, {shirt}, {Bob(body_, 8)}, options_);
   OneFitTrainer held_out(body_, {shirt}, {Bob(body_, 8)}, options_);
   held_out.SetValidationClip(Sway(body_, 6));
@@ -878,8 +874,7 @@ TEST(BodyFeatureMaskTest, KeepsTheJointsWhoseSubtreeMovesTheGarment) {
 // nothing it is draped with, the model file keeps the mask, and the
 // draper applies it as training does.
 TEST_F(OneFitTrainerTest, AJointMaskHidesTheJointsTheGarmentDoesNotFollow) {
-  OneFitTrainingGarment shirt{"shirt", MakeTube(0.145, 0.1, 0.4, 20, 6), {}};
-  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 1);
+  OneFitTrainingGarment shirt = TubeShirt();
   const OneFitTrainingClip sway = Sway(body_, 8);
   OneFitTrainingClip kick = sway;
   const int leg = body_.skeleton.Find("LeftUpLeg");
@@ -1169,7 +1164,9 @@ TEST(OneFitNetworkTest, OutputsMapToPatchParametersAndBack) {
     const double bound = slide_bound > 0.0 ? slide_bound : kOutputBoundWarp * map.units(k + 4 + 1, 1);
     EXPECT_NEAR(p[(k + 4 + warp) + k + 4 + 1], bound, 1e-7);
     for (int c = 0; c < warp; ++c) {
-      if (c != 1) EXPECT_EQ(p[(k + 4 + warp) + k + 4 + c], 0.0) << c;
+      if (c != 1) {
+        EXPECT_EQ(p[(k + 4 + warp) + k + 4 + c], 0.0) << c;
+      }
     }
   }
 }
