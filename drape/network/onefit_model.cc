@@ -153,19 +153,21 @@ Reader OpenWithMagic(const std::string& path, const char (&magic)[8], const char
 }  // namespace
 
 void SaveOneFitAdamState(const std::string& path, const OneFitAdamState& state) {
-  if (state.m.size() != state.v.size() || (!state.average.empty() && state.average.size() != state.m.size())) {
+  if (state.m.size() != state.v.size() || (!state.average.empty() && state.average.size() != state.m.size()) ||
+      (!state.stepped.empty() && state.stepped.size() != state.average.size())) {
     throw OneFitModelError(path + ": Adam's moments and the weights' average differ in size",
                            ErrorKind::kInvalidArgument);
   }
   Writer w;
   w.Reserve(sizeof(kAdamMagic) + 2 * sizeof(std::int64_t) +
-            (2 * state.m.size() + state.average.size()) * sizeof(double));
+            (2 * state.m.size() + state.average.size() + state.stepped.size()) * sizeof(double));
   w.PutBytes(kAdamMagic, sizeof(kAdamMagic));
   w.Put<std::int64_t>(static_cast<std::int64_t>(state.m.size()));
   w.Put<std::int64_t>(state.steps);
   w.PutDoubles(state.m.data(), state.m.size());
   w.PutDoubles(state.v.data(), state.v.size());
   w.PutDoubles(state.average.data(), state.average.size());
+  w.PutDoubles(state.stepped.data(), state.stepped.size());
   WriteFileAtomically(path, [&](std::ostream& out) { out.write(w.buffer().data(), w.buffer().size()); });
 }
 
@@ -180,6 +182,7 @@ OneFitAdamState LoadOneFitAdamState(const std::string& path, size_t size) {
   state.m = r.GetDoubles(size, "the first moments");
   state.v = r.GetDoubles(size, "the second moments");
   if (r.remaining() != 0) state.average = r.GetDoubles(size, "the weights' average");
+  if (r.remaining() != 0) state.stepped = r.GetDoubles(size, "the stepped weights");
   if (r.remaining() != 0) r.Fail("trailing bytes");
   return state;
 }

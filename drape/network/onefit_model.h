@@ -65,13 +65,15 @@ struct OneFitModel {
 // Adam's moments and step count: a training checkpoint's optimiser state,
 // kept beside the model (MODEL.adam: magic "PFADAM01", int64 size, int64
 // steps, then size doubles of m and of v, then, with averaging, size
-// doubles of the average).
+// doubles of the average and optionally size doubles of the stepped
+// weights).
 struct OneFitAdamState {
   std::vector<double> m, v;
   long long steps = 0;
-  // The weights' running average (OneFitTrainerOptions::average_batches);
-  // empty without averaging.
-  std::vector<double> average;
+  // With averaging (OneFitTrainerOptions::average_batches), the weights'
+  // running average and, in a training run's checkpoint, the weights Adam
+  // steps on (the model file holds their average); empty without.
+  std::vector<double> average, stepped;
 };
 // Atomic; throws OneFitModelError (kOutput) naming the file.
 void SaveOneFitAdamState(const std::string& path, const OneFitAdamState& state);

@@ -387,6 +387,10 @@ ResumePoint Resume(const OneFitTrainingRunOptions& options, const OneFitModel& f
     if (point.adam.steps != static_cast<long long>(point.first_batch) * options.trainer.iterations_per_batch) {
       point.adam = OneFitAdamState{};
     }
+    // With averaging the model holds the average: Adam goes on from the
+    // weights it stepped.
+    if (!point.adam.stepped.empty()) *weights = std::move(point.adam.stepped);
+    point.adam.stepped.clear();
   }
   if (point.csv.empty()) {
     point.csv =
@@ -441,9 +445,14 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
   const auto checkpoint = [&](const OneFitBatchSummary& batch, const std::vector<double>& w,
                               const std::vector<double>& validated) {
     if (!writer) return;
-    if (options.trainer.optimizer == OneFitOptimizer::kAdam)
+    if (options.trainer.optimizer == OneFitOptimizer::kAdam) {
+      // With averaging the model is the average and the stepped weights
+      // go with Adam's state.
+      if (options.trainer.average_batches > 0) resume.adam.stepped = w;
       SaveOneFitAdamState(options.model_path + ".adam", resume.adam);
-    SaveOneFitModel(options.model_path, trainer->MakeModel(w));
+      resume.adam.stepped.clear();
+    }
+    SaveOneFitModel(options.model_path, trainer->MakeModel(validated));
     // The model that generalises best to the held-out motion so far.
     if (!options.validation_motion_path.empty() && batch.validation_loss < best_loss) {
       best_loss = batch.validation_loss;
@@ -455,9 +464,6 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
   };
   OneFitTrainingSummary summary = trainer->Train(&weights, resume.first_batch, checkpoint, &resume.adam);
   if (resume.first_batch > 0) summary.message += "; resumed at batch " + std::to_string(resume.first_batch);
-  // MODEL held the weights Adam steps on (a checkpoint); the run's result is
-  // their average.
-  if (options.trainer.average_batches > 0 && writer) SaveOneFitModel(options.model_path, trainer->MakeModel(weights));
   if (options.trainer.polish.iterations > 0 && summary.termination_type != TerminationType::kFailure) {
     summary.polish = trainer->PolishOutputLayer(&weights, writer ? polish_progress : nullptr);
     if (writer) {

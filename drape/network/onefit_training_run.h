@@ -2,6 +2,9 @@
 // network (onefit_trainer.h) and writes the model, checkpointed after every
 // batch so that a killed run resumes (`resume`) where it stopped:
 //   MODEL        the model file (docs/onefit-model-format.md), atomically
+//                (with average_batches, the weights' average)
+//   MODEL.adam   with Adam, its state (and with averaging the stepped
+//                weights), for `resume`
 //   MODEL.csv    batch, initial_loss_J, final_loss_J, iterations, time_s,
 //                validation epsilon_c and epsilon_e (%, every few batches)
 //                and the validation loss (J)

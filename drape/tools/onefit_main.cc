@@ -321,6 +321,10 @@ void AddTrainRunFlags(CLI::App* train, TrainFlags* f) {
                    "(1: constant)")
       ->capture_default_str();
   train
+      ->add_option("--kext-final-epoch", t.kext_final_epoch,
+                   "k_ext's epoch (eq. 4) at the last batch, reached linearly from 0 (0: no allowance)")
+      ->capture_default_str();
+  train
       ->add_option("--average-batches", t.average_batches,
                    "validate, keep in MODEL.best and return the weights averaged exponentially over about N "
                    "batches (Adam only; 0: the last batch's)")
