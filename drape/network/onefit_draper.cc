@@ -33,7 +33,7 @@ PatchOutputMap MakePatchOutputMap(const DrapeSolver& solver, int jet_order, int 
 }
 
 OneFitDraper::OneFitDraper(const OneFitModel& model, const DrapeSolver& solver, const SkinWeights& weights,
-                           const Skeleton& skeleton)
+                           const Skeleton& skeleton, const SkinnedBody* body)
     : model_(model), skeleton_(skeleton) {
   if (skeleton.num_joints() != model.num_joints) {
     throw OneFitModelError("the model was trained for a rig of " + std::to_string(model.num_joints) +
@@ -51,6 +51,14 @@ OneFitDraper::OneFitDraper(const OneFitModel& model, const DrapeSolver& solver, 
   garment_half_ = model.network.GarmentHalf(model.weights.data(), features);
   joint_weights_ = PatchJointWeights(solver.model(), weights, skeleton.num_joints());
   body_mask_ = BodyFeatureMask(weights, skeleton, model.joint_mask_reach);
+  if (model.network.body_proximity()) {
+    if (body == nullptr || body->skeleton.num_joints() != skeleton.num_joints()) {
+      throw OneFitModelError("the model reads where the garment meets the body: the body is needed",
+                             ErrorKind::kInvalidArgument);
+    }
+    probes_ = MakePatchProbes(solver.model(), solver.PatchRestAreas(), joint_weights_);
+    posed_body_ = std::make_unique<PosedBodyDistance>(*body);
+  }
 }
 
 std::vector<double> OneFitDraper::Predict(const JointTransforms& before_previous, const JointTransforms& previous,
@@ -60,7 +68,9 @@ std::vector<double> OneFitDraper::Predict(const JointTransforms& before_previous
           .Apply(BodyFeatures(skeleton_, before_previous, previous, now, fps, shape, model_.root_rotation))
           .cwiseProduct(body_mask_);
   Eigen::MatrixXd outputs;
-  model_.network.ForwardWithGarmentHalf(model_.weights.data(), garment_half_, body, &joint_weights_, &outputs);
+  if (posed_body_) BodyProximityFeatures(probes_, now, posed_body_->Pose(now), &proximity_, &probe_hints_);
+  model_.network.ForwardWithGarmentHalf(model_.weights.data(), garment_half_, body, &joint_weights_, &proximity_,
+                                        &outputs);
   return PatchParametersFromOutputs(map_, outputs, model_.network.num_coefficients());
 }
 

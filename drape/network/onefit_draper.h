@@ -6,10 +6,12 @@
 #ifndef POLYFIT_DRAPE_NETWORK_ONEFIT_DRAPER_H_
 #define POLYFIT_DRAPE_NETWORK_ONEFIT_DRAPER_H_
 
+#include <memory>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "drape/network/body_proximity.h"
 #include "drape/network/onefit_model.h"
 #include "drape/simulate/drape_solver.h"
 
@@ -29,13 +31,16 @@ PatchOutputMap MakePatchOutputMap(const DrapeSolver& solver, int jet_order, int 
 
 class OneFitDraper {
  public:
-  // solver: the garment's drape (its patches); throws OneFitModelError
-  // (kInvalidArgument) when the model does not fit the rig or the jets.
+  // solver: the garment's drape (its patches); body: the body it is draped
+  // on (its skeleton `skeleton`), needed by a model that reads the body
+  // proximity (posed each frame, within the inference's time) and else
+  // ignored. Throws OneFitModelError (kInvalidArgument) when the model does
+  // not fit the rig or the jets, or needs a body that is not given.
   OneFitDraper(const OneFitModel& model, const DrapeSolver& solver, const SkinWeights& weights,
-               const Skeleton& skeleton);
+               const Skeleton& skeleton, const SkinnedBody* body = nullptr);
 
   // The patch parameters (DrapeSolver's layout) for frame `now`, its two
-  // predecessors giving the motion.
+  // predecessors giving the motion. Not thread-safe (the posed body).
   std::vector<double> Predict(const JointTransforms& before_previous, const JointTransforms& previous,
                               const JointTransforms& now, double fps, const BodyShape& shape) const;
 
@@ -46,6 +51,12 @@ class OneFitDraper {
   Eigen::MatrixXd garment_half_;
   Eigen::MatrixXd joint_weights_;  // #joints by #patches, for the local pose
   Eigen::VectorXd body_mask_;      // BodyFeatureMask by the model's reach
+  // With the body proximity: the patches' probes, the body posed per frame
+  // and the features (buffers reused from frame to frame).
+  PatchProbes probes_;
+  std::unique_ptr<PosedBodyDistance> posed_body_;
+  mutable Eigen::MatrixXd proximity_;
+  mutable std::vector<int> probe_hints_;
 };
 
 }  // namespace polyfit

@@ -3,7 +3,8 @@
 // skinning and its vertices from the patches, against the garment's
 // resolution (a tube around the torso, about 500 to 8,000 vertices, patched
 // by area into about as many patches as the 2k suit has) and the network's
-// width, with and without a warp head and the local pose. Random weights: the time does not
+// width, with and without a warp head, the local pose and the body
+// proximity (which poses the body each frame). Random weights: the time does not
 // depend on them. The MakeHuman body when the shared data is there (its
 // rig's features), else the procedural body.
 //
@@ -37,12 +38,18 @@ std::vector<JointTransforms> Poses(int joints, int frames) {
   return poses;
 }
 
-polyfit::OneFitModel RandomModel(const polyfit::SkinnedBody& body, int width, int warp_order, bool local_pose) {
+struct Inputs {
+  int warp_order;
+  bool local_pose, body_proximity;
+};
+
+polyfit::OneFitModel RandomModel(const polyfit::SkinnedBody& body, int width, const Inputs& inputs) {
   polyfit::OneFitNetworkOptions options;
   options.decoder_hidden = {width, width, width};
   options.body_hidden = {width, width};
-  options.warp_order = warp_order;
-  options.local_pose = local_pose;
+  options.warp_order = inputs.warp_order;
+  options.local_pose = inputs.local_pose;
+  options.body_proximity = inputs.body_proximity;
   const int joints = body.skeleton.num_joints(), order = 4;
   polyfit::OneFitModel model;
   model.jet_order = order;
@@ -78,8 +85,8 @@ int main(int argc, char** argv) {
   const Eigen::Vector3d centre = 0.5 * (lo + hi);
   const std::vector<JointTransforms> poses = Poses(body.skeleton.num_joints(), 202);
   std::printf(
-      "| garment vertices | patches | width | warp | local pose | parameters | ms per frame "
-      "|\n|---:|---:|---:|---|---|---:|---:|\n");
+      "| garment vertices | patches | width | warp | local pose | body proximity | parameters | ms per frame "
+      "|\n|---:|---:|---:|---|---|---|---:|---:|\n");
   for (const auto& [segments, rings] : {std::pair{40, 12}, {80, 25}, {160, 50}}) {
     polyfit::TriangleMesh tube =
         polyfit::MakeTube(0.2, centre.y() - 0.1 * height, centre.y() + 0.15 * height, segments, rings);
@@ -87,15 +94,15 @@ int main(int argc, char** argv) {
     tube.vertices.row(2).array() += centre.z();
     const polyfit::SkinWeights weights =
         polyfit::SingleJointWeights(tube.num_vertices(), std::min(1, body.skeleton.num_joints() - 1));
-    for (const auto& [warp_order, local_pose] : {std::pair{-1, false}, {2, false}, {2, true}}) {
+    for (const Inputs& inputs : {Inputs{-1, false, false}, {2, false, false}, {2, true, false}, {2, true, true}}) {
       polyfit::DrapeSolverOptions options;
       options.num_threads = 1;
-      options.slide.warp_order = warp_order;
+      options.slide.warp_order = inputs.warp_order;
       options.patching.patch_area = patch_area;
       polyfit::DrapeSolver solver(body, tube, weights, options);
       for (const int width : {48, 128, 256}) {
-        const polyfit::OneFitModel model = RandomModel(body, width, warp_order, local_pose);
-        const polyfit::OneFitDraper draper(model, solver, weights, body.skeleton);
+        const polyfit::OneFitModel model = RandomModel(body, width, inputs);
+        const polyfit::OneFitDraper draper(model, solver, weights, body.skeleton, &body);
         std::vector<double> ms;
         double checksum = 0.0;
         for (int t = 2; t < static_cast<int>(poses.size()); ++t) {
@@ -106,9 +113,9 @@ int main(int argc, char** argv) {
           checksum += x(0, 0);
         }
         std::nth_element(ms.begin(), ms.begin() + ms.size() / 2, ms.end());
-        std::printf("| %d | %d | %d | %s | %s | %d | %.3f |\n", tube.num_vertices(), solver.num_patches(), width,
-                    warp_order < 0 ? "none" : "order 2", local_pose ? "yes" : "no", model.network.num_parameters(),
-                    ms[ms.size() / 2]);
+        std::printf("| %d | %d | %d | %s | %s | %s | %d | %.3f |\n", tube.num_vertices(), solver.num_patches(), width,
+                    inputs.warp_order < 0 ? "none" : "order 2", inputs.local_pose ? "yes" : "no",
+                    inputs.body_proximity ? "yes" : "no", model.network.num_parameters(), ms[ms.size() / 2]);
         if (!std::isfinite(checksum)) return 1;
       }
     }

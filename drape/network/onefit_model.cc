@@ -118,6 +118,7 @@ void SaveOneFitModel(const std::string& path, const OneFitModel& model) {
   w.Put<std::int32_t>(model.area_units ? 1 : 0);
   w.Put<double>(model.joint_mask_reach);
   w.Put<double>(model.warp_slide_bound);
+  w.Put<std::int32_t>(model.network.body_proximity() ? 1 : 0);
   PutMlp(model.network.patch_encoder(), &w);
   PutMlp(model.network.body_encoder(), &w);
   PutMlp(model.network.decoder(), &w);
@@ -216,6 +217,8 @@ OneFitModel LoadOneFitModel(const std::string& path) {
   if (!(model.joint_mask_reach >= 0.0 && model.joint_mask_reach <= 1.0)) r.Fail("joint mask reach out of [0, 1]");
   model.warp_slide_bound = version >= 10 ? r.Get<double>("the header") : 0.0;
   if (!(model.warp_slide_bound >= 0.0 && model.warp_slide_bound <= 1.0)) r.Fail("warp slide bound out of [0, 1]");
+  const int proximity = version >= 11 ? r.Get<std::int32_t>("the header") : 0;
+  if (proximity != 0 && proximity != 1) r.Fail("body proximity flag out of range");
   if (aligned != 0 && aligned != 1) r.Fail("frame alignment flag out of range");
   if (local_pose != 0 && local_pose != 1) r.Fail("local pose flag out of range");
   model.aligned_frames = aligned == 1;
@@ -227,7 +230,7 @@ OneFitModel LoadOneFitModel(const std::string& path) {
   Mlp decoder = GetMlp(&r, "the decoder");
   try {
     model.network = OneFitNetwork(std::move(patch), std::move(body), std::move(decoder),
-                                  NumJetCoefficients(model.jet_order), warp_order);
+                                  NumJetCoefficients(model.jet_order), warp_order, proximity == 1);
   } catch (const std::invalid_argument& e) {
     r.Fail(e.what());
   }

@@ -19,9 +19,10 @@ namespace polyfit {
 // 5 the patching's area and fit error, version 6 the root's rotation
 // feature (RootRotation), version 7 whether the patches were fitted to
 // curved faces, version 8 the output units (area_units), version 9 the
-// joint mask's reach, version 10 the warp's slide bound; earlier files
+// joint mask's reach, version 10 the warp's slide bound, version 11 whether
+// the decoder reads the body proximity; earlier files
 // still load.
-inline constexpr int kOneFitModelVersion = 10;
+inline constexpr int kOneFitModelVersion = 11;
 
 class OneFitModelError : public Error {
  public:

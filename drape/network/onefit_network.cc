@@ -3,6 +3,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "drape/network/body_proximity.h"
 #include "drape/network/onefit_features.h"
 #include "polyfit/jet/jet_basis.h"
 
@@ -35,24 +36,28 @@ OneFitNetwork::OneFitNetwork(int patch_features, int body_features, int num_coef
                              const OneFitNetworkOptions& options)
     : patch_encoder_(Sizes(patch_features, options.patch_hidden, options.patch_embedding)),
       body_encoder_(Sizes(body_features, options.body_hidden, options.body_embedding)),
-      decoder_(Sizes(options.patch_embedding + options.body_embedding + (options.local_pose ? kLocalPoseSize : 0),
+      decoder_(Sizes(options.patch_embedding + options.body_embedding + (options.local_pose ? kLocalPoseSize : 0) +
+                         (options.body_proximity ? kProximitySize : 0),
                      options.decoder_hidden, num_coefficients + 4 + 2 * NumJetCoefficients(options.warp_order))),
       num_coefficients_(num_coefficients),
       warp_order_(options.warp_order),
-      local_size_(options.local_pose ? kLocalPoseSize : 0) {
+      local_size_(options.local_pose ? kLocalPoseSize : 0),
+      proximity_size_(options.body_proximity ? kProximitySize : 0) {
   if (const std::string problem = options.Validate(); !problem.empty()) {
     throw std::invalid_argument("OneFitNetworkOptions: " + problem);
   }
   Check();
 }
 
-OneFitNetwork::OneFitNetwork(Mlp patch_encoder, Mlp body_encoder, Mlp decoder, int num_coefficients, int warp_order)
+OneFitNetwork::OneFitNetwork(Mlp patch_encoder, Mlp body_encoder, Mlp decoder, int num_coefficients, int warp_order,
+                             bool body_proximity)
     : patch_encoder_(std::move(patch_encoder)),
       body_encoder_(std::move(body_encoder)),
       decoder_(std::move(decoder)),
       num_coefficients_(num_coefficients),
       warp_order_(warp_order),
-      local_size_(decoder_.input_size() - patch_encoder_.output_size() - body_encoder_.output_size()) {
+      proximity_size_(body_proximity ? kProximitySize : 0) {
+  local_size_ = decoder_.input_size() - patch_encoder_.output_size() - body_encoder_.output_size() - proximity_size_;
   Check();
 }
 
@@ -73,11 +78,19 @@ Eigen::MatrixXd LocalPose(const Eigen::VectorXd& body_features, const Eigen::Mat
   return LocalPoseFeatures(body_features, *joint_weights);
 }
 
+// p_k of every patch, checked.
+const Eigen::MatrixXd& Proximity(const Eigen::MatrixXd* proximity, Eigen::Index num_patches) {
+  if (proximity == nullptr || proximity->rows() != kProximitySize || proximity->cols() != num_patches) {
+    throw std::invalid_argument("OneFitNetwork: a network with the body proximity needs every patch's");
+  }
+  return *proximity;
+}
+
 }  // namespace
 
 void OneFitNetwork::Forward(const double* weights, const Eigen::MatrixXd& patch_features,
                             const Eigen::VectorXd& body_features, const Eigen::MatrixXd* joint_weights,
-                            Eigen::MatrixXd* outputs, Cache* cache) const {
+                            const Eigen::MatrixXd* proximity, Eigen::MatrixXd* outputs, Cache* cache) const {
   const Eigen::Index num_patches = patch_features.cols();
   Eigen::MatrixXd z_t, z_b;
   patch_encoder_.Forward(weights, patch_features, &z_t, cache != nullptr ? &cache->patch : nullptr);
@@ -86,7 +99,9 @@ void OneFitNetwork::Forward(const double* weights, const Eigen::MatrixXd& patch_
   Eigen::MatrixXd joint(decoder_.input_size(), num_patches);
   joint.topRows(z_t.rows()) = z_t;
   joint.middleRows(z_t.rows(), z_b.rows()) = z_b.col(0).replicate(1, num_patches);
-  if (local_size_ > 0) joint.bottomRows(local_size_) = LocalPose(body_features, joint_weights, num_patches);
+  const Eigen::Index inputs = z_t.rows() + z_b.rows();
+  if (local_size_ > 0) joint.middleRows(inputs, local_size_) = LocalPose(body_features, joint_weights, num_patches);
+  if (proximity_size_ > 0) joint.bottomRows(proximity_size_) = Proximity(proximity, num_patches);
   decoder_.Forward(weights + decoder_offset(), joint, outputs, cache != nullptr ? &cache->decoder : nullptr);
   if (cache != nullptr) cache->num_patches = static_cast<int>(num_patches);
 }
@@ -97,7 +112,8 @@ void OneFitNetwork::Backward(const double* weights, const Cache& cache, const Ei
   decoder_.Backward(weights + decoder_offset(), cache.decoder, d_outputs, gradient + decoder_offset(), &d_joint);
   const int e_t = patch_encoder_.output_size();
   const Eigen::MatrixXd d_z_t = d_joint.topRows(e_t);
-  // The local pose is an input: its rows carry no gradient to the weights.
+  // The local pose and the proximity are inputs: their rows carry no
+  // gradient to the weights.
   const Eigen::MatrixXd d_z_b = d_joint.middleRows(e_t, body_encoder_.output_size()).rowwise().sum();
   patch_encoder_.Backward(weights, cache.patch, d_z_t, gradient);
   body_encoder_.Backward(weights + body_encoder_offset(), cache.body, d_z_b, gradient + body_encoder_offset());
@@ -117,7 +133,7 @@ Eigen::MatrixXd OneFitNetwork::GarmentHalf(const double* weights, const Eigen::M
 
 void OneFitNetwork::ForwardWithGarmentHalf(const double* weights, const Eigen::MatrixXd& garment_half,
                                            const Eigen::VectorXd& body_features, const Eigen::MatrixXd* joint_weights,
-                                           Eigen::MatrixXd* outputs) const {
+                                           const Eigen::MatrixXd* proximity, Eigen::MatrixXd* outputs) const {
   Eigen::MatrixXd z_b;
   body_encoder_.Forward(weights + body_encoder_offset(), body_features, &z_b);
   const double* d = weights + decoder_offset();
@@ -125,7 +141,10 @@ void OneFitNetwork::ForwardWithGarmentHalf(const double* weights, const Eigen::M
   const Eigen::Map<const Eigen::MatrixXd> w(d + decoder_.weight_offset(0), width, decoder_.input_size());
   Eigen::MatrixXd a = garment_half;
   a.colwise() += w.middleCols(e_t, z_b.rows()) * z_b.col(0);
-  if (local_size_ > 0) a.noalias() += w.rightCols(local_size_) * LocalPose(body_features, joint_weights, a.cols());
+  if (local_size_ > 0) {
+    a.noalias() += w.middleCols(e_t + z_b.rows(), local_size_) * LocalPose(body_features, joint_weights, a.cols());
+  }
+  if (proximity_size_ > 0) a.noalias() += w.rightCols(proximity_size_) * Proximity(proximity, a.cols());
   if (decoder_.num_layers() == 1) {
     *outputs = std::move(a);
     return;
@@ -138,7 +157,8 @@ void OneFitNetwork::ForwardWithGarmentHalf(const double* weights, const Eigen::M
 void OneFitNetwork::Check() {
   if (warp_order_ < -1 || warp_order_ > kMaxJetOrder) throw std::invalid_argument("OneFitNetwork: bad warp order");
   if ((local_size_ != 0 && local_size_ != kLocalPoseSize) ||
-      decoder_.input_size() != patch_encoder_.output_size() + body_encoder_.output_size() + local_size_ ||
+      decoder_.input_size() !=
+          patch_encoder_.output_size() + body_encoder_.output_size() + local_size_ + proximity_size_ ||
       decoder_.output_size() != num_coefficients_ + 4 + 2 * NumJetCoefficients(warp_order_)) {
     throw std::invalid_argument("OneFitNetwork: the encoders' embeddings and the decoder's sizes do not chain");
   }

@@ -2,11 +2,13 @@
 //
 //   Z_T = E_T(patch features)        per patch, once per garment
 //   Z_B = E_B(body features)         per frame, shared by all patches
-//   y_k = D(concat(Z_T,k, Z_B[, x_k]))  per patch: (d alpha, d s, d T)
+//   y_k = D(concat(Z_T,k, Z_B[, x_k][, p_k]))  per patch: (d alpha, d s, d T)
 //
 // where x_k, with local_pose, is the patch's skinning-weighted share of the
-// body features (LocalPoseFeatures, onefit_features.h): an input, not
-// learnt, so that each patch also sees its own joints directly.
+// body features (LocalPoseFeatures, onefit_features.h), and p_k, with
+// body_proximity, where the skinned patch meets the posed body
+// (BodyProximityFeatures, body_proximity.h): inputs, not learnt, so that
+// each patch also sees its own joints and the body next to it directly.
 //
 // E_T, E_B and D are MLPs (mlp.h) with skip connections; their weights are
 // one flat vector [E_T | E_B | D]. The output of patch k turns its rest
@@ -56,6 +58,9 @@ struct OneFitNetworkOptions {
   // The decoder also reads each patch's local pose x_k (kLocalPoseSize
   // values); Forward then needs the patches' joint weights.
   bool local_pose = false;
+  // The decoder also reads each patch's body proximity p_k (kProximitySize
+  // values); Forward then needs them.
+  bool body_proximity = false;
   std::uint64_t seed = 1;
 
   std::string Validate() const;
@@ -67,9 +72,10 @@ class OneFitNetwork {
   // num_coefficients: the jets' (NumJetCoefficients(order)).
   OneFitNetwork(int patch_features, int body_features, int num_coefficients, const OneFitNetworkOptions& options);
   // From its three MLPs (a saved model); throws std::invalid_argument when
-  // their sizes do not chain. The decoder's input tells whether it reads
-  // the local pose.
-  OneFitNetwork(Mlp patch_encoder, Mlp body_encoder, Mlp decoder, int num_coefficients, int warp_order = -1);
+  // their sizes do not chain. The decoder's input, less the proximity's,
+  // tells whether it reads the local pose.
+  OneFitNetwork(Mlp patch_encoder, Mlp body_encoder, Mlp decoder, int num_coefficients, int warp_order = -1,
+                bool body_proximity = false);
 
   int num_parameters() const {
     return patch_encoder_.num_parameters() + body_encoder_.num_parameters() + decoder_.num_parameters();
@@ -79,6 +85,7 @@ class OneFitNetwork {
   int num_coefficients() const { return num_coefficients_; }
   int warp_order() const { return warp_order_; }
   bool local_pose() const { return local_size_ > 0; }
+  bool body_proximity() const { return proximity_size_ > 0; }
   const Mlp& patch_encoder() const { return patch_encoder_; }
   const Mlp& body_encoder() const { return body_encoder_; }
   const Mlp& decoder() const { return decoder_; }
@@ -94,18 +101,21 @@ class OneFitNetwork {
   };
   // patch_features: #patch features by #patches; body_features: one frame.
   // joint_weights: #joints by #patches (PatchJointWeights), needed with the
-  // local pose, else ignored. outputs: num_outputs() by #patches.
+  // local pose, else ignored; proximity: kProximitySize by #patches
+  // (BodyProximityFeatures), needed with the body proximity, else ignored.
+  // outputs: num_outputs() by #patches.
   void Forward(const double* weights, const Eigen::MatrixXd& patch_features, const Eigen::VectorXd& body_features,
-               const Eigen::MatrixXd* joint_weights, Eigen::MatrixXd* outputs, Cache* cache = nullptr) const;
+               const Eigen::MatrixXd* joint_weights, const Eigen::MatrixXd* proximity, Eigen::MatrixXd* outputs,
+               Cache* cache = nullptr) const;
   // Inference with the garment's half precomputed (once per garment): the
   // decoder's first layer splits as W [z_T; z_B] + b = (W_T z_T + b) + W_B z_B,
-  // so per frame only W_B z_B (and W_x x_k) is new. GarmentHalf:
+  // so per frame only W_B z_B (and W_x x_k, W_p p_k) is new. GarmentHalf:
   // first-layer width by #patches; ForwardWithGarmentHalf gives Forward's
   // outputs.
   Eigen::MatrixXd GarmentHalf(const double* weights, const Eigen::MatrixXd& patch_features) const;
   void ForwardWithGarmentHalf(const double* weights, const Eigen::MatrixXd& garment_half,
                               const Eigen::VectorXd& body_features, const Eigen::MatrixXd* joint_weights,
-                              Eigen::MatrixXd* outputs) const;
+                              const Eigen::MatrixXd* proximity, Eigen::MatrixXd* outputs) const;
   // Adds dL/dweights to gradient given dL/doutputs.
   void Backward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_outputs, double* gradient) const;
 
@@ -116,7 +126,8 @@ class OneFitNetwork {
   Mlp decoder_tail_;  // the decoder's layers after the first
   int num_coefficients_ = 0;
   int warp_order_ = -1;
-  int local_size_ = 0;  // 0 or kLocalPoseSize
+  int local_size_ = 0;      // 0 or kLocalPoseSize
+  int proximity_size_ = 0;  // 0 or kProximitySize
 };
 
 // The output bounds b_c above (part of the model's meaning: changing them

@@ -151,6 +151,13 @@ OneFitTrainer::OneFitTrainer(std::vector<OneFitTrainingBody> bodies, const OneFi
       throw std::invalid_argument("OneFitTrainer: the bodies' rigs differ");
     }
     skeletons_.push_back(body.body.skeleton);
+    if (options.network.body_proximity) {
+      proximity_.resize(options.num_threads);
+      for (auto& cache : proximity_) {
+        if (!cache) cache = std::make_unique<ProximityCache>();
+        cache->bodies.push_back(std::make_unique<PosedBodyDistance>(body.body));
+      }
+    }
     for (const OneFitTrainingGarment& g : body.garments) {
       AddGarment(body.body, g, b, drape);
       patch_blocks.push_back(garments_.back()->raw_features);
@@ -195,6 +202,8 @@ void OneFitTrainer::AddGarment(const SkinnedBody& body, const OneFitTrainingGarm
                                      g.weights, body.skeleton);
   data->joint_weights = PatchJointWeights(solver.model(), g.weights, body.skeleton.num_joints());
   data->body_mask = BodyFeatureMask(g.weights, body.skeleton, options_.joint_mask_reach);
+  if (options_.network.body_proximity)
+    data->probes = MakePatchProbes(solver.model(), solver.PatchRestAreas(), data->joint_weights);
   garments_.push_back(std::move(data));
 }
 
@@ -272,10 +281,11 @@ void OneFitTrainer::StartFrom(const OneFitModel& model) {
       model.max_fit_error != options_.drape.patching.max_fit_error ||
       model.curved_faces != options_.drape.patching.curved_faces || model.root_rotation != options_.root_rotation ||
       model.area_units != options_.area_units || model.joint_mask_reach != options_.joint_mask_reach ||
-      model.warp_slide_bound != options_.warp_slide_bound) {
+      model.warp_slide_bound != options_.warp_slide_bound ||
+      model.network.body_proximity() != options_.network.body_proximity) {
     throw std::invalid_argument(
         "OneFitTrainer::StartFrom: the model's jet order, warp order, slide bound, patching, root feature, output "
-        "units, joint mask or rig differs from the training's");
+        "units, joint mask, body proximity or rig differs from the training's");
   }
   if (model.patch_normalizer.mean.size() != patch_normalizer_.mean.size() ||
       model.body_normalizer.mean.size() != body_normalizer_.mean.size()) {
@@ -287,11 +297,32 @@ void OneFitTrainer::StartFrom(const OneFitModel& model) {
   for (auto& g : garments_) g->features = patch_normalizer_.Apply(g->raw_features);
 }
 
+const Eigen::MatrixXd* OneFitTrainer::ProximityAt(int garment, int clip, int frame, int thread) {
+  if (proximity_.empty()) return nullptr;
+  ProximityCache& cache = *proximity_.at(thread);
+  const OneFitTrainingClip& c = clips_[clip];
+  frame = std::clamp(frame, 0, static_cast<int>(c.poses.size()) - 1);
+  const auto key = std::make_tuple(garment, clip, frame);
+  if (const auto it = cache.features.find(key); it != cache.features.end()) return &it->second;
+  // A bound on the memory (about 27 KB an entry at 170 patches): a batch
+  // holds at most 3 batch_size frames.
+  if (cache.features.size() >= 1024) cache.features.clear();
+  const GarmentData& g = *garments_[garment];
+  Eigen::MatrixXd& features = cache.features[key];
+  BodyProximityFeatures(g.probes, c.poses[frame], cache.bodies[g.body]->Pose(c.poses[frame]), &features);
+  return &features;
+}
+
 std::vector<double> OneFitTrainer::Predict(const double* weights, int garment, int clip, int frame) {
+  return PredictOn(weights, garment, clip, frame, 0);
+}
+
+std::vector<double> OneFitTrainer::PredictOn(const double* weights, int garment, int clip, int frame, int thread) {
   const GarmentData& g = *garments_.at(garment);
   if (g.body != clip_body_.at(clip)) throw std::invalid_argument("OneFitTrainer: a garment and a clip of two bodies");
   Eigen::MatrixXd outputs;
-  network_.Forward(weights, g.features, GarmentBodyFeatures(g, clip, frame), &g.joint_weights, &outputs);
+  network_.Forward(weights, g.features, GarmentBodyFeatures(g, clip, frame), &g.joint_weights,
+                   ProximityAt(garment, clip, frame, thread), &outputs);
   return PatchParametersFromOutputs(g.map, outputs, network_.num_coefficients());
 }
 
@@ -306,12 +337,12 @@ void OneFitTrainer::PrepareSample(const double* weights, const double* history_w
   Eigen::Matrix3Xd history[2];
   for (int back = 1; back <= 2; ++back) {
     const int f = std::max(sample.frame - back, 0);
-    history[back - 1] = solver.PositionsAt(Predict(history_weights, sample.garment, sample.clip, f), pose(f));
+    history[back - 1] = solver.PositionsAt(PredictOn(history_weights, sample.garment, sample.clip, f, thread), pose(f));
   }
   solver.SetHistory(history[0], history[1]);
   solver.Pose(pose(sample.frame), epoch);
-  network_.Forward(weights, g.features, GarmentBodyFeatures(g, sample.clip, sample.frame), &g.joint_weights, outputs,
-                   cache);
+  network_.Forward(weights, g.features, GarmentBodyFeatures(g, sample.clip, sample.frame), &g.joint_weights,
+                   ProximityAt(sample.garment, sample.clip, sample.frame, thread), outputs, cache);
 }
 
 double OneFitTrainer::SampleLoss(const double* weights, const double* history_weights, const OneFitSample& sample,

@@ -325,6 +325,7 @@ class OneFitTrainer {
 
  private:
   struct GarmentData;
+  struct ProximityCache;
   using AdamState = OneFitAdamState;
   OneFitBatchSummary LbfgsBatch(const std::vector<OneFitSample>& batch, int index, std::vector<double>* weights);
   OneFitBatchSummary AdamBatch(const std::vector<OneFitSample>& batch, int index, AdamState* state,
@@ -335,6 +336,12 @@ class OneFitTrainer {
   // A frame's normalised body features as garment g reads them (its
   // BodyFeatureMask applied).
   Eigen::VectorXd GarmentBodyFeatures(const GarmentData& g, int clip, int frame) const;
+  // With the body proximity, its features (kProximitySize by #patches) of
+  // a garment at a clip's frame, posed on the thread's copy of the body;
+  // else null. Valid until the thread's next call.
+  const Eigen::MatrixXd* ProximityAt(int garment, int clip, int frame, int thread);
+  // Predict on a thread's drape and body.
+  std::vector<double> PredictOn(const double* weights, int garment, int clip, int frame, int thread);
   OneFitSample DrawSample(std::mt19937_64* rng) const;
   // A sample's history and pose set on its thread's drape, and the
   // network's outputs (num_outputs() by #patches) for its frame.
@@ -360,6 +367,7 @@ class OneFitTrainer {
   std::vector<int> clip_body_;  // per clip, its body
   OneFitTrainerOptions options_;
   std::vector<std::unique_ptr<GarmentData>> garments_;
+  std::vector<std::unique_ptr<ProximityCache>> proximity_;  // per thread, with the body proximity
   FeatureNormalizer patch_normalizer_, body_normalizer_;
   OneFitNetwork network_;
   double epoch_ = 0.0;          // k_ext's, of the current batch

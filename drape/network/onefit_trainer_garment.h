@@ -3,12 +3,15 @@
 #ifndef POLYFIT_DRAPE_NETWORK_ONEFIT_TRAINER_GARMENT_H_
 #define POLYFIT_DRAPE_NETWORK_ONEFIT_TRAINER_GARMENT_H_
 
+#include <map>
 #include <memory>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "drape/network/body_proximity.h"
 #include "drape/network/onefit_network.h"
 #include "drape/network/onefit_trainer.h"
 #include "drape/simulate/drape_solver.h"
@@ -25,6 +28,15 @@ struct OneFitTrainer::GarmentData {
   Eigen::MatrixXd raw_features, features;             // per patch: raw, normalised
   Eigen::MatrixXd joint_weights;                      // #joints by #patches
   Eigen::VectorXd body_mask;                          // BodyFeatureMask
+  PatchProbes probes;                                 // with the body proximity
+};
+
+// Per thread: its copy of every body, posed as a frame needs, and the
+// proximity features of the frames it computed last, by (garment, clip,
+// frame): a batch's iterations revisit its samples' frames.
+struct OneFitTrainer::ProximityCache {
+  std::vector<std::unique_ptr<PosedBodyDistance>> bodies;
+  std::map<std::tuple<int, int, int>, Eigen::MatrixXd> features;
 };
 
 }  // namespace polyfit

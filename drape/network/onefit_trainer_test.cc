@@ -586,7 +586,7 @@ void ExpectDraperPredictsAsTraining(const SkinnedBody& body, const OneFitTrainer
                                     const std::vector<double>& weights) {
   OneFitTrainingGarment shirt = TubeShirt();
   DrapeSolver solver(body, shirt.mesh, shirt.weights, options.drape);
-  const OneFitDraper draper(model, solver, shirt.weights, body.skeleton);
+  const OneFitDraper draper(model, solver, shirt.weights, body.skeleton, &body);
   const std::vector<double> a = draper.Predict(clip.poses[1], clip.poses[2], clip.poses[3], clip.fps, clip.shape);
   const std::vector<double> b = trainer.Predict(weights.data(), 0, 0, 3);
   ASSERT_EQ(a.size(), b.size());
@@ -688,6 +688,45 @@ TEST_F(OneFitTrainerTest, TheLocalPoseHasTheRightGradientRoundTripsAndDrapesAsTr
   double change = 0.0;
   for (size_t i = 0; i < a.size(); ++i) change = std::max(change, std::abs(a[i] - b[i]));
   EXPECT_GT(change, 1e-6);
+}
+
+// The body proximity: the gradient with it (an input: nothing flows into
+// it), a round trip (version 11), and a draper that poses the body itself
+// predicting what training sees; the proximity moves the prediction where
+// only the body's place under the shirt changes.
+TEST_F(OneFitTrainerTest, TheBodyProximityHasTheRightGradientRoundTripsAndDrapesAsTraining) {
+  options_.network.body_proximity = true;
+  OneFitTrainer trainer = ShirtTrainer(body_, options_);
+  ExpectGradientMatchesCentralDifferences(&trainer, 2, true);
+  const std::vector<double> weights = JiggledWeights(trainer, 5);
+  const std::string path = ::testing::TempDir() + "/onefit_proximity.pfonefit";
+  SaveOneFitModel(path, trainer.MakeModel(weights));
+  const OneFitModel loaded = LoadOneFitModel(path);
+  EXPECT_TRUE(loaded.network.body_proximity());
+  EXPECT_EQ(loaded.network.decoder().input_size(), 8 + 8 + kProximitySize);
+  ExpectDraperPredictsAsTraining(body_, options_, Sway(body_, 8), loaded, trainer, weights);
+
+  // Without the body the draper cannot read it: refused, not guessed.
+  OneFitTrainingGarment shirt = TubeShirt();
+  DrapeSolver solver(body_, shirt.mesh, shirt.weights, options_.drape);
+  EXPECT_THROW(OneFitDraper(loaded, solver, shirt.weights, body_.skeleton), OneFitModelError);
+
+  // The shirt on the root, which is held, and every other joint moved
+  // aside together: every local rotation is the identity and the root is
+  // still in both clips, so their body features agree, and only the
+  // proximity sees the torso move under the shirt.
+  shirt.weights = SingleJointWeights(shirt.mesh.num_vertices(), 0);
+  OneFitTrainingClip still = Bob(body_, 8), moved = still;
+  for (auto& pose : still.poses) pose.assign(pose.size(), Eigen::Isometry3d::Identity());
+  for (auto& pose : moved.poses) {
+    pose.assign(pose.size(), Eigen::Isometry3d(Eigen::Translation3d(0.03, 0.0, 0.0)));
+    pose[0] = Eigen::Isometry3d::Identity();
+  }
+  OneFitTrainer sighted(body_, {shirt}, {still, moved}, options_);
+  EXPECT_GT(ClipPredictionDifference(sighted, JiggledWeights(sighted, 6), {0, 3}), 1e-6);
+  options_.network.body_proximity = false;
+  OneFitTrainer blind(body_, {shirt}, {still, moved}, options_);
+  EXPECT_LT(ClipPredictionDifference(blind, JiggledWeights(blind, 6), {0, 3}), 1e-12);
 }
 
 // A warp head of order 3 under a slide bound: the gradient through the
@@ -943,8 +982,8 @@ TEST_F(OneFitTrainerTest, AModelFileRoundTripsAndTheDraperPredictsAsTraining) {
   wrong_version[8] = kOneFitModelVersion + 1;
   expect_error(wrong_version, "version " + std::to_string(kOneFitModelVersion + 1));
   std::string huge = bytes;
-  huge[76] = '\xff';  // the patch encoder's layer count
-  huge[77] = '\xff';
+  huge[80] = '\xff';  // the patch encoder's layer count
+  huge[81] = '\xff';
   expect_error(huge, "layer sizes");
   EXPECT_THROW(LoadOneFitModel(path + ".absent"), OneFitModelError);
 }
@@ -1015,7 +1054,7 @@ TEST(OneFitModelTest, OlderVersionsStillLoadAndTheFlagsRoundTrip) {
     std::ifstream in(path, std::ios::binary);
     bytes.assign(std::istreambuf_iterator<char>(in), {});
   }
-  ASSERT_EQ(bytes[8], 10);  // the version
+  ASSERT_EQ(bytes[8], 11);  // the version
   EXPECT_EQ(LoadOneFitModel(path).joint_mask_reach, 0.0);
   EXPECT_EQ(LoadOneFitModel(path).warp_slide_bound, 0.0);
   model.joint_mask_reach = 0.05;
@@ -1040,6 +1079,13 @@ TEST(OneFitModelTest, OlderVersionsStillLoadAndTheFlagsRoundTrip) {
     bytes.erase(at, size);
     std::ofstream(file, std::ios::binary) << bytes;
   };
+  const std::string path10 = ::testing::TempDir() + "/onefit_v10_old.pfonefit";
+  expect_refused(76, 2, path10);  // the proximity flag out of range
+  expect_refused(76, 1, path10);  // a proximity the decoder's input has no room for
+  // Version 10: no body proximity.
+  downgrade(10, 76, 4, path10);
+  EXPECT_FALSE(LoadOneFitModel(path10).network.body_proximity());
+  EXPECT_EQ(LoadOneFitModel(path10).warp_slide_bound, 0.5);
   const std::string path9 = ::testing::TempDir() + "/onefit_v9_old.pfonefit";
   expect_refused(75, '\x40', path9);  // the bound's exponent: 0.5 * 2^16
   // Version 9: no slide bound (each warp coefficient bounded).

@@ -384,7 +384,7 @@ DrapeSimulationSummary RunDrapeSimulation(const DrapeSimulationOptions& options)
   const std::unique_ptr<DrapeSolver> solver = CreateSolver(solver_options, inputs, &weights);
   std::unique_ptr<OneFitDraper> draper;
   if (!options.model_path.empty())
-    draper = std::make_unique<OneFitDraper>(model, *solver, weights, inputs.body.skeleton);
+    draper = std::make_unique<OneFitDraper>(model, *solver, weights, inputs.body.skeleton, &inputs.body);
   DrapeSimulationSummary summary;
   DescribeGarment(inputs, *solver, &summary);
   CreateOutputFolders(options);

@@ -271,6 +271,9 @@ void AddTrainModelFlags(CLI::App* train, polyfit::OneFitTrainerOptions* trainer)
       ->check(CLI::Range(0.0, 1.0));
   train->add_flag("--local-pose", t.network.local_pose,
                   "each patch also reads its own joints' pose, skinning-weighted (recorded in the model)");
+  train->add_flag("--body-proximity", t.network.body_proximity,
+                  "each patch also reads where it meets the body when posed by skinning alone: signed distances "
+                  "and the body's normals at five points of it (recorded in the model)");
   train->add_flag("--align-frames", t.drape.patching.align_frames,
                   "patch frames turned to the body's up axis (recorded in the model)");
   train->add_flag("--curved-faces", t.drape.patching.curved_faces,

@@ -1,0 +1,79 @@
+// Where each garment patch, posed by skinning alone, meets the posed body:
+// a per-patch, per-frame input of OneFit's decoder
+// (OneFitNetworkOptions::body_proximity). The network's outputs move each
+// patch from its skinned rest (onefit_network.h); what they must undo is
+// how far skinning left it inside the body or away from it, which the
+// joint rotations give only through a function of the whole pose that an
+// unseen pose or body shape leaves. Here it is measured directly, so that
+// "push out along the body's normal by about the depth" holds for any
+// pose, shape or garment.
+//
+// Probes: each patch's rest jet at its centre and at (+-a, 0), (0, +-a) in
+// its frame, a = kProbeReach rho (rho = sqrt(A / pi), A its rest area), a
+// fixed count per patch whatever its meshing. A probe x is posed by the
+// patch's members' mean skinning weights w_kj (PatchJointWeights),
+// x' = sum_j w_kj T_j x. Per probe, from the posed body's closest point
+// (BodySignedDistance): the signed distance d as clamp(d / kProximityScale,
+// +-kProximityClamp), and the body's normal n there in the patch's posed
+// frame F_k^T n, F_k the columns of B_k = (sum_j w_kj R_j) R_0 made
+// orthonormal (Gram-Schmidt from the first): the frame the network's
+// centre and jet outputs are posed in.
+#ifndef POLYFIT_DRAPE_NETWORK_BODY_PROXIMITY_H_
+#define POLYFIT_DRAPE_NETWORK_BODY_PROXIMITY_H_
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "drape/body/makehuman_body.h"
+#include "drape/collision/signed_distance.h"
+#include "drape/network/onefit_features.h"
+#include "polyfit/model/polyfit_model.h"
+
+namespace polyfit {
+
+inline constexpr int kProximityProbes = 5;
+inline constexpr int kProximitySize = 4 * kProximityProbes;
+inline constexpr double kProbeReach = 0.5;
+inline constexpr double kProximityScale = 0.01;  // m
+inline constexpr double kProximityClamp = 4.0;
+
+// One garment's probes, from its rest patches (once per garment).
+struct PatchProbes {
+  Eigen::Matrix3Xd rest_points;         // 3 by kProximityProbes #patches, patch-major
+  std::vector<Eigen::Matrix3d> frames;  // R_0 per patch
+  Eigen::MatrixXd joint_weights;        // #joints by #patches (PatchJointWeights)
+
+  int num_patches() const { return static_cast<int>(frames.size()); }
+};
+
+// model: the garment's rest patches; areas: their rest areas (m^2, one per
+// patch); joint_weights: PatchJointWeights. Throws std::invalid_argument on
+// mismatched sizes.
+PatchProbes MakePatchProbes(const PolyFitModel& model, const std::vector<double>& areas,
+                            const Eigen::MatrixXd& joint_weights);
+
+// kProximitySize by #patches into *features (resized): per patch, per
+// probe [d, F^T n] as above. pose: one rest-to-posed transform per joint;
+// body: posed by the same pose. hints (optional, kProximityProbes #patches,
+// -1 where none): each probe's closest face at the last frame, which
+// speeds its query up; updated. (The distances are the same either way;
+// where two faces are equally close the normal may be either's.)
+void BodyProximityFeatures(const PatchProbes& probes, const JointTransforms& pose, const BodySignedDistance& body,
+                           Eigen::MatrixXd* features, std::vector<int>* hints = nullptr);
+
+// A body's signed distance, posed frame by frame (linear blend skinning,
+// then the tree refitted).
+class PosedBodyDistance {
+ public:
+  explicit PosedBodyDistance(const SkinnedBody& body);
+  const BodySignedDistance& Pose(const JointTransforms& pose);
+
+ private:
+  SkinnedBody body_;
+  BodySignedDistance distance_;
+};
+
+}  // namespace polyfit
+
+#endif  // POLYFIT_DRAPE_NETWORK_BODY_PROXIMITY_H_

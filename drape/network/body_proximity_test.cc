@@ -1,0 +1,119 @@
+#include "drape/network/body_proximity.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "drape/body/procedural_body.h"
+
+namespace polyfit {
+namespace {
+
+// One flat patch at the origin, turned by `rotation`, of frame scale `scale`.
+PolyFitModel FlatPatch(const Eigen::Matrix3d& rotation, double scale) {
+  PolyFitModel model;
+  JetPatch patch;
+  patch.order = 2;
+  patch.frame.rotation = rotation;
+  patch.frame.scale = scale;
+  patch.frame.translation = Eigen::Vector3d(0.1, 0.2, 0.3);
+  model.patches.push_back(patch);
+  return model;
+}
+
+TEST(PatchProbesTest, SitOnTheRestJetAtHalfTheAreasRadiusWhateverTheFramesScale) {
+  const Eigen::Matrix3d rotation = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  const double area = 0.01, reach = kProbeReach * std::sqrt(area / M_PI);
+  for (const double scale : {0.5, 2.0}) {
+    const PatchProbes probes = MakePatchProbes(FlatPatch(rotation, scale), {area}, Eigen::MatrixXd::Ones(1, 1));
+    ASSERT_EQ(probes.rest_points.cols(), kProximityProbes);
+    const Eigen::Vector3d centre = probes.rest_points.col(0);
+    EXPECT_NEAR((centre - Eigen::Vector3d(0.1, 0.2, 0.3)).norm(), 0.0, 1e-15);
+    for (int i = 1; i < kProximityProbes; ++i) {
+      const Eigen::Vector3d offset = probes.rest_points.col(i) - centre;
+      EXPECT_NEAR(offset.norm(), reach, 1e-12) << scale << " " << i;
+      EXPECT_NEAR(offset.dot(rotation.col(2)), 0.0, 1e-12);  // in the patch's plane
+    }
+    // Opposite probes pair up along the frame's two axes.
+    EXPECT_NEAR((probes.rest_points.col(1) - centre).dot(rotation.col(0)), reach, 1e-12);
+    EXPECT_NEAR((probes.rest_points.col(4) - centre).dot(rotation.col(1)), -reach, 1e-12);
+  }
+  EXPECT_THROW(MakePatchProbes(FlatPatch(rotation, 1.0), {}, Eigen::MatrixXd::Ones(1, 1)), std::invalid_argument);
+}
+
+class BodyProximityTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    body_ = MakeProceduralBody();
+    const int joints = body_.skeleton.num_joints();
+    // Two patches on the torso's joint (1), one blended with the root:
+    // probes a little outside, inside and far from the body.
+    probes_.joint_weights = Eigen::MatrixXd::Zero(joints, 2);
+    probes_.joint_weights(1, 0) = 1.0;
+    probes_.joint_weights(1, 1) = 0.6;
+    probes_.joint_weights(0, 1) = 0.4;
+    probes_.frames = {Eigen::Matrix3d::Identity(), Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY()).toRotationMatrix()};
+    probes_.rest_points.resize(3, 2 * kProximityProbes);
+    const Eigen::Vector3d centre = body_.skeleton.rest_heads.col(1);
+    for (int i = 0; i < 2 * kProximityProbes; ++i) {
+      const double angle = 0.6 * i;
+      const double radius = i == 3 ? 0.5 : 0.013 + 0.02 * i;  // one far off; none on the axis (a tie)
+      probes_.rest_points.col(i) =
+          centre + Eigen::Vector3d(radius * std::cos(angle), 0.05 + 0.01 * i, radius * std::sin(angle));
+    }
+  }
+
+  SkinnedBody body_;
+  PatchProbes probes_;
+};
+
+TEST_F(BodyProximityTest, DistancesAndNormalsAreTheBodysInThePatchesFrames) {
+  const JointTransforms rest(body_.skeleton.num_joints(), Eigen::Isometry3d::Identity());
+  PosedBodyDistance posed(body_);
+  Eigen::MatrixXd features;
+  BodyProximityFeatures(probes_, rest, posed.Pose(rest), &features);
+  ASSERT_EQ(features.rows(), kProximitySize);
+  ASSERT_EQ(features.cols(), 2);
+  const BodySignedDistance direct(body_.mesh);
+  int inside = 0, clamped = 0;
+  for (int p = 0; p < 2; ++p) {
+    for (int i = 0; i < kProximityProbes; ++i) {
+      const SignedDistanceResult hit = direct.Query(probes_.rest_points.col(kProximityProbes * p + i));
+      const double d = std::clamp(hit.distance / kProximityScale, -kProximityClamp, kProximityClamp);
+      EXPECT_NEAR(features(4 * i, p), d, 1e-12);
+      const Eigen::Vector3d normal = probes_.frames[p].transpose() * hit.normal;
+      EXPECT_LT((features.col(p).segment<3>(4 * i + 1) - normal).norm(), 1e-12);
+      inside += hit.distance < 0.0 ? 1 : 0;
+      clamped += std::abs(d) == kProximityClamp ? 1 : 0;
+    }
+  }
+  EXPECT_GT(inside, 0);  // the probes cover both sides and the clamp
+  EXPECT_LT(inside, 2 * kProximityProbes);
+  EXPECT_GT(clamped, 0);
+}
+
+TEST_F(BodyProximityTest, ARigidMotionOfBodyAndGarmentTogetherChangesNothing) {
+  const int joints = body_.skeleton.num_joints();
+  JointTransforms pose(joints, Eigen::Isometry3d::Identity());
+  const Eigen::Vector3d head = body_.skeleton.rest_heads.col(1);
+  pose[1] = Eigen::Translation3d(head) * Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitX()) * Eigen::Translation3d(-head);
+  Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();
+  motion.linear() = Eigen::AngleAxisd(1.1, Eigen::Vector3d(0.3, 1.0, -0.2).normalized()).toRotationMatrix();
+  motion.translation() = Eigen::Vector3d(0.4, -0.2, 1.5);
+  JointTransforms moved = pose;
+  for (auto& t : moved) t = motion * t;
+  PosedBodyDistance posed(body_);
+  Eigen::MatrixXd a, b, still;
+  BodyProximityFeatures(probes_, pose, posed.Pose(pose), &a);
+  BodyProximityFeatures(probes_, moved, posed.Pose(moved), &b);
+  EXPECT_LT((a - b).cwiseAbs().maxCoeff(), 1e-9);
+  // The torso bent under the garment does change them.
+  const JointTransforms rest(joints, Eigen::Isometry3d::Identity());
+  BodyProximityFeatures(probes_, rest, posed.Pose(rest), &still);
+  EXPECT_GT((a - still).cwiseAbs().maxCoeff(), 1e-3);
+  EXPECT_TRUE(a.allFinite());
+  EXPECT_THROW(BodyProximityFeatures(probes_, JointTransforms(1), posed.Pose(rest), &a), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace polyfit
