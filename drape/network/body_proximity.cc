@@ -1,8 +1,13 @@
 #include "drape/network/body_proximity.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <map>
 #include <stdexcept>
+#include <utility>
+
+#include "polyfit/eval/mesh_metrics.h"
 
 namespace polyfit {
 
@@ -41,14 +46,13 @@ Eigen::Matrix3d GramSchmidt(const Eigen::Matrix3d& b) {
 
 }  // namespace
 
-void BodyProximityFeatures(const PatchProbes& probes, const JointTransforms& pose, const BodySignedDistance& body,
-                           Eigen::MatrixXd* features, std::vector<int>* hints) {
+void BodyProximityFeatures(const PatchProbes& probes, const JointTransforms& pose, const PosedBodySamples& body,
+                           Eigen::MatrixXd* features) {
   const int num_joints = static_cast<int>(probes.joint_weights.rows());
   if (static_cast<int>(pose.size()) != num_joints) {
     throw std::invalid_argument("BodyProximityFeatures: one transform per joint of the patches' weights is needed");
   }
   features->resize(kProximitySize, probes.num_patches());
-  if (hints != nullptr) hints->resize(probes.rest_points.cols(), -1);
   for (int p = 0; p < probes.num_patches(); ++p) {
     Eigen::Matrix3d linear = Eigen::Matrix3d::Zero();
     Eigen::Vector3d translation = Eigen::Vector3d::Zero();
@@ -60,10 +64,8 @@ void BodyProximityFeatures(const PatchProbes& probes, const JointTransforms& pos
     }
     const Eigen::Matrix3d frame = GramSchmidt(linear * probes.frames[p]);
     for (int i = 0; i < kProximityProbes; ++i) {
-      const int probe = kProximityProbes * p + i;
-      const Eigen::Vector3d x = linear * probes.rest_points.col(probe) + translation;
-      const SignedDistanceResult hit = body.Query(x, hints != nullptr ? (*hints)[probe] : -1);
-      if (hints != nullptr) (*hints)[probe] = hit.face;
+      const Eigen::Vector3d x = linear * probes.rest_points.col(kProximityProbes * p + i) + translation;
+      const SignedDistanceResult hit = body.Query(x);
       const double d = std::clamp(hit.distance / kProximityScale, -kProximityClamp, kProximityClamp);
       auto out = features->col(p).segment<4>(4 * i);
       out[0] = std::isfinite(d) ? d : kProximityClamp;
@@ -72,11 +74,72 @@ void BodyProximityFeatures(const PatchProbes& probes, const JointTransforms& pos
   }
 }
 
-PosedBodyDistance::PosedBodyDistance(const SkinnedBody& body) : body_(body), distance_(body.mesh) {}
+PosedBodySamples::PosedBodySamples(const SkinnedBody& body, double spacing) : num_joints_(body.skeleton.num_joints()) {
+  const Eigen::Matrix3Xd& v = body.mesh.vertices;
+  if (!(spacing > 0.0) || v.cols() == 0) throw std::invalid_argument("PosedBodySamples: no body or spacing <= 0");
+  // Per occupied cell, the vertex nearest its centre (ties: the first).
+  std::map<std::array<long, 3>, std::pair<double, int>> cells;
+  for (int i = 0; i < v.cols(); ++i) {
+    std::array<long, 3> cell;
+    double d2 = 0.0;
+    for (int a = 0; a < 3; ++a) {
+      cell[a] = static_cast<long>(std::floor(v(a, i) / spacing));
+      const double offset = v(a, i) - (cell[a] + 0.5) * spacing;
+      d2 += offset * offset;
+    }
+    const auto [it, added] = cells.emplace(cell, std::make_pair(d2, i));
+    if (!added && d2 < it->second.first) it->second = {d2, i};
+  }
+  std::vector<int> chosen;
+  for (const auto& [cell, best] : cells) chosen.push_back(best.second);
+  std::sort(chosen.begin(), chosen.end());
+  const Eigen::Matrix3Xd normals = VertexNormals(body.mesh);
+  const int n = static_cast<int>(chosen.size());
+  rest_points_.resize(3, n);
+  rest_normals_.resize(3, n);
+  offset_.push_back(0);
+  for (int s = 0; s < n; ++s) {
+    const int i = chosen[s];
+    rest_points_.col(s) = v.col(i);
+    rest_normals_.col(s) = normals.col(i);
+    for (int k = body.weight_offsets[i]; k < body.weight_offsets[i + 1]; ++k) {
+      joint_.push_back(body.weight_joint[k]);
+      weight_.push_back(body.weight_value[k]);
+    }
+    offset_.push_back(static_cast<int>(joint_.size()));
+  }
+  points_ = rest_points_;
+  normals_ = rest_normals_;
+  tree_ = std::make_unique<KdTree3>(points_);
+}
 
-const BodySignedDistance& PosedBodyDistance::Pose(const JointTransforms& pose) {
-  distance_.SetVertices(SkinVertices(body_, pose));
-  return distance_;
+void PosedBodySamples::Pose(const JointTransforms& pose) {
+  if (static_cast<int>(pose.size()) != num_joints_) {
+    throw std::invalid_argument("PosedBodySamples::Pose: one transform per joint is needed");
+  }
+  for (int s = 0; s < num_samples(); ++s) {
+    Eigen::Matrix3d linear = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+    for (int k = offset_[s]; k < offset_[s + 1]; ++k) {
+      linear += weight_[k] * pose[joint_[k]].linear();
+      translation += weight_[k] * pose[joint_[k]].translation();
+    }
+    points_.col(s) = linear * rest_points_.col(s) + translation;
+    const Eigen::Vector3d n = linear * rest_normals_.col(s);
+    const double length = n.norm();
+    normals_.col(s) = length > 0.0 ? Eigen::Vector3d(n / length) : n;
+  }
+  tree_ = std::make_unique<KdTree3>(points_);
+}
+
+SignedDistanceResult PosedBodySamples::Query(const Eigen::Vector3d& point) const {
+  double d2 = 0.0;
+  SignedDistanceResult r;
+  r.face = tree_->Nearest(point, &d2);
+  r.closest = points_.col(r.face);
+  r.normal = normals_.col(r.face);
+  r.distance = (point - r.closest).dot(r.normal);
+  return r;
 }
 
 }  // namespace polyfit

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "drape/body/procedural_body.h"
+#include "polyfit/eval/mesh_metrics.h"
 
 namespace polyfit {
 namespace {
@@ -67,18 +68,18 @@ class BodyProximityTest : public ::testing::Test {
   PatchProbes probes_;
 };
 
-TEST_F(BodyProximityTest, DistancesAndNormalsAreTheBodysInThePatchesFrames) {
+TEST_F(BodyProximityTest, DistancesAndNormalsAreTheNearestSamplesInThePatchesFrames) {
   const JointTransforms rest(body_.skeleton.num_joints(), Eigen::Isometry3d::Identity());
-  PosedBodyDistance posed(body_);
+  PosedBodySamples posed(body_);
+  posed.Pose(rest);
   Eigen::MatrixXd features;
-  BodyProximityFeatures(probes_, rest, posed.Pose(rest), &features);
+  BodyProximityFeatures(probes_, rest, posed, &features);
   ASSERT_EQ(features.rows(), kProximitySize);
   ASSERT_EQ(features.cols(), 2);
-  const BodySignedDistance direct(body_.mesh);
   int inside = 0, clamped = 0;
   for (int p = 0; p < 2; ++p) {
     for (int i = 0; i < kProximityProbes; ++i) {
-      const SignedDistanceResult hit = direct.Query(probes_.rest_points.col(kProximityProbes * p + i));
+      const SignedDistanceResult hit = posed.Query(probes_.rest_points.col(kProximityProbes * p + i));
       const double d = std::clamp(hit.distance / kProximityScale, -kProximityClamp, kProximityClamp);
       EXPECT_NEAR(features(4 * i, p), d, 1e-12);
       const Eigen::Vector3d normal = probes_.frames[p].transpose() * hit.normal;
@@ -92,6 +93,47 @@ TEST_F(BodyProximityTest, DistancesAndNormalsAreTheBodysInThePatchesFrames) {
   EXPECT_GT(clamped, 0);
 }
 
+// The samples are body vertices, posed as the body is, spread over all of
+// it; near the body their tangent planes' distance is the exact one's to
+// within the spacing's sag.
+TEST_F(BodyProximityTest, TheSamplesCoverTheBodyAndApproximateItsDistance) {
+  const double spacing = 0.05;  // the procedural body has few vertices
+  PosedBodySamples samples(body_, spacing);
+  EXPECT_GT(samples.num_samples(), 100);
+  EXPECT_LT(samples.num_samples(), body_.mesh.num_vertices() / 2);
+  JointTransforms pose(body_.skeleton.num_joints(), Eigen::Isometry3d::Identity());
+  const Eigen::Vector3d head = body_.skeleton.rest_heads.col(2);
+  pose[2] = Eigen::Translation3d(head) * Eigen::AngleAxisd(0.8, Eigen::Vector3d::UnitZ()) * Eigen::Translation3d(-head);
+  samples.Pose(pose);
+  const Eigen::Matrix3Xd body = SkinVertices(body_, pose);
+  const KdTree3 body_tree(body), sample_tree(samples.points());
+  double d2 = 0.0;
+  for (int s = 0; s < samples.num_samples(); ++s) {
+    body_tree.Nearest(samples.points().col(s), &d2);
+    EXPECT_LT(d2, 1e-20) << s;  // on a posed vertex
+  }
+  for (int v = 0; v < body.cols(); ++v) {
+    sample_tree.Nearest(body.col(v), &d2);
+    EXPECT_LT(std::sqrt(d2), 2.0 * spacing) << v;
+  }
+  BodySignedDistance exact(body_.mesh);
+  exact.SetVertices(body);
+  const Eigen::Matrix3Xd normals = VertexNormals(TriangleMesh{body, body_.mesh.faces});
+  int agree = 0, count = 0;
+  double error = 0.0;
+  for (int v = 0; v < body.cols(); v += 7) {
+    for (const double offset : {-0.005, 0.005, 0.02}) {
+      const Eigen::Vector3d p = body.col(v) + offset * normals.col(v);
+      const double truth = exact.Query(p).distance, approx = samples.Query(p).distance;
+      agree += (truth < 0.0) == (approx < 0.0) ? 1 : 0;
+      error += std::abs(truth - approx);
+      ++count;
+    }
+  }
+  EXPECT_GT(agree, 0.85 * count);  // the plane misleads where capsules meet
+  EXPECT_LT(error / count, 0.25 * spacing);
+}
+
 TEST_F(BodyProximityTest, ARigidMotionOfBodyAndGarmentTogetherChangesNothing) {
   const int joints = body_.skeleton.num_joints();
   JointTransforms pose(joints, Eigen::Isometry3d::Identity());
@@ -102,17 +144,21 @@ TEST_F(BodyProximityTest, ARigidMotionOfBodyAndGarmentTogetherChangesNothing) {
   motion.translation() = Eigen::Vector3d(0.4, -0.2, 1.5);
   JointTransforms moved = pose;
   for (auto& t : moved) t = motion * t;
-  PosedBodyDistance posed(body_);
+  PosedBodySamples posed(body_);
   Eigen::MatrixXd a, b, still;
-  BodyProximityFeatures(probes_, pose, posed.Pose(pose), &a);
-  BodyProximityFeatures(probes_, moved, posed.Pose(moved), &b);
+  posed.Pose(pose);
+  BodyProximityFeatures(probes_, pose, posed, &a);
+  posed.Pose(moved);
+  BodyProximityFeatures(probes_, moved, posed, &b);
   EXPECT_LT((a - b).cwiseAbs().maxCoeff(), 1e-9);
   // The torso bent under the garment does change them.
   const JointTransforms rest(joints, Eigen::Isometry3d::Identity());
-  BodyProximityFeatures(probes_, rest, posed.Pose(rest), &still);
+  posed.Pose(rest);
+  BodyProximityFeatures(probes_, rest, posed, &still);
   EXPECT_GT((a - still).cwiseAbs().maxCoeff(), 1e-3);
   EXPECT_TRUE(a.allFinite());
-  EXPECT_THROW(BodyProximityFeatures(probes_, JointTransforms(1), posed.Pose(rest), &a), std::invalid_argument);
+  EXPECT_THROW(BodyProximityFeatures(probes_, JointTransforms(1), posed, &a), std::invalid_argument);
+  EXPECT_THROW(posed.Pose(JointTransforms(1)), std::invalid_argument);
 }
 
 }  // namespace

@@ -57,7 +57,7 @@ OneFitDraper::OneFitDraper(const OneFitModel& model, const DrapeSolver& solver, 
                              ErrorKind::kInvalidArgument);
     }
     probes_ = MakePatchProbes(solver.model(), solver.PatchRestAreas(), joint_weights_);
-    posed_body_ = std::make_unique<PosedBodyDistance>(*body);
+    posed_body_ = std::make_unique<PosedBodySamples>(*body);
   }
 }
 
@@ -68,7 +68,10 @@ std::vector<double> OneFitDraper::Predict(const JointTransforms& before_previous
           .Apply(BodyFeatures(skeleton_, before_previous, previous, now, fps, shape, model_.root_rotation))
           .cwiseProduct(body_mask_);
   Eigen::MatrixXd outputs;
-  if (posed_body_) BodyProximityFeatures(probes_, now, posed_body_->Pose(now), &proximity_, &probe_hints_);
+  if (posed_body_) {
+    posed_body_->Pose(now);
+    BodyProximityFeatures(probes_, now, *posed_body_, &proximity_);
+  }
   model_.network.ForwardWithGarmentHalf(model_.weights.data(), garment_half_, body, &joint_weights_, &proximity_,
                                         &outputs);
   return PatchParametersFromOutputs(map_, outputs, model_.network.num_coefficients());

@@ -54,9 +54,8 @@ class OneFitDraper {
   // With the body proximity: the patches' probes, the body posed per frame
   // and the features (buffers reused from frame to frame).
   PatchProbes probes_;
-  std::unique_ptr<PosedBodyDistance> posed_body_;
+  std::unique_ptr<PosedBodySamples> posed_body_;
   mutable Eigen::MatrixXd proximity_;
-  mutable std::vector<int> probe_hints_;
 };
 
 }  // namespace polyfit

@@ -155,7 +155,7 @@ OneFitTrainer::OneFitTrainer(std::vector<OneFitTrainingBody> bodies, const OneFi
       proximity_.resize(options.num_threads);
       for (auto& cache : proximity_) {
         if (!cache) cache = std::make_unique<ProximityCache>();
-        cache->bodies.push_back(std::make_unique<PosedBodyDistance>(body.body));
+        cache->bodies.push_back(std::make_unique<PosedBodySamples>(body.body));
       }
     }
     for (const OneFitTrainingGarment& g : body.garments) {
@@ -309,7 +309,9 @@ const Eigen::MatrixXd* OneFitTrainer::ProximityAt(int garment, int clip, int fra
   if (cache.features.size() >= 1024) cache.features.clear();
   const GarmentData& g = *garments_[garment];
   Eigen::MatrixXd& features = cache.features[key];
-  BodyProximityFeatures(g.probes, c.poses[frame], cache.bodies[g.body]->Pose(c.poses[frame]), &features);
+  PosedBodySamples& body = *cache.bodies[g.body];
+  body.Pose(c.poses[frame]);
+  BodyProximityFeatures(g.probes, c.poses[frame], body, &features);
   return &features;
 }
 

@@ -35,7 +35,7 @@ struct OneFitTrainer::GarmentData {
 // proximity features of the frames it computed last, by (garment, clip,
 // frame): a batch's iterations revisit its samples' frames.
 struct OneFitTrainer::ProximityCache {
-  std::vector<std::unique_ptr<PosedBodyDistance>> bodies;
+  std::vector<std::unique_ptr<PosedBodySamples>> bodies;
   std::map<std::tuple<int, int, int>, Eigen::MatrixXd> features;
 };
 
