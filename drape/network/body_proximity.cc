@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <stdexcept>
 #include <utility>
@@ -110,7 +111,7 @@ PosedBodySamples::PosedBodySamples(const SkinnedBody& body, double spacing) : nu
   }
   points_ = rest_points_;
   normals_ = rest_normals_;
-  tree_ = std::make_unique<KdTree3>(points_);
+  tree_ = std::make_unique<RefitPointTree>(points_);
 }
 
 void PosedBodySamples::Pose(const JointTransforms& pose) {
@@ -129,13 +130,18 @@ void PosedBodySamples::Pose(const JointTransforms& pose) {
     const double length = n.norm();
     normals_.col(s) = length > 0.0 ? Eigen::Vector3d(n / length) : n;
   }
-  tree_ = std::make_unique<KdTree3>(points_);
+  tree_->Refit(points_);
 }
 
 SignedDistanceResult PosedBodySamples::Query(const Eigen::Vector3d& point) const {
   double d2 = 0.0;
   SignedDistanceResult r;
   r.face = tree_->Nearest(point, &d2);
+  if (r.face < 0) {  // a point with a NaN: no sample is nearest
+    r.distance = std::numeric_limits<double>::quiet_NaN();
+    r.normal.setZero();
+    return r;
+  }
   r.closest = points_.col(r.face);
   r.normal = normals_.col(r.face);
   r.distance = (point - r.closest).dot(r.normal);

@@ -29,7 +29,7 @@
 #include "drape/body/makehuman_body.h"
 #include "drape/collision/signed_distance.h"
 #include "drape/network/onefit_features.h"
-#include "polyfit/eval/kd_tree.h"
+#include "polyfit/eval/refit_point_tree.h"
 #include "polyfit/model/polyfit_model.h"
 
 namespace polyfit {
@@ -58,8 +58,10 @@ PatchProbes MakePatchProbes(const PolyFitModel& model, const std::vector<double>
 // The body as about two thousand of its vertices (the one nearest each
 // occupied cell's centre on a grid of `spacing`) with their normals, posed
 // frame by frame by linear blend skinning (normals by the blended
-// rotation), and a kd-tree over them. A query answers with the nearest
-// sample and the distance to its tangent plane, d = (p - x_v) . n_v: the
+// rotation), and a tree over them built once and refitted per pose
+// (RefitPointTree). A query answers with the nearest sample and the
+// distance to its tangent plane, d = (p - x_v) . n_v (NaN for a point
+// with a NaN): the
 // nearest-vertex approximation of SNUG and GAPS (NearestVertexDistance),
 // within the spacing's sag of the exact distance near the body, at about a
 // tenth of the exact one's cost per frame (refitting a tree over the whole
@@ -82,7 +84,7 @@ class PosedBodySamples {
   // Sample s's bones: joint_[offset_[s] .. offset_[s + 1]), weights weight_.
   std::vector<int> offset_, joint_;
   std::vector<double> weight_;
-  std::unique_ptr<KdTree3> tree_;
+  std::unique_ptr<RefitPointTree> tree_;  // built once, refitted per pose
 };
 
 // kProximitySize by #patches into *features (resized): per patch, per

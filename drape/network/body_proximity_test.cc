@@ -118,7 +118,7 @@ TEST_F(BodyProximityTest, TheSamplesCoverTheBodyAndApproximateItsDistance) {
   }
   BodySignedDistance exact(body_.mesh);
   exact.SetVertices(body);
-  const Eigen::Matrix3Xd normals = VertexNormals(TriangleMesh{body, body_.mesh.faces});
+  const Eigen::Matrix3Xd normals = VertexNormals(TriangleMesh{body, body_.mesh.faces, {}});
   int agree = 0, count = 0;
   double error = 0.0;
   for (int v = 0; v < body.cols(); v += 7) {

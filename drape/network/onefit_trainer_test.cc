@@ -572,7 +572,7 @@ TEST_F(OneFitTrainerTest, AveragedWeightsAreTheBatchesMeanAndResumeWithIt) {
   averaging.Train(&resumed, 3, nullptr, &loaded);
   EXPECT_EQ(resumed, straight);
   // A state written without averaging has no average.
-  SaveOneFitAdamState(path, OneFitAdamState{saved.m, saved.v, saved.steps, {}});
+  SaveOneFitAdamState(path, OneFitAdamState{saved.m, saved.v, saved.steps, {}, {}});
   EXPECT_TRUE(LoadOneFitAdamState(path, checkpoint.size()).average.empty());
 
   options.optimizer = OneFitOptimizer::kLbfgs;

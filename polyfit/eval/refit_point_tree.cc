@@ -1,0 +1,95 @@
+#include "polyfit/eval/refit_point_tree.h"
+
+#include <algorithm>
+#include <limits>
+#include <numeric>
+#include <stdexcept>
+
+namespace polyfit {
+namespace {
+
+constexpr int kLeafSize = 8;
+
+double BoxDistance2(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, const Eigen::Vector3d& q) {
+  return (lo - q).cwiseMax(q - hi).cwiseMax(0.0).squaredNorm();
+}
+
+}  // namespace
+
+RefitPointTree::RefitPointTree(const Eigen::Matrix3Xd& points) : order_(points.cols()) {
+  if (points.cols() == 0) throw std::invalid_argument("RefitPointTree: no points");
+  std::iota(order_.begin(), order_.end(), 0);
+  nodes_.reserve(4 * (points.cols() / kLeafSize + 1));
+  Build(points, 0, static_cast<int>(points.cols()));
+  points_.resize(3, points.cols());
+  Refit(points);
+}
+
+int RefitPointTree::Build(const Eigen::Matrix3Xd& points, int begin, int end) {
+  const int index = static_cast<int>(nodes_.size());
+  nodes_.push_back({Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), begin, end, -1, -1});
+  if (end - begin <= kLeafSize) return index;
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  for (int i = begin; i < end; ++i) {
+    lo = lo.cwiseMin(points.col(order_[i]));
+    hi = hi.cwiseMax(points.col(order_[i]));
+  }
+  int axis;
+  (hi - lo).maxCoeff(&axis);
+  const int mid = (begin + end) / 2;
+  std::nth_element(order_.begin() + begin, order_.begin() + mid, order_.begin() + end,
+                   [&](int a, int b) { return points(axis, a) < points(axis, b); });
+  const int left = Build(points, begin, mid);
+  const int right = Build(points, mid, end);
+  nodes_[index].left = left;
+  nodes_[index].right = right;
+  return index;
+}
+
+void RefitPointTree::Refit(const Eigen::Matrix3Xd& points) {
+  if (points.cols() != size()) throw std::invalid_argument("RefitPointTree::Refit: another number of points");
+  for (int i = 0; i < size(); ++i) points_.col(i) = points.col(order_[i]);
+  // Children come after their parents: backwards, every child is done first.
+  for (int n = static_cast<int>(nodes_.size()) - 1; n >= 0; --n) {
+    Node& node = nodes_[n];
+    if (node.left < 0) {
+      node.lo = points_.middleCols(node.begin, node.end - node.begin).rowwise().minCoeff();
+      node.hi = points_.middleCols(node.begin, node.end - node.begin).rowwise().maxCoeff();
+    } else {
+      node.lo = nodes_[node.left].lo.cwiseMin(nodes_[node.right].lo);
+      node.hi = nodes_[node.left].hi.cwiseMax(nodes_[node.right].hi);
+    }
+  }
+}
+
+void RefitPointTree::Search(int index, const Eigen::Vector3d& q, int* best, double* best_d2) const {
+  const Node& node = nodes_[index];
+  if (node.left < 0) {
+    for (int i = node.begin; i < node.end; ++i) {
+      const double d2 = (points_.col(i) - q).squaredNorm();
+      if (d2 < *best_d2) {
+        *best_d2 = d2;
+        *best = i;
+      }
+    }
+    return;
+  }
+  const Node& left = nodes_[node.left];
+  const Node& right = nodes_[node.right];
+  const double dl = BoxDistance2(left.lo, left.hi, q), dr = BoxDistance2(right.lo, right.hi, q);
+  const bool left_first = dl <= dr;
+  const int near = left_first ? node.left : node.right, far = left_first ? node.right : node.left;
+  const double d_near = left_first ? dl : dr, d_far = left_first ? dr : dl;
+  if (d_near < *best_d2) Search(near, q, best, best_d2);
+  if (d_far < *best_d2) Search(far, q, best, best_d2);
+}
+
+int RefitPointTree::Nearest(const Eigen::Vector3d& query, double* squared_distance) const {
+  int best = -1;
+  double best_d2 = std::numeric_limits<double>::infinity();
+  Search(0, query, &best, &best_d2);
+  if (squared_distance) *squared_distance = best_d2;
+  return best < 0 ? -1 : order_[best];
+}
+
+}  // namespace polyfit

@@ -1,0 +1,48 @@
+// Nearest-neighbour queries among 3D points that move, such as a posed
+// body's samples: the tree's topology (median splits of the points as first
+// given) is built once, and each frame only its nodes' bounding boxes are
+// refitted to the moved points, in O(N) with no allocation. Queries prune by
+// the distance to a node's box, so they stay exact however the points move;
+// they only slow down where a node's points drifted apart and its box grew
+// (linear blend skinning keeps neighbours near: the boxes stay tight).
+#ifndef POLYFIT_EVAL_REFIT_POINT_TREE_H_
+#define POLYFIT_EVAL_REFIT_POINT_TREE_H_
+
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace polyfit {
+
+class RefitPointTree {
+ public:
+  // points: 3 by N, N > 0 (throws std::invalid_argument otherwise): the
+  // layout the topology is built for, and the first positions.
+  explicit RefitPointTree(const Eigen::Matrix3Xd& points);
+
+  // The same N points, moved (throws std::invalid_argument on another N).
+  void Refit(const Eigen::Matrix3Xd& points);
+
+  // Index (into the points as given) of the nearest point to query, and
+  // its squared distance.
+  int Nearest(const Eigen::Vector3d& query, double* squared_distance) const;
+
+  int size() const { return static_cast<int>(order_.size()); }
+
+ private:
+  struct Node {
+    Eigen::Vector3d lo, hi;  // the box of points_ columns [begin, end)
+    int begin, end;
+    int left, right;  // children (always after their parent), -1 for a leaf
+  };
+  int Build(const Eigen::Matrix3Xd& points, int begin, int end);
+  void Search(int node, const Eigen::Vector3d& q, int* best, double* best_d2) const;
+
+  Eigen::Matrix3Xd points_;  // 3 by N, in leaf order
+  std::vector<int> order_;   // leaf order -> the index as given
+  std::vector<Node> nodes_;  // depth first, the root first
+};
+
+}  // namespace polyfit
+
+#endif  // POLYFIT_EVAL_REFIT_POINT_TREE_H_

@@ -1,0 +1,72 @@
+#include "polyfit/eval/refit_point_tree.h"
+
+#include <cmath>
+#include <limits>
+#include <random>
+#include <stdexcept>
+
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+
+namespace polyfit {
+namespace {
+
+void ExpectMatchesBruteForce(const RefitPointTree& tree, const Eigen::Matrix3Xd& points, std::mt19937_64* rng,
+                             double spread) {
+  std::normal_distribution<double> g(0, spread);
+  for (int q = 0; q < 300; ++q) {
+    const Eigen::Vector3d query(g(*rng), g(*rng), g(*rng));
+    double d2;
+    const int nearest = tree.Nearest(query, &d2);
+    int expected;
+    const double e2 = (points.colwise() - query).colwise().squaredNorm().minCoeff(&expected);
+    ASSERT_EQ(nearest, expected) << "query " << q;
+    EXPECT_DOUBLE_EQ(d2, e2);
+  }
+}
+
+TEST(RefitPointTree, MatchesBruteForceAsBuiltAndAfterTheLayoutIsTornApart) {
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> g(0, 1);
+  Eigen::Matrix3Xd points = Eigen::Matrix3Xd::NullaryExpr(3, 2000, [&] { return g(rng); });
+  RefitPointTree tree(points);
+  ExpectMatchesBruteForce(tree, points, &rng, 1.0);
+  ExpectMatchesBruteForce(tree, points, &rng, 10.0);  // queries far outside
+  // A non-rigid motion: the upper half turned by 90 degrees and carried
+  // away, the lower half sheared, so the built topology's boxes overlap.
+  const Eigen::Matrix3d turn = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  for (int i = 0; i < points.cols(); ++i) {
+    if (points(1, i) > 0) {
+      points.col(i) = turn * points.col(i) + Eigen::Vector3d(0.5, 1.0, 0.0);
+    } else {
+      points(0, i) += 0.7 * points(2, i);
+    }
+  }
+  tree.Refit(points);
+  ExpectMatchesBruteForce(tree, points, &rng, 1.0);
+  // Every point collapsed onto a few: ties, but the distance is exact.
+  Eigen::Matrix3Xd few = points;
+  for (int i = 0; i < few.cols(); ++i) few.col(i) = points.col(i % 3);
+  tree.Refit(few);
+  double d2;
+  const int nearest = tree.Nearest(points.col(1), &d2);
+  EXPECT_EQ(d2, 0.0);
+  EXPECT_EQ(nearest % 3, 1);
+}
+
+TEST(RefitPointTree, BadInput) {
+  EXPECT_THROW(RefitPointTree(Eigen::Matrix3Xd(3, 0)), std::invalid_argument);
+  RefitPointTree tree(Eigen::Matrix3Xd::Random(3, 20));
+  EXPECT_THROW(tree.Refit(Eigen::Matrix3Xd::Random(3, 21)), std::invalid_argument);
+  // A query with a NaN finds nothing rather than a wrong point.
+  double d2 = 0.0;
+  EXPECT_EQ(tree.Nearest(Eigen::Vector3d(std::nan(""), 0, 0), &d2), -1);
+  EXPECT_TRUE(std::isinf(d2));
+  // One point: a leaf as the root.
+  const RefitPointTree one(Eigen::Matrix3Xd::Zero(3, 1));
+  EXPECT_EQ(one.Nearest(Eigen::Vector3d(1, 2, 3), &d2), 0);
+  EXPECT_DOUBLE_EQ(d2, 14.0);
+}
+
+}  // namespace
+}  // namespace polyfit
