@@ -6,6 +6,7 @@
 #include <limits>
 #include <map>
 #include <stdexcept>
+#include <string>
 #include <utility>
 
 #include "polyfit/eval/mesh_metrics.h"
@@ -13,23 +14,29 @@
 namespace polyfit {
 
 PatchProbes MakePatchProbes(const PolyFitModel& model, const std::vector<double>& areas,
-                            const Eigen::MatrixXd& joint_weights) {
-  const int n = model.num_patches();
+                            const Eigen::MatrixXd& joint_weights, int probes_per_patch) {
+  const int n = model.num_patches(), m = probes_per_patch;
   if (static_cast<int>(areas.size()) != n || joint_weights.cols() != n) {
     throw std::invalid_argument("MakePatchProbes: one area and one column of joint weights per patch are needed");
   }
+  if (!IsProximityLayout(m)) {
+    throw std::invalid_argument("MakePatchProbes: " + std::to_string(m) + " probes per patch (" +
+                                std::to_string(kProximityProbes) + " or " + std::to_string(kRimProximityProbes) +
+                                " are laid out)");
+  }
   PatchProbes probes;
-  probes.rest_points.resize(3, kProximityProbes * n);
+  probes.probes_per_patch = m;
+  probes.rest_points.resize(3, m * n);
   probes.joint_weights = joint_weights;
   for (int p = 0; p < n; ++p) {
     const JetPatch& patch = model.patches[p];
     probes.frames.push_back(patch.frame.rotation);
     // (u, v) are in the frame's scaled units.
-    const double a = kProbeReach * std::sqrt(std::max(areas[p], 0.0) / M_PI) / patch.frame.scale;
-    const double uv[kProximityProbes][2] = {{0.0, 0.0}, {a, 0.0}, {-a, 0.0}, {0.0, a}, {0.0, -a}};
-    for (int i = 0; i < kProximityProbes; ++i) {
-      probes.rest_points.col(kProximityProbes * p + i) = patch.PointInWorld(uv[i][0], uv[i][1]);
-    }
+    const double rho = std::sqrt(std::max(areas[p], 0.0) / M_PI) / patch.frame.scale;
+    const double a = kProbeReach * rho, b = rho / std::sqrt(2.0);
+    const double uv[kRimProximityProbes][2] = {{0.0, 0.0}, {a, 0.0},  {-a, 0.0}, {0.0, a},  {0.0, -a},
+                                               {b, b},     {-b, b},   {-b, -b},  {b, -b}};
+    for (int i = 0; i < m; ++i) probes.rest_points.col(m * p + i) = patch.PointInWorld(uv[i][0], uv[i][1]);
   }
   return probes;
 }
@@ -53,7 +60,8 @@ void BodyProximityFeatures(const PatchProbes& probes, const JointTransforms& pos
   if (static_cast<int>(pose.size()) != num_joints) {
     throw std::invalid_argument("BodyProximityFeatures: one transform per joint of the patches' weights is needed");
   }
-  features->resize(kProximitySize, probes.num_patches());
+  const int m = probes.probes_per_patch;
+  features->resize(ProximitySize(m), probes.num_patches());
   for (int p = 0; p < probes.num_patches(); ++p) {
     Eigen::Matrix3d linear = Eigen::Matrix3d::Zero();
     Eigen::Vector3d translation = Eigen::Vector3d::Zero();
@@ -64,8 +72,8 @@ void BodyProximityFeatures(const PatchProbes& probes, const JointTransforms& pos
       translation += w * pose[j].translation();
     }
     const Eigen::Matrix3d frame = GramSchmidt(linear * probes.frames[p]);
-    for (int i = 0; i < kProximityProbes; ++i) {
-      const Eigen::Vector3d x = linear * probes.rest_points.col(kProximityProbes * p + i) + translation;
+    for (int i = 0; i < m; ++i) {
+      const Eigen::Vector3d x = linear * probes.rest_points.col(m * p + i) + translation;
       const SignedDistanceResult hit = body.Query(x);
       const double d = std::clamp(hit.distance / kProximityScale, -kProximityClamp, kProximityClamp);
       auto out = features->col(p).segment<4>(4 * i);

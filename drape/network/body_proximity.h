@@ -10,7 +10,10 @@
 //
 // Probes: each patch's rest jet at its centre and at (+-a, 0), (0, +-a) in
 // its frame, a = kProbeReach rho (rho = sqrt(A / pi), A its rest area), a
-// fixed count per patch whatever its meshing. A probe x is posed by the
+// fixed count per patch whatever its meshing; the rim layout
+// (kRimProximityProbes) adds (+-b, +-b), b = rho / sqrt(2), on the rim of
+// the disc of the patch's area, where a body part that skinning carries
+// into the patch's edge shows first. A probe x is posed by the
 // patch's members' mean skinning weights w_kj (PatchJointWeights),
 // x' = sum_j w_kj T_j x. Per probe, from the nearest point of the posed
 // body's samples (PosedBodySamples): the signed distance d as clamp(d / kProximityScale,
@@ -34,15 +37,24 @@
 
 namespace polyfit {
 
+// Probes per patch: the default layout and the rim layout (the first five
+// of which are the default's).
 inline constexpr int kProximityProbes = 5;
-inline constexpr int kProximitySize = 4 * kProximityProbes;
+inline constexpr int kRimProximityProbes = 9;
+inline constexpr bool IsProximityLayout(int probes) {
+  return probes == kProximityProbes || probes == kRimProximityProbes;
+}
+// The values per patch: [d, F^T n] per probe.
+inline constexpr int ProximitySize(int probes) { return 4 * probes; }
+inline constexpr int kProximitySize = ProximitySize(kProximityProbes);
 inline constexpr double kProbeReach = 0.5;
 inline constexpr double kProximityScale = 0.01;  // m
 inline constexpr double kProximityClamp = 4.0;
 
 // One garment's probes, from its rest patches (once per garment).
 struct PatchProbes {
-  Eigen::Matrix3Xd rest_points;         // 3 by kProximityProbes #patches, patch-major
+  int probes_per_patch = kProximityProbes;
+  Eigen::Matrix3Xd rest_points;         // 3 by probes_per_patch #patches, patch-major
   std::vector<Eigen::Matrix3d> frames;  // R_0 per patch
   Eigen::MatrixXd joint_weights;        // #joints by #patches (PatchJointWeights)
 
@@ -50,10 +62,11 @@ struct PatchProbes {
 };
 
 // model: the garment's rest patches; areas: their rest areas (m^2, one per
-// patch); joint_weights: PatchJointWeights. Throws std::invalid_argument on
-// mismatched sizes.
+// patch); joint_weights: PatchJointWeights; probes_per_patch: a layout
+// (IsProximityLayout). Throws std::invalid_argument on mismatched sizes or
+// another count of probes.
 PatchProbes MakePatchProbes(const PolyFitModel& model, const std::vector<double>& areas,
-                            const Eigen::MatrixXd& joint_weights);
+                            const Eigen::MatrixXd& joint_weights, int probes_per_patch = kProximityProbes);
 
 // The body as about two thousand of its vertices (the one nearest each
 // occupied cell's centre on a grid of `spacing`) with their normals, posed
@@ -87,7 +100,8 @@ class PosedBodySamples {
   std::unique_ptr<RefitPointTree> tree_;  // built once, refitted per pose
 };
 
-// kProximitySize by #patches into *features (resized): per patch, per
+// ProximitySize(probes.probes_per_patch) by #patches into *features
+// (resized): per patch, per
 // probe [d, F^T n] as above. pose: one rest-to-posed transform per joint;
 // body: posed by the same pose.
 void BodyProximityFeatures(const PatchProbes& probes, const JointTransforms& pose, const PosedBodySamples& body,

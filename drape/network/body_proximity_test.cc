@@ -1,5 +1,6 @@
 #include "drape/network/body_proximity.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <gtest/gtest.h>
@@ -40,6 +41,47 @@ TEST(PatchProbesTest, SitOnTheRestJetAtHalfTheAreasRadiusWhateverTheFramesScale)
     EXPECT_NEAR((probes.rest_points.col(4) - centre).dot(rotation.col(1)), -reach, 1e-12);
   }
   EXPECT_THROW(MakePatchProbes(FlatPatch(rotation, 1.0), {}, Eigen::MatrixXd::Ones(1, 1)), std::invalid_argument);
+}
+
+TEST(PatchProbesTest, TheRimLayoutAddsFourDiagonalProbesOnTheAreasRadius) {
+  const Eigen::Matrix3d rotation = Eigen::AngleAxisd(-0.4, Eigen::Vector3d(3, 1, 2).normalized()).toRotationMatrix();
+  const double area = 0.02, rho = std::sqrt(area / M_PI);
+  const PolyFitModel patch = FlatPatch(rotation, 1.5);
+  const PatchProbes five = MakePatchProbes(patch, {area}, Eigen::MatrixXd::Ones(1, 1));
+  const PatchProbes nine = MakePatchProbes(patch, {area}, Eigen::MatrixXd::Ones(1, 1), kRimProximityProbes);
+  ASSERT_EQ(nine.probes_per_patch, kRimProximityProbes);
+  ASSERT_EQ(nine.rest_points.cols(), kRimProximityProbes);
+  EXPECT_EQ(nine.rest_points.leftCols(kProximityProbes), five.rest_points);  // the default's first
+  const Eigen::Vector3d centre = nine.rest_points.col(0);
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (int i = kProximityProbes; i < kRimProximityProbes; ++i) {
+    const Eigen::Vector3d offset = nine.rest_points.col(i) - centre;
+    EXPECT_NEAR(offset.norm(), rho, 1e-12) << i;
+    EXPECT_NEAR(std::abs(offset.dot(rotation.col(0))), rho / std::sqrt(2.0), 1e-12) << i;  // diagonal
+    EXPECT_NEAR(offset.dot(rotation.col(2)), 0.0, 1e-12);
+    sum += offset;
+  }
+  EXPECT_NEAR(sum.norm(), 0.0, 1e-12);  // four corners, opposite in pairs
+  for (const int count : {0, 4, 6, 13}) {
+    EXPECT_THROW(MakePatchProbes(patch, {area}, Eigen::MatrixXd::Ones(1, 1), count), std::invalid_argument);
+  }
+  // The features: four values a probe.
+  const SkinnedBody body = MakeProceduralBody();
+  const PosedBodySamples samples(body, 0.05);
+  PatchProbes on_body = MakePatchProbes(patch, {area}, Eigen::MatrixXd::Zero(body.skeleton.num_joints(), 1),
+                                        kRimProximityProbes);
+  on_body.joint_weights(0, 0) = 1.0;
+  Eigen::MatrixXd features;
+  BodyProximityFeatures(on_body, JointTransforms(body.skeleton.num_joints(), Eigen::Isometry3d::Identity()), samples,
+                        &features);
+  EXPECT_EQ(features.rows(), ProximitySize(kRimProximityProbes));
+  EXPECT_EQ(features.cols(), 1);
+  for (int i = 0; i < kRimProximityProbes; ++i) {
+    EXPECT_NEAR(features(4 * i, 0), std::clamp(samples.Query(on_body.rest_points.col(i)).distance / kProximityScale,
+                                               -kProximityClamp, kProximityClamp),
+                1e-12);
+    EXPECT_NEAR(features.col(0).segment<3>(4 * i + 1).norm(), 1.0, 1e-12);  // a unit normal
+  }
 }
 
 class BodyProximityTest : public ::testing::Test {

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <iterator>
 
+#include "drape/network/body_proximity.h"
 #include "polyfit/jet/jet_basis.h"
 #include "polyfit/util/atomic_file.h"
 #include "polyfit/util/binary_io.h"
@@ -119,6 +120,7 @@ void SaveOneFitModel(const std::string& path, const OneFitModel& model) {
   w.Put<double>(model.joint_mask_reach);
   w.Put<double>(model.warp_slide_bound);
   w.Put<std::int32_t>(model.network.body_proximity() ? 1 : 0);
+  w.Put<std::int32_t>(model.network.proximity_probes());
   PutMlp(model.network.patch_encoder(), &w);
   PutMlp(model.network.body_encoder(), &w);
   PutMlp(model.network.decoder(), &w);
@@ -219,6 +221,9 @@ OneFitModel LoadOneFitModel(const std::string& path) {
   if (!(model.warp_slide_bound >= 0.0 && model.warp_slide_bound <= 1.0)) r.Fail("warp slide bound out of [0, 1]");
   const int proximity = version >= 11 ? r.Get<std::int32_t>("the header") : 0;
   if (proximity != 0 && proximity != 1) r.Fail("body proximity flag out of range");
+  // Version 11 had one layout of probes.
+  const int probes = version >= 12 ? r.Get<std::int32_t>("the header") : (proximity == 1 ? kProximityProbes : 0);
+  if (proximity == 0 ? probes != 0 : !IsProximityLayout(probes)) r.Fail("proximity probes out of range");
   if (aligned != 0 && aligned != 1) r.Fail("frame alignment flag out of range");
   if (local_pose != 0 && local_pose != 1) r.Fail("local pose flag out of range");
   model.aligned_frames = aligned == 1;
@@ -230,7 +235,7 @@ OneFitModel LoadOneFitModel(const std::string& path) {
   Mlp decoder = GetMlp(&r, "the decoder");
   try {
     model.network = OneFitNetwork(std::move(patch), std::move(body), std::move(decoder),
-                                  NumJetCoefficients(model.jet_order), warp_order, proximity == 1);
+                                  NumJetCoefficients(model.jet_order), warp_order, probes);
   } catch (const std::invalid_argument& e) {
     r.Fail(e.what());
   }

@@ -22,7 +22,7 @@ namespace polyfit {
 // joint mask's reach, version 10 the warp's slide bound, version 11 whether
 // the decoder reads the body proximity; earlier files
 // still load.
-inline constexpr int kOneFitModelVersion = 11;
+inline constexpr int kOneFitModelVersion = 12;
 
 class OneFitModelError : public Error {
  public:

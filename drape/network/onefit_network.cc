@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 #include "drape/network/body_proximity.h"
 #include "drape/network/onefit_features.h"
@@ -29,6 +30,10 @@ std::string OneFitNetworkOptions::Validate() const {
   if (!(initial_output_scale > 0.0)) return "initial_output_scale must be > 0";
   if (warp_order < -1 || warp_order > kMaxJetOrder)
     return "warp_order must be in [-1, " + std::to_string(kMaxJetOrder) + "]";
+  if (body_proximity && !IsProximityLayout(proximity_probes)) {
+    return "proximity_probes must be " + std::to_string(kProximityProbes) + " or " +
+           std::to_string(kRimProximityProbes);
+  }
   return {};
 }
 
@@ -37,12 +42,12 @@ OneFitNetwork::OneFitNetwork(int patch_features, int body_features, int num_coef
     : patch_encoder_(Sizes(patch_features, options.patch_hidden, options.patch_embedding)),
       body_encoder_(Sizes(body_features, options.body_hidden, options.body_embedding)),
       decoder_(Sizes(options.patch_embedding + options.body_embedding + (options.local_pose ? kLocalPoseSize : 0) +
-                         (options.body_proximity ? kProximitySize : 0),
+                         (options.body_proximity ? ProximitySize(options.proximity_probes) : 0),
                      options.decoder_hidden, num_coefficients + 4 + 2 * NumJetCoefficients(options.warp_order))),
       num_coefficients_(num_coefficients),
       warp_order_(options.warp_order),
       local_size_(options.local_pose ? kLocalPoseSize : 0),
-      proximity_size_(options.body_proximity ? kProximitySize : 0) {
+      proximity_size_(options.body_proximity ? ProximitySize(options.proximity_probes) : 0) {
   if (const std::string problem = options.Validate(); !problem.empty()) {
     throw std::invalid_argument("OneFitNetworkOptions: " + problem);
   }
@@ -50,13 +55,16 @@ OneFitNetwork::OneFitNetwork(int patch_features, int body_features, int num_coef
 }
 
 OneFitNetwork::OneFitNetwork(Mlp patch_encoder, Mlp body_encoder, Mlp decoder, int num_coefficients, int warp_order,
-                             bool body_proximity)
+                             int proximity_probes)
     : patch_encoder_(std::move(patch_encoder)),
       body_encoder_(std::move(body_encoder)),
       decoder_(std::move(decoder)),
       num_coefficients_(num_coefficients),
       warp_order_(warp_order),
-      proximity_size_(body_proximity ? kProximitySize : 0) {
+      proximity_size_(ProximitySize(proximity_probes)) {
+  if (proximity_probes != 0 && !IsProximityLayout(proximity_probes)) {
+    throw std::invalid_argument("OneFitNetwork: " + std::to_string(proximity_probes) + " proximity probes per patch");
+  }
   local_size_ = decoder_.input_size() - patch_encoder_.output_size() - body_encoder_.output_size() - proximity_size_;
   Check();
 }
@@ -79,8 +87,8 @@ Eigen::MatrixXd LocalPose(const Eigen::VectorXd& body_features, const Eigen::Mat
 }
 
 // p_k of every patch, checked.
-const Eigen::MatrixXd& Proximity(const Eigen::MatrixXd* proximity, Eigen::Index num_patches) {
-  if (proximity == nullptr || proximity->rows() != kProximitySize || proximity->cols() != num_patches) {
+const Eigen::MatrixXd& Proximity(const Eigen::MatrixXd* proximity, int size, Eigen::Index num_patches) {
+  if (proximity == nullptr || proximity->rows() != size || proximity->cols() != num_patches) {
     throw std::invalid_argument("OneFitNetwork: a network with the body proximity needs every patch's");
   }
   return *proximity;
@@ -101,7 +109,7 @@ void OneFitNetwork::Forward(const double* weights, const Eigen::MatrixXd& patch_
   joint.middleRows(z_t.rows(), z_b.rows()) = z_b.col(0).replicate(1, num_patches);
   const Eigen::Index inputs = z_t.rows() + z_b.rows();
   if (local_size_ > 0) joint.middleRows(inputs, local_size_) = LocalPose(body_features, joint_weights, num_patches);
-  if (proximity_size_ > 0) joint.bottomRows(proximity_size_) = Proximity(proximity, num_patches);
+  if (proximity_size_ > 0) joint.bottomRows(proximity_size_) = Proximity(proximity, proximity_size_, num_patches);
   decoder_.Forward(weights + decoder_offset(), joint, outputs, cache != nullptr ? &cache->decoder : nullptr);
   if (cache != nullptr) cache->num_patches = static_cast<int>(num_patches);
 }
@@ -144,7 +152,7 @@ void OneFitNetwork::ForwardWithGarmentHalf(const double* weights, const Eigen::M
   if (local_size_ > 0) {
     a.noalias() += w.middleCols(e_t + z_b.rows(), local_size_) * LocalPose(body_features, joint_weights, a.cols());
   }
-  if (proximity_size_ > 0) a.noalias() += w.rightCols(proximity_size_) * Proximity(proximity, a.cols());
+  if (proximity_size_ > 0) a.noalias() += w.rightCols(proximity_size_) * Proximity(proximity, proximity_size_, a.cols());
   if (decoder_.num_layers() == 1) {
     *outputs = std::move(a);
     return;

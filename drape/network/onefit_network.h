@@ -58,9 +58,11 @@ struct OneFitNetworkOptions {
   // The decoder also reads each patch's local pose x_k (kLocalPoseSize
   // values); Forward then needs the patches' joint weights.
   bool local_pose = false;
-  // The decoder also reads each patch's body proximity p_k (kProximitySize
-  // values); Forward then needs them.
+  // The decoder also reads each patch's body proximity p_k
+  // (ProximitySize(proximity_probes) values: body_proximity.h's layouts of
+  // 5 or 9 probes); Forward then needs them.
   bool body_proximity = false;
+  int proximity_probes = 5;
   std::uint64_t seed = 1;
 
   std::string Validate() const;
@@ -72,10 +74,11 @@ class OneFitNetwork {
   // num_coefficients: the jets' (NumJetCoefficients(order)).
   OneFitNetwork(int patch_features, int body_features, int num_coefficients, const OneFitNetworkOptions& options);
   // From its three MLPs (a saved model); throws std::invalid_argument when
-  // their sizes do not chain. The decoder's input, less the proximity's,
-  // tells whether it reads the local pose.
+  // their sizes do not chain or proximity_probes is not a layout (0: no
+  // body proximity). The decoder's input, less the proximity's, tells
+  // whether it reads the local pose.
   OneFitNetwork(Mlp patch_encoder, Mlp body_encoder, Mlp decoder, int num_coefficients, int warp_order = -1,
-                bool body_proximity = false);
+                int proximity_probes = 0);
 
   int num_parameters() const {
     return patch_encoder_.num_parameters() + body_encoder_.num_parameters() + decoder_.num_parameters();
@@ -86,6 +89,8 @@ class OneFitNetwork {
   int warp_order() const { return warp_order_; }
   bool local_pose() const { return local_size_ > 0; }
   bool body_proximity() const { return proximity_size_ > 0; }
+  // Probes per patch of the body proximity (0 without).
+  int proximity_probes() const { return proximity_size_ / 4; }
   const Mlp& patch_encoder() const { return patch_encoder_; }
   const Mlp& body_encoder() const { return body_encoder_; }
   const Mlp& decoder() const { return decoder_; }
@@ -101,7 +106,7 @@ class OneFitNetwork {
   };
   // patch_features: #patch features by #patches; body_features: one frame.
   // joint_weights: #joints by #patches (PatchJointWeights), needed with the
-  // local pose, else ignored; proximity: kProximitySize by #patches
+  // local pose, else ignored; proximity: ProximitySize(proximity_probes()) by #patches
   // (BodyProximityFeatures), needed with the body proximity, else ignored.
   // outputs: num_outputs() by #patches.
   void Forward(const double* weights, const Eigen::MatrixXd& patch_features, const Eigen::VectorXd& body_features,
@@ -127,7 +132,7 @@ class OneFitNetwork {
   int num_coefficients_ = 0;
   int warp_order_ = -1;
   int local_size_ = 0;      // 0 or kLocalPoseSize
-  int proximity_size_ = 0;  // 0 or kProximitySize
+  int proximity_size_ = 0;  // 0 or ProximitySize(probes)
 };
 
 // The output bounds b_c above (part of the model's meaning: changing them

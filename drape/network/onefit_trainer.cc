@@ -203,7 +203,8 @@ void OneFitTrainer::AddGarment(const SkinnedBody& body, const OneFitTrainingGarm
   data->joint_weights = PatchJointWeights(solver.model(), g.weights, body.skeleton.num_joints());
   data->body_mask = BodyFeatureMask(g.weights, body.skeleton, options_.joint_mask_reach);
   if (options_.network.body_proximity)
-    data->probes = MakePatchProbes(solver.model(), solver.PatchRestAreas(), data->joint_weights);
+    data->probes = MakePatchProbes(solver.model(), solver.PatchRestAreas(), data->joint_weights,
+                                   options_.network.proximity_probes);
   garments_.push_back(std::move(data));
 }
 
@@ -282,7 +283,8 @@ void OneFitTrainer::StartFrom(const OneFitModel& model) {
       model.curved_faces != options_.drape.patching.curved_faces || model.root_rotation != options_.root_rotation ||
       model.area_units != options_.area_units || model.joint_mask_reach != options_.joint_mask_reach ||
       model.warp_slide_bound != options_.warp_slide_bound ||
-      model.network.body_proximity() != options_.network.body_proximity) {
+      model.network.body_proximity() != options_.network.body_proximity ||
+      (model.network.body_proximity() && model.network.proximity_probes() != options_.network.proximity_probes)) {
     throw std::invalid_argument(
         "OneFitTrainer::StartFrom: the model's jet order, warp order, slide bound, patching, root feature, output "
         "units, joint mask, body proximity or rig differs from the training's");

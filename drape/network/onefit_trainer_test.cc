@@ -729,6 +729,58 @@ TEST_F(OneFitTrainerTest, TheBodyProximityHasTheRightGradientRoundTripsAndDrapes
   EXPECT_LT(ClipPredictionDifference(blind, JiggledWeights(blind, 6), {0, 3}), 1e-12);
 }
 
+// The rim layout of nine probes: a round trip (version 12) and a draper
+// predicting what training sees; a version-11 file, which has no count,
+// reads the five-probe layout, and a count the decoder has no room for is
+// refused.
+TEST_F(OneFitTrainerTest, NineProximityProbesRoundTripAndDrapeAsTraining) {
+  options_.network.body_proximity = true;
+  options_.network.proximity_probes = kRimProximityProbes;
+  OneFitTrainer trainer = ShirtTrainer(body_, options_);
+  const std::vector<double> weights = JiggledWeights(trainer, 5);
+  const std::string path = ::testing::TempDir() + "/onefit_rim_probes.pfonefit";
+  SaveOneFitModel(path, trainer.MakeModel(weights));
+  const OneFitModel loaded = LoadOneFitModel(path);
+  EXPECT_EQ(loaded.network.proximity_probes(), kRimProximityProbes);
+  EXPECT_EQ(loaded.network.decoder().input_size(), 8 + 8 + ProximitySize(kRimProximityProbes));
+  ExpectDraperPredictsAsTraining(body_, options_, Sway(body_, 8), loaded, trainer, weights);
+  // A five-probe network cannot resume or fine-tune it.
+  options_.network.proximity_probes = kProximityProbes;
+  OneFitTrainer five = ShirtTrainer(body_, options_);
+  EXPECT_THROW(five.StartFrom(loaded), std::invalid_argument);
+
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  ASSERT_EQ(bytes[8], 12);
+  ASSERT_EQ(bytes[80], kRimProximityProbes);  // the probes' count
+  const std::string damaged = ::testing::TempDir() + "/onefit_rim_probes_damaged.pfonefit";
+  for (const char count : {'\x00', '\x05', '\x07'}) {
+    std::string b = bytes;
+    b[80] = count;
+    std::ofstream(damaged, std::ios::binary) << b;
+    EXPECT_THROW(LoadOneFitModel(damaged), OneFitModelError) << int{count};
+  }
+  // Version 11 without the count: five probes, for which this decoder has
+  // no room.
+  std::string v11 = bytes;
+  v11[8] = 11;
+  v11.erase(80, 4);
+  std::ofstream(damaged, std::ios::binary) << v11;
+  EXPECT_THROW(LoadOneFitModel(damaged), OneFitModelError);
+  SaveOneFitModel(path, five.MakeModel(JiggledWeights(five, 5)));
+  {
+    std::ifstream in(path, std::ios::binary);
+    v11.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  v11[8] = 11;
+  v11.erase(80, 4);
+  std::ofstream(damaged, std::ios::binary) << v11;
+  EXPECT_EQ(LoadOneFitModel(damaged).network.proximity_probes(), kProximityProbes);
+}
+
 // A warp head of order 3 under a slide bound: the gradient through the
 // bound's coupling of its coefficients is right, and a drape from the
 // saved model (version 10) predicts as training does.
@@ -982,8 +1034,8 @@ TEST_F(OneFitTrainerTest, AModelFileRoundTripsAndTheDraperPredictsAsTraining) {
   wrong_version[8] = kOneFitModelVersion + 1;
   expect_error(wrong_version, "version " + std::to_string(kOneFitModelVersion + 1));
   std::string huge = bytes;
-  huge[80] = '\xff';  // the patch encoder's layer count
-  huge[81] = '\xff';
+  huge[84] = '\xff';  // the patch encoder's layer count
+  huge[85] = '\xff';
   expect_error(huge, "layer sizes");
   EXPECT_THROW(LoadOneFitModel(path + ".absent"), OneFitModelError);
 }
@@ -1054,7 +1106,7 @@ TEST(OneFitModelTest, OlderVersionsStillLoadAndTheFlagsRoundTrip) {
     std::ifstream in(path, std::ios::binary);
     bytes.assign(std::istreambuf_iterator<char>(in), {});
   }
-  ASSERT_EQ(bytes[8], 11);  // the version
+  ASSERT_EQ(bytes[8], 12);  // the version
   EXPECT_EQ(LoadOneFitModel(path).joint_mask_reach, 0.0);
   EXPECT_EQ(LoadOneFitModel(path).warp_slide_bound, 0.0);
   model.joint_mask_reach = 0.05;
@@ -1079,6 +1131,11 @@ TEST(OneFitModelTest, OlderVersionsStillLoadAndTheFlagsRoundTrip) {
     bytes.erase(at, size);
     std::ofstream(file, std::ios::binary) << bytes;
   };
+  const std::string path11 = ::testing::TempDir() + "/onefit_v11_old.pfonefit";
+  expect_refused(80, 5, path11);  // probes without the proximity
+  // Version 11: one layout of probes (none here).
+  downgrade(11, 80, 4, path11);
+  EXPECT_FALSE(LoadOneFitModel(path11).network.body_proximity());
   const std::string path10 = ::testing::TempDir() + "/onefit_v10_old.pfonefit";
   expect_refused(76, 2, path10);  // the proximity flag out of range
   expect_refused(76, 1, path10);  // a proximity the decoder's input has no room for

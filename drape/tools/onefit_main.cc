@@ -271,9 +271,17 @@ void AddTrainModelFlags(CLI::App* train, polyfit::OneFitTrainerOptions* trainer)
       ->check(CLI::Range(0.0, 1.0));
   train->add_flag("--local-pose", t.network.local_pose,
                   "each patch also reads its own joints' pose, skinning-weighted (recorded in the model)");
-  train->add_flag("--body-proximity", t.network.body_proximity,
-                  "each patch also reads where it meets the body when posed by skinning alone: signed distances "
-                  "and the body's normals at five points of it (recorded in the model)");
+  CLI::Option* proximity = train->add_flag(
+      "--body-proximity", t.network.body_proximity,
+      "each patch also reads where it meets the body when posed by skinning alone: signed distances and the body's "
+      "normals at points of it (recorded in the model)");
+  train
+      ->add_option("--proximity-probes", t.network.proximity_probes,
+                   "with --body-proximity: 5 (its centre and four points half-way to its rim) or 9 (also four on "
+                   "its rim; recorded in the model)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({5, 9}))
+      ->needs(proximity);
   train->add_flag("--align-frames", t.drape.patching.align_frames,
                   "patch frames turned to the body's up axis (recorded in the model)");
   train->add_flag("--curved-faces", t.drape.patching.curved_faces,

@@ -168,11 +168,17 @@ def generated_seeds(build):
             "--patch-hidden", "4", "--validate-every", "0", "--patch-area", "1", "--warp-order", "3",
             "--warp-slide-bound", "0.5")
         shutil.copy(model, os.path.join(CORPUS, "onefit_model_fuzzer", "tiny_slide_bound.pfonefit"))
-        # The body proximity read by the decoder (file version 11's last header field set).
+        # The body proximity read by the decoder (the corpus keeps the file version 11 wrote).
         run(os.path.join(bin_dir, "onefit"), "train", "--garments", garment, "--motions", clip, "--out", model,
             "--batches", "1", "--batch-size", "1", "--decoder-hidden", "4", "--body-hidden", "4",
             "--patch-hidden", "4", "--validate-every", "0", "--patch-area", "1", "--body-proximity")
         shutil.copy(model, os.path.join(CORPUS, "onefit_model_fuzzer", "tiny_body_proximity.pfonefit"))
+        # Nine probes (file version 12's last header field).
+        run(os.path.join(bin_dir, "onefit"), "train", "--garments", garment, "--motions", clip, "--out", model,
+            "--batches", "1", "--batch-size", "1", "--decoder-hidden", "4", "--body-hidden", "4",
+            "--patch-hidden", "4", "--validate-every", "0", "--patch-area", "1", "--body-proximity",
+            "--proximity-probes", "9")
+        shutil.copy(model, os.path.join(CORPUS, "onefit_model_fuzzer", "tiny_rim_probes.pfonefit"))
 
 
 def main():
