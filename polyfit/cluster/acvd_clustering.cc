@@ -189,6 +189,8 @@ namespace {
 
 // What every phase reads: the faces' masses, centroids and adjacency.
 struct FaceGraph {
+  explicit FaceGraph(const TriangleMesh& m) : mesh(m) {}
+
   const TriangleMesh& mesh;
   Eigen::VectorXd raw_areas;  // #F
   Eigen::VectorXd areas;      // #F, zero areas raised to a tiny positive mass
@@ -203,7 +205,7 @@ struct FaceGraph {
 };
 
 FaceGraph BuildFaceGraph(const TriangleMesh& mesh) {
-  FaceGraph g{mesh};
+  FaceGraph g(mesh);
   const int num_faces = mesh.num_faces();
   g.raw_areas = FaceAreas(mesh);
   g.total_area = g.raw_areas.sum();

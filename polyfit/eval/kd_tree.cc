@@ -9,6 +9,20 @@ namespace {
 constexpr int kLeafSize = 12;
 }
 
+int SplitAtMedian(const Eigen::Matrix3Xd& points, int begin, int end, std::vector<int>* order, int* axis) {
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d hi = -lo;
+  for (int i = begin; i < end; ++i) {
+    lo = lo.cwiseMin(points.col((*order)[i]));
+    hi = hi.cwiseMax(points.col((*order)[i]));
+  }
+  (hi - lo).maxCoeff(axis);
+  const int mid = (begin + end) / 2, a = *axis;
+  std::nth_element(order->begin() + begin, order->begin() + mid, order->begin() + end,
+                   [&](int i, int j) { return points(a, i) < points(a, j); });
+  return mid;
+}
+
 KdTree3::KdTree3(const Eigen::Matrix3Xd& points) : points_(points), order_(points.cols()) {
   std::iota(order_.begin(), order_.end(), 0);
   nodes_.reserve(2 * (points.cols() / kLeafSize + 1));
@@ -19,18 +33,8 @@ int KdTree3::Build(int begin, int end, int depth) {
   const int index = static_cast<int>(nodes_.size());
   nodes_.push_back({begin, end, -1, -1, 0, 0.0});
   if (end - begin <= kLeafSize) return index;
-  // Split the widest axis at the median.
-  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
-  Eigen::Vector3d hi = -lo;
-  for (int i = begin; i < end; ++i) {
-    lo = lo.cwiseMin(points_.col(order_[i]));
-    hi = hi.cwiseMax(points_.col(order_[i]));
-  }
   int axis;
-  (hi - lo).maxCoeff(&axis);
-  const int mid = (begin + end) / 2;
-  std::nth_element(order_.begin() + begin, order_.begin() + mid, order_.begin() + end,
-                   [&](int a, int b) { return points_(axis, a) < points_(axis, b); });
+  const int mid = SplitAtMedian(points_, begin, end, &order_, &axis);
   const double split = points_(axis, order_[mid]);
   const int left = Build(begin, mid, depth + 1);
   const int right = Build(mid, end, depth + 1);

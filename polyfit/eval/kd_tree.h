@@ -8,6 +8,13 @@
 
 namespace polyfit {
 
+// Reorders (*order)[begin, end) so that its middle element is the median,
+// along the widest axis of the points it names (points: 3 by N, order's
+// entries columns of it), the lower half before it; returns the middle's
+// position (begin + end) / 2 and sets *axis. The split of KdTree3 and
+// RefitPointTree.
+int SplitAtMedian(const Eigen::Matrix3Xd& points, int begin, int end, std::vector<int>* order, int* axis);
+
 class KdTree3 {
  public:
   // points: 3 by N, copied.

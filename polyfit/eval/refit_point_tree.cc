@@ -5,6 +5,8 @@
 #include <numeric>
 #include <stdexcept>
 
+#include "polyfit/eval/kd_tree.h"
+
 namespace polyfit {
 namespace {
 
@@ -29,16 +31,8 @@ int RefitPointTree::Build(const Eigen::Matrix3Xd& points, int begin, int end) {
   const int index = static_cast<int>(nodes_.size());
   nodes_.push_back({Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), begin, end, -1, -1});
   if (end - begin <= kLeafSize) return index;
-  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
-  for (int i = begin; i < end; ++i) {
-    lo = lo.cwiseMin(points.col(order_[i]));
-    hi = hi.cwiseMax(points.col(order_[i]));
-  }
   int axis;
-  (hi - lo).maxCoeff(&axis);
-  const int mid = (begin + end) / 2;
-  std::nth_element(order_.begin() + begin, order_.begin() + mid, order_.begin() + end,
-                   [&](int a, int b) { return points(axis, a) < points(axis, b); });
+  const int mid = SplitAtMedian(points, begin, end, &order_, &axis);
   const int left = Build(points, begin, mid);
   const int right = Build(points, mid, end);
   nodes_[index].left = left;
