@@ -72,9 +72,11 @@ void BodyProximityFeatures(const PatchProbes& probes, const JointTransforms& pos
       translation += w * pose[j].translation();
     }
     const Eigen::Matrix3d frame = GramSchmidt(linear * probes.frames[p]);
+    int centre_face = -1;  // the patch's other probes lie within its radius of the centre
     for (int i = 0; i < m; ++i) {
       const Eigen::Vector3d x = linear * probes.rest_points.col(m * p + i) + translation;
-      const SignedDistanceResult hit = body.Query(x);
+      const SignedDistanceResult hit = body.Query(x, centre_face);
+      if (i == 0) centre_face = hit.face;
       const double d = std::clamp(hit.distance / kProximityScale, -kProximityClamp, kProximityClamp);
       auto out = features->col(p).segment<4>(4 * i);
       out[0] = std::isfinite(d) ? d : kProximityClamp;
@@ -141,10 +143,10 @@ void PosedBodySamples::Pose(const JointTransforms& pose) {
   tree_->Refit(points_);
 }
 
-SignedDistanceResult PosedBodySamples::Query(const Eigen::Vector3d& point) const {
+SignedDistanceResult PosedBodySamples::Query(const Eigen::Vector3d& point, int hint) const {
   double d2 = 0.0;
   SignedDistanceResult r;
-  r.face = tree_->Nearest(point, &d2);
+  r.face = tree_->Nearest(point, &d2, hint);
   if (r.face < 0) {  // a point with a NaN: no sample is nearest
     r.distance = std::numeric_limits<double>::quiet_NaN();
     r.normal.setZero();

@@ -85,7 +85,9 @@ class PosedBodySamples {
   // Throws std::invalid_argument when `pose` is not one transform per joint.
   void Pose(const JointTransforms& pose);
   // closest: the nearest sample; normal: its normal; face: its index.
-  SignedDistanceResult Query(const Eigen::Vector3d& point) const;
+  // hint: a sample likely nearest (a nearby query's face), or -1; the
+  // answer is the same either way.
+  SignedDistanceResult Query(const Eigen::Vector3d& point, int hint = -1) const;
   int num_samples() const { return static_cast<int>(rest_points_.cols()); }
   const Eigen::Matrix3Xd& points() const { return points_; }
 

@@ -4,9 +4,10 @@
 // resolution (a tube around the torso, about 500 to 8,000 vertices, patched
 // by area into about as many patches as the 2k suit has) and the network's
 // width, with and without a warp head, the local pose and the body
-// proximity (which poses the body each frame). Random weights: the time does not
-// depend on them. The MakeHuman body when the shared data is there (its
-// rig's features), else the procedural body.
+// proximity at five or nine probes a patch (which poses the body each
+// frame). Random weights: the time does not depend on them. The MakeHuman
+// body when the shared data is there (its rig's features), else the
+// procedural body.
 //
 //   onefit_inference_benchmark [BODY_DIR [PATCH_AREA]]
 //   (PATCH_AREA, m^2: 0.006 gives the tube about the suit's 95 patches at
@@ -40,7 +41,8 @@ std::vector<JointTransforms> Poses(int joints, int frames) {
 
 struct Inputs {
   int warp_order;
-  bool local_pose, body_proximity;
+  bool local_pose;
+  int proximity_probes;  // 0: no body proximity
 };
 
 polyfit::OneFitModel RandomModel(const polyfit::SkinnedBody& body, int width, const Inputs& inputs) {
@@ -49,7 +51,8 @@ polyfit::OneFitModel RandomModel(const polyfit::SkinnedBody& body, int width, co
   options.body_hidden = {width, width};
   options.warp_order = inputs.warp_order;
   options.local_pose = inputs.local_pose;
-  options.body_proximity = inputs.body_proximity;
+  options.body_proximity = inputs.proximity_probes > 0;
+  if (options.body_proximity) options.proximity_probes = inputs.proximity_probes;
   const int joints = body.skeleton.num_joints(), order = 4;
   polyfit::OneFitModel model;
   model.jet_order = order;
@@ -94,7 +97,7 @@ int main(int argc, char** argv) {
     tube.vertices.row(2).array() += centre.z();
     const polyfit::SkinWeights weights =
         polyfit::SingleJointWeights(tube.num_vertices(), std::min(1, body.skeleton.num_joints() - 1));
-    for (const Inputs& inputs : {Inputs{-1, false, false}, {2, false, false}, {2, true, false}, {2, true, true}}) {
+    for (const Inputs& inputs : {Inputs{-1, false, 0}, {2, false, 0}, {2, true, 0}, {2, true, 5}, {2, true, 9}}) {
       polyfit::DrapeSolverOptions options;
       options.num_threads = 1;
       options.slide.warp_order = inputs.warp_order;
@@ -115,7 +118,8 @@ int main(int argc, char** argv) {
         std::nth_element(ms.begin(), ms.begin() + ms.size() / 2, ms.end());
         std::printf("| %d | %d | %d | %s | %s | %s | %d | %.3f |\n", tube.num_vertices(), solver.num_patches(), width,
                     inputs.warp_order < 0 ? "none" : "order 2", inputs.local_pose ? "yes" : "no",
-                    inputs.body_proximity ? "yes" : "no", model.network.num_parameters(), ms[ms.size() / 2]);
+                    inputs.proximity_probes == 0 ? "no" : inputs.proximity_probes == 5 ? "5 probes" : "9 probes",
+                    model.network.num_parameters(), ms[ms.size() / 2]);
         if (!std::isfinite(checksum)) return 1;
       }
     }

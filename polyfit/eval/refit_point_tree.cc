@@ -23,6 +23,8 @@ RefitPointTree::RefitPointTree(const Eigen::Matrix3Xd& points) : order_(points.c
   std::iota(order_.begin(), order_.end(), 0);
   nodes_.reserve(4 * (points.cols() / kLeafSize + 1));
   Build(points, 0, static_cast<int>(points.cols()));
+  place_.resize(order_.size());
+  for (int i = 0; i < size(); ++i) place_[order_[i]] = i;
   points_.resize(3, points.cols());
   Refit(points);
 }
@@ -78,9 +80,16 @@ void RefitPointTree::Search(int index, const Eigen::Vector3d& q, int* best, doub
   if (d_far < *best_d2) Search(far, q, best, best_d2);
 }
 
-int RefitPointTree::Nearest(const Eigen::Vector3d& query, double* squared_distance) const {
+int RefitPointTree::Nearest(const Eigen::Vector3d& query, double* squared_distance, int hint) const {
   int best = -1;
   double best_d2 = std::numeric_limits<double>::infinity();
+  if (hint >= 0 && hint < size()) {
+    const double d2 = (points_.col(place_[hint]) - query).squaredNorm();
+    if (d2 < best_d2) {  // false for a NaN
+      best = place_[hint];
+      best_d2 = d2;
+    }
+  }
   Search(0, query, &best, &best_d2);
   if (squared_distance) *squared_distance = best_d2;
   return best < 0 ? -1 : order_[best];

@@ -24,8 +24,10 @@ class RefitPointTree {
   void Refit(const Eigen::Matrix3Xd& points);
 
   // Index (into the points as given) of the nearest point to query, and
-  // its squared distance.
-  int Nearest(const Eigen::Vector3d& query, double* squared_distance) const;
+  // its squared distance. hint: a point likely near (the answer for a
+  // query close by), whose distance starts the search's bound; any index,
+  // or -1 for none, gives the same answer (but for ties).
+  int Nearest(const Eigen::Vector3d& query, double* squared_distance, int hint = -1) const;
 
   int size() const { return static_cast<int>(order_.size()); }
 
@@ -40,6 +42,7 @@ class RefitPointTree {
 
   Eigen::Matrix3Xd points_;  // 3 by N, in leaf order
   std::vector<int> order_;   // leaf order -> the index as given
+  std::vector<int> place_;   // the index as given -> leaf order
   std::vector<Node> nodes_;  // depth first, the root first
 };
 

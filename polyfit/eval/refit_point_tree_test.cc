@@ -22,6 +22,12 @@ void ExpectMatchesBruteForce(const RefitPointTree& tree, const Eigen::Matrix3Xd&
     const double e2 = (points.colwise() - query).colwise().squaredNorm().minCoeff(&expected);
     ASSERT_EQ(nearest, expected) << "query " << q;
     EXPECT_DOUBLE_EQ(d2, e2);
+    // A hint, near or far or out of range, changes nothing.
+    for (const int hint : {expected, (expected + 1) % static_cast<int>(points.cols()), 0, -5, 1 << 30}) {
+      double hinted_d2;
+      EXPECT_EQ(tree.Nearest(query, &hinted_d2, hint), expected) << hint;
+      EXPECT_EQ(hinted_d2, d2);
+    }
   }
 }
 
@@ -62,6 +68,7 @@ TEST(RefitPointTree, BadInput) {
   double d2 = 0.0;
   EXPECT_EQ(tree.Nearest(Eigen::Vector3d(std::nan(""), 0, 0), &d2), -1);
   EXPECT_TRUE(std::isinf(d2));
+  EXPECT_EQ(tree.Nearest(Eigen::Vector3d(std::nan(""), 0, 0), &d2, 3), -1);
   // One point: a leaf as the root.
   const RefitPointTree one(Eigen::Matrix3Xd::Zero(3, 1));
   EXPECT_EQ(one.Nearest(Eigen::Vector3d(1, 2, 3), &d2), 0);
