@@ -78,7 +78,7 @@ void BodyProximityFeatures(const PatchProbes& probes, const JointTransforms& pos
       const SignedDistanceResult hit = body.Query(x, centre_face);
       if (i == 0) centre_face = hit.face;
       const double d = std::clamp(hit.distance / kProximityScale, -kProximityClamp, kProximityClamp);
-      auto out = features->col(p).segment<4>(4 * i);
+      auto out = features->col(p).segment<kProximityValuesPerProbe>(kProximityValuesPerProbe * i);
       out[0] = std::isfinite(d) ? d : kProximityClamp;
       out.tail<3>() = frame.transpose() * hit.normal;
     }

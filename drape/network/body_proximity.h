@@ -45,7 +45,8 @@ inline constexpr bool IsProximityLayout(int probes) {
   return probes == kProximityProbes || probes == kRimProximityProbes;
 }
 // The values per patch: [d, F^T n] per probe.
-inline constexpr int ProximitySize(int probes) { return 4 * probes; }
+inline constexpr int kProximityValuesPerProbe = 4;
+inline constexpr int ProximitySize(int probes) { return kProximityValuesPerProbe * probes; }
 inline constexpr int kProximitySize = ProximitySize(kProximityProbes);
 inline constexpr double kProbeReach = 0.5;
 inline constexpr double kProximityScale = 0.01;  // m

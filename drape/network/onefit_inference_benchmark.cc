@@ -17,6 +17,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <string>
 #include <vector>
 
 #include "drape/network/onefit_draper.h"
@@ -118,7 +119,7 @@ int main(int argc, char** argv) {
         std::nth_element(ms.begin(), ms.begin() + ms.size() / 2, ms.end());
         std::printf("| %d | %d | %d | %s | %s | %s | %d | %.3f |\n", tube.num_vertices(), solver.num_patches(), width,
                     inputs.warp_order < 0 ? "none" : "order 2", inputs.local_pose ? "yes" : "no",
-                    inputs.proximity_probes == 0 ? "no" : inputs.proximity_probes == 5 ? "5 probes" : "9 probes",
+                    inputs.proximity_probes == 0 ? "no" : (std::to_string(inputs.proximity_probes) + " probes").c_str(),
                     model.network.num_parameters(), ms[ms.size() / 2]);
         if (!std::isfinite(checksum)) return 1;
       }

@@ -20,8 +20,8 @@ namespace polyfit {
 // feature (RootRotation), version 7 whether the patches were fitted to
 // curved faces, version 8 the output units (area_units), version 9 the
 // joint mask's reach, version 10 the warp's slide bound, version 11 whether
-// the decoder reads the body proximity; earlier files
-// still load.
+// the decoder reads the body proximity, version 12 its probes per patch;
+// earlier files still load.
 inline constexpr int kOneFitModelVersion = 12;
 
 class OneFitModelError : public Error {

@@ -69,6 +69,8 @@ OneFitNetwork::OneFitNetwork(Mlp patch_encoder, Mlp body_encoder, Mlp decoder, i
   Check();
 }
 
+int OneFitNetwork::proximity_probes() const { return proximity_size_ / kProximityValuesPerProbe; }
+
 void OneFitNetwork::Initialize(std::uint64_t seed, double output_scale, double* weights) const {
   patch_encoder_.Initialize(seed, 1.0, weights);
   body_encoder_.Initialize(seed + 1, 1.0, weights + body_encoder_offset());

@@ -90,7 +90,7 @@ class OneFitNetwork {
   bool local_pose() const { return local_size_ > 0; }
   bool body_proximity() const { return proximity_size_ > 0; }
   // Probes per patch of the body proximity (0 without).
-  int proximity_probes() const { return proximity_size_ / 4; }
+  int proximity_probes() const;
   const Mlp& patch_encoder() const { return patch_encoder_; }
   const Mlp& body_encoder() const { return body_encoder_; }
   const Mlp& decoder() const { return decoder_; }
