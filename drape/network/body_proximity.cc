@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "polyfit/eval/mesh_metrics.h"
+#include "polyfit/jet/jet_basis.h"
 
 namespace polyfit {
 
@@ -27,6 +28,7 @@ PatchProbes MakePatchProbes(const PolyFitModel& model, const std::vector<double>
   PatchProbes probes;
   probes.probes_per_patch = m;
   probes.rest_points.resize(3, m * n);
+  probes.uv.resize(2, m * n);
   probes.joint_weights = joint_weights;
   for (int p = 0; p < n; ++p) {
     const JetPatch& patch = model.patches[p];
@@ -36,7 +38,10 @@ PatchProbes MakePatchProbes(const PolyFitModel& model, const std::vector<double>
     const double a = kProbeReach * rho, b = rho / std::sqrt(2.0);
     const double uv[kRimProximityProbes][2] = {{0.0, 0.0}, {a, 0.0},  {-a, 0.0}, {0.0, a},  {0.0, -a},
                                                {b, b},     {-b, b},   {-b, -b},  {b, -b}};
-    for (int i = 0; i < m; ++i) probes.rest_points.col(m * p + i) = patch.PointInWorld(uv[i][0], uv[i][1]);
+    for (int i = 0; i < m; ++i) {
+      probes.uv.col(m * p + i) = Eigen::Vector2d(uv[i][0], uv[i][1]);
+      probes.rest_points.col(m * p + i) = patch.PointInWorld(uv[i][0], uv[i][1]);
+    }
   }
   return probes;
 }
@@ -56,12 +61,22 @@ Eigen::Matrix3d GramSchmidt(const Eigen::Matrix3d& b) {
 
 void BodyProximityFeatures(const PatchProbes& probes, const JointTransforms& pose, const PosedBodySamples& body,
                            Eigen::MatrixXd* features) {
+  BodyProximityFeatures(probes, probes.rest_points, pose, body, features);
+}
+
+void BodyProximityFeatures(const PatchProbes& probes, const Eigen::Matrix3Xd& points, const JointTransforms& pose,
+                           const PosedBodySamples& body, Eigen::MatrixXd* features,
+                           Eigen::Matrix3Xd* distance_gradients) {
+  if (points.cols() != probes.rest_points.cols()) {
+    throw std::invalid_argument("BodyProximityFeatures: one point per probe is needed");
+  }
   const int num_joints = static_cast<int>(probes.joint_weights.rows());
   if (static_cast<int>(pose.size()) != num_joints) {
     throw std::invalid_argument("BodyProximityFeatures: one transform per joint of the patches' weights is needed");
   }
   const int m = probes.probes_per_patch;
   features->resize(ProximitySize(m), probes.num_patches());
+  if (distance_gradients != nullptr) distance_gradients->resize(3, points.cols());
   for (int p = 0; p < probes.num_patches(); ++p) {
     Eigen::Matrix3d linear = Eigen::Matrix3d::Zero();
     Eigen::Vector3d translation = Eigen::Vector3d::Zero();
@@ -74,13 +89,93 @@ void BodyProximityFeatures(const PatchProbes& probes, const JointTransforms& pos
     const Eigen::Matrix3d frame = GramSchmidt(linear * probes.frames[p]);
     int centre_face = -1;  // the patch's other probes lie within its radius of the centre
     for (int i = 0; i < m; ++i) {
-      const Eigen::Vector3d x = linear * probes.rest_points.col(m * p + i) + translation;
+      const Eigen::Vector3d x = linear * points.col(m * p + i) + translation;
       const SignedDistanceResult hit = body.Query(x, centre_face);
       if (i == 0) centre_face = hit.face;
-      const double d = std::clamp(hit.distance / kProximityScale, -kProximityClamp, kProximityClamp);
+      const double scaled = hit.distance / kProximityScale;
+      const double d = std::clamp(scaled, -kProximityClamp, kProximityClamp);
       auto out = features->col(p).segment<kProximityValuesPerProbe>(kProximityValuesPerProbe * i);
       out[0] = std::isfinite(d) ? d : kProximityClamp;
       out.tail<3>() = frame.transpose() * hit.normal;
+      if (distance_gradients != nullptr) {
+        const bool inside = std::abs(scaled) < kProximityClamp;  // false for NaN
+        distance_gradients->col(m * p + i) =
+            inside ? Eigen::Vector3d(linear.transpose() * hit.normal / kProximityScale) : Eigen::Vector3d::Zero();
+      }
+    }
+  }
+}
+
+namespace {
+
+// Patch p's alpha, s and T in DrapeSolver's layout.
+struct PatchView {
+  const double* alpha;
+  double s;
+  Eigen::Vector3d t;
+};
+PatchView ViewPatch(const std::vector<double>& parameters, int stride, int num_coefficients, int p) {
+  const double* x = parameters.data() + static_cast<size_t>(p) * stride;
+  return {x, x[num_coefficients], Eigen::Vector3d(x[num_coefficients + 1], x[num_coefficients + 2],
+                                                  x[num_coefficients + 3])};
+}
+
+int CheckedCoefficients(const PatchProbes& probes, const std::vector<double>& parameters, int jet_order, int stride,
+                        const char* who) {
+  if (jet_order < 0 || jet_order > kMaxJetOrder) throw std::invalid_argument(std::string(who) + ": bad jet order");
+  const int k = NumJetCoefficients(jet_order);
+  if (stride < k + 4 || parameters.size() != static_cast<size_t>(stride) * probes.num_patches()) {
+    throw std::invalid_argument(std::string(who) + ": the patch parameters do not fit the probes' patches");
+  }
+  return k;
+}
+
+}  // namespace
+
+void PlaceProbes(const PatchProbes& probes, const std::vector<double>& patch_parameters, int jet_order, int stride,
+                 Eigen::Matrix3Xd* points) {
+  const int k = CheckedCoefficients(probes, patch_parameters, jet_order, stride, "PlaceProbes");
+  const int m = probes.probes_per_patch;
+  points->resize(3, probes.uv.cols());
+  double monomials[kMaxJetCoefficients];
+  for (int p = 0; p < probes.num_patches(); ++p) {
+    const PatchView patch = ViewPatch(patch_parameters, stride, k, p);
+    for (int i = 0; i < m; ++i) {
+      const double u = probes.uv(0, m * p + i), v = probes.uv(1, m * p + i);
+      JetMonomials(jet_order, u, v, monomials);
+      double z = 0.0;
+      for (int c = 0; c < k; ++c) z += patch.alpha[c] * monomials[c];
+      points->col(m * p + i) = patch.s * (probes.frames[p] * Eigen::Vector3d(u, v, z)) + patch.t;
+    }
+  }
+}
+
+void ChainProbesToPatchParameters(const PatchProbes& probes, const std::vector<double>& patch_parameters, int jet_order,
+                                  int stride, const Eigen::Matrix3Xd& distance_gradients,
+                                  const Eigen::MatrixXd& d_features, std::vector<double>* gradient) {
+  const int k = CheckedCoefficients(probes, patch_parameters, jet_order, stride, "ChainProbesToPatchParameters");
+  const int m = probes.probes_per_patch;
+  if (gradient->size() != patch_parameters.size() || distance_gradients.cols() != probes.uv.cols() ||
+      d_features.rows() != ProximitySize(m) || d_features.cols() != probes.num_patches()) {
+    throw std::invalid_argument("ChainProbesToPatchParameters: sizes do not fit the probes");
+  }
+  double monomials[kMaxJetCoefficients];
+  for (int p = 0; p < probes.num_patches(); ++p) {
+    const PatchView patch = ViewPatch(patch_parameters, stride, k, p);
+    double* g = gradient->data() + static_cast<size_t>(p) * stride;
+    for (int i = 0; i < m; ++i) {
+      // dL/dX for the probe's canonical point X = s R_0 [u, v, z] + T.
+      const Eigen::Vector3d d_x =
+          d_features(kProximityValuesPerProbe * i, p) * distance_gradients.col(m * p + i);
+      if (d_x.isZero(0.0)) continue;
+      const double u = probes.uv(0, m * p + i), v = probes.uv(1, m * p + i);
+      JetMonomials(jet_order, u, v, monomials);
+      double z = 0.0;
+      for (int c = 0; c < k; ++c) z += patch.alpha[c] * monomials[c];
+      const Eigen::Vector3d r_x = probes.frames[p].transpose() * d_x;  // R_0^T dL/dX
+      for (int c = 0; c < k; ++c) g[c] += patch.s * r_x.z() * monomials[c];
+      g[k] += r_x.dot(Eigen::Vector3d(u, v, z));
+      for (int a = 0; a < 3; ++a) g[k + 1 + a] += d_x[a];
     }
   }
 }

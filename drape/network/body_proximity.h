@@ -56,6 +56,7 @@ inline constexpr double kProximityClamp = 4.0;
 struct PatchProbes {
   int probes_per_patch = kProximityProbes;
   Eigen::Matrix3Xd rest_points;         // 3 by probes_per_patch #patches, patch-major
+  Eigen::Matrix2Xd uv;                  // their (u, v) in their patches' frame units, alike
   std::vector<Eigen::Matrix3d> frames;  // R_0 per patch
   Eigen::MatrixXd joint_weights;        // #joints by #patches (PatchJointWeights)
 
@@ -109,6 +110,33 @@ class PosedBodySamples {
 // body: posed by the same pose.
 void BodyProximityFeatures(const PatchProbes& probes, const JointTransforms& pose, const PosedBodySamples& body,
                            Eigen::MatrixXd* features);
+// The same at other places of the probes (3 by probes_per_patch #patches,
+// in the rest pose: PlaceProbes), and, when distance_gradients is not
+// null, per probe the derivative of its feature d with respect to its
+// rest-pose point (3 by probes_per_patch #patches; zero where d is
+// clamped): n^T L / kProximityScale, L the patch's blended skinning, with
+// the nearest sample held (the features are piecewise smooth in the
+// points; the normals' features piecewise constant).
+void BodyProximityFeatures(const PatchProbes& probes, const Eigen::Matrix3Xd& points, const JointTransforms& pose,
+                           const PosedBodySamples& body, Eigen::MatrixXd* features,
+                           Eigen::Matrix3Xd* distance_gradients = nullptr);
+
+// The probes on other patch parameters (DrapeSolver's layout: alpha
+// (NumJetCoefficients(jet_order)), s, T first of `stride` per patch): each probe's canonical point X = s R_0 [u, v, z(u, v)] + T
+// (SkinnedPatchPoint::Canonical), at the probe's rest (u, v): the
+// warp's slides move the material along the surface, not the surface,
+// and are left out. At the rest parameters, the rest points. points:
+// 3 by probes_per_patch #patches (resized).
+void PlaceProbes(const PatchProbes& probes, const std::vector<double>& patch_parameters, int jet_order, int stride,
+                 Eigen::Matrix3Xd* points);
+// Adds to gradient (DrapeSolver's layout, as patch_parameters) dL/d(patch
+// parameters) through the probes' distances, given dL/d(features)
+// (ProximitySize by #patches) and the distance gradients at the placed
+// probes (BodyProximityFeatures).
+void ChainProbesToPatchParameters(const PatchProbes& probes, const std::vector<double>& patch_parameters, int jet_order,
+                                  int stride,
+                                  const Eigen::Matrix3Xd& distance_gradients, const Eigen::MatrixXd& d_features,
+                                  std::vector<double>* gradient);
 
 }  // namespace polyfit
 

@@ -203,5 +203,80 @@ TEST_F(BodyProximityTest, ARigidMotionOfBodyAndGarmentTogetherChangesNothing) {
   EXPECT_THROW(posed.Pose(JointTransforms(1)), std::invalid_argument);
 }
 
+// The probes placed on patch parameters: on the rest parameters they are
+// the rest probes; elsewhere they follow the jet, and the chain of the
+// distances' derivatives back to alpha, s and T matches central
+// differences (the nearest samples do not change over the steps).
+TEST_F(BodyProximityTest, ProbesPlacedOnPatchParametersFollowThemAndChainTheDistances) {
+  const int joints = body_.skeleton.num_joints();
+  PolyFitModel model;
+  for (int p = 0; p < 2; ++p) {
+    JetPatch patch;
+    patch.order = 2;
+    patch.coefficients = {0.01, 0.02, -0.03, 0.2, -0.1, 0.15};
+    patch.frame.rotation = Eigen::AngleAxisd(1.2 + p, Eigen::Vector3d(1, 2, 0.5).normalized()).toRotationMatrix();
+    patch.frame.scale = 0.05 + 0.03 * p;
+    patch.frame.translation = body_.skeleton.rest_heads.col(1) + Eigen::Vector3d(p == 0 ? 0.13 : -0.1, 0.05, 0.04);
+    model.patches.push_back(patch);
+  }
+  Eigen::MatrixXd weights = Eigen::MatrixXd::Zero(joints, 2);
+  weights(1, 0) = 1.0;
+  weights(1, 1) = 0.7;
+  weights(0, 1) = 0.3;
+  const PatchProbes probes = MakePatchProbes(model, {0.01, 0.02}, weights);
+  // DrapeSolver's layout with a warp of order 0 after T (ignored).
+  const int k = 6, stride = k + 4 + 2;
+  std::vector<double> rest(2 * stride, 0.0);
+  for (int p = 0; p < 2; ++p) {
+    const JetPatch& patch = model.patches[p];
+    std::copy_n(patch.coefficients.begin(), k, rest.begin() + p * stride);
+    rest[p * stride + k] = patch.frame.scale;
+    for (int a = 0; a < 3; ++a) rest[p * stride + k + 1 + a] = patch.frame.translation[a];
+    rest[p * stride + k + 4] = 0.3;  // a warp moves no probe
+  }
+  Eigen::Matrix3Xd points;
+  PlaceProbes(probes, rest, 2, stride, &points);
+  EXPECT_LT((points - probes.rest_points).cwiseAbs().maxCoeff(), 1e-15);
+  EXPECT_THROW(PlaceProbes(probes, rest, 3, stride, &points), std::invalid_argument);  // 10 coefficients: too many
+
+  // Moved parameters, a posed body.
+  std::vector<double> moved = rest;
+  for (size_t i = 0; i < moved.size(); ++i) moved[i] += 0.004 * std::sin(1.7 * i + 0.3);
+  JointTransforms pose(joints, Eigen::Isometry3d::Identity());
+  pose[1].linear() = Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  pose[1].translation() = Eigen::Vector3d(0.01, 0.0, -0.02);
+  PosedBodySamples posed(body_);
+  posed.Pose(pose);
+  const auto features_at = [&](const std::vector<double>& parameters, Eigen::Matrix3Xd* gradients) {
+    Eigen::Matrix3Xd at;
+    PlaceProbes(probes, parameters, 2, stride, &at);
+    Eigen::MatrixXd features;
+    BodyProximityFeatures(probes, at, pose, posed, &features, gradients);
+    return features;
+  };
+  Eigen::Matrix3Xd gradients;
+  const Eigen::MatrixXd features = features_at(moved, &gradients);
+  int unclamped = 0;
+  for (int i = 0; i < 2 * kProximityProbes; ++i) unclamped += gradients.col(i).norm() > 0.0 ? 1 : 0;
+  EXPECT_GE(unclamped, 4);
+  // L = sum of c * features over the distances' rows.
+  Eigen::MatrixXd c = Eigen::MatrixXd::Zero(kProximitySize, 2);
+  for (int p = 0; p < 2; ++p) {
+    for (int i = 0; i < kProximityProbes; ++i) c(4 * i, p) = std::cos(0.9 * i + p);
+  }
+  std::vector<double> gradient(moved.size(), 0.0);
+  ChainProbesToPatchParameters(probes, moved, 2, stride, gradients, c, &gradient);
+  const double h = 1e-7;
+  for (size_t i = 0; i < moved.size(); ++i) {
+    std::vector<double> plus = moved, minus = moved;
+    plus[i] += h;
+    minus[i] -= h;
+    const double numeric = ((c.array() * features_at(plus, nullptr).array()).sum() -
+                            (c.array() * features_at(minus, nullptr).array()).sum()) /
+                           (2.0 * h);
+    EXPECT_NEAR(gradient[i], numeric, 1e-5 * std::abs(numeric) + 1e-6) << i;
+  }
+}
+
 }  // namespace
 }  // namespace polyfit

@@ -2,7 +2,8 @@
 // drape's patching, so that the patches are the ones the loss saw) and
 // their features are prepared once; per frame, the body's features, the
 // network with the garment's half of the decoder's first layer
-// precomputed, and the patch parameters out.
+// precomputed (then, with a feedback decoder, the proximity at the
+// decoder's patches and the feedback), and the patch parameters out.
 #ifndef POLYFIT_DRAPE_NETWORK_ONEFIT_DRAPER_H_
 #define POLYFIT_DRAPE_NETWORK_ONEFIT_DRAPER_H_
 
@@ -13,6 +14,7 @@
 
 #include "drape/network/body_proximity.h"
 #include "drape/network/onefit_model.h"
+#include "drape/network/output_proximity.h"
 #include "drape/simulate/drape_solver.h"
 
 namespace polyfit {
@@ -38,6 +40,9 @@ class OneFitDraper {
   // not fit the rig or the jets, or needs a body that is not given.
   OneFitDraper(const OneFitModel& model, const DrapeSolver& solver, const SkinWeights& weights,
                const Skeleton& skeleton, const SkinnedBody* body = nullptr);
+  // Its parts refer to each other.
+  OneFitDraper(const OneFitDraper&) = delete;
+  OneFitDraper& operator=(const OneFitDraper&) = delete;
 
   // The patch parameters (DrapeSolver's layout) for frame `now`, its two
   // predecessors giving the motion. Not thread-safe (the posed body).
@@ -56,6 +61,10 @@ class OneFitDraper {
   PatchProbes probes_;
   std::unique_ptr<PosedBodySamples> posed_body_;
   mutable Eigen::MatrixXd proximity_;
+  // With the feedback decoder: the patch embeddings z_T (its input) and
+  // the proximity at the decoder's patches.
+  Eigen::MatrixXd patch_embeddings_;
+  std::unique_ptr<OutputProximity> output_proximity_;
 };
 
 }  // namespace polyfit

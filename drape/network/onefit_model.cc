@@ -121,9 +121,11 @@ void SaveOneFitModel(const std::string& path, const OneFitModel& model) {
   w.Put<double>(model.warp_slide_bound);
   w.Put<std::int32_t>(model.network.body_proximity() ? 1 : 0);
   w.Put<std::int32_t>(model.network.proximity_probes());
+  w.Put<std::int32_t>(model.network.feedback() ? 1 : 0);
   PutMlp(model.network.patch_encoder(), &w);
   PutMlp(model.network.body_encoder(), &w);
   PutMlp(model.network.decoder(), &w);
+  if (model.network.feedback()) PutMlp(model.network.feedback_decoder(), &w);
   PutNormalizer(model.patch_normalizer, &w);
   PutNormalizer(model.body_normalizer, &w);
   w.Put<std::uint64_t>(model.weights.size());
@@ -224,6 +226,8 @@ OneFitModel LoadOneFitModel(const std::string& path) {
   // Version 11 had one layout of probes.
   const int probes = version >= 12 ? r.Get<std::int32_t>("the header") : (proximity == 1 ? kProximityProbes : 0);
   if (proximity == 0 ? probes != 0 : !IsProximityLayout(probes)) r.Fail("proximity probes out of range");
+  const int feedback = version >= 13 ? r.Get<std::int32_t>("the header") : 0;
+  if (feedback != 0 && (feedback != 1 || proximity == 0)) r.Fail("feedback flag out of range or without the proximity");
   if (aligned != 0 && aligned != 1) r.Fail("frame alignment flag out of range");
   if (local_pose != 0 && local_pose != 1) r.Fail("local pose flag out of range");
   model.aligned_frames = aligned == 1;
@@ -233,9 +237,10 @@ OneFitModel LoadOneFitModel(const std::string& path) {
   Mlp patch = GetMlp(&r, "the patch encoder");
   Mlp body = GetMlp(&r, "the body encoder");
   Mlp decoder = GetMlp(&r, "the decoder");
+  Mlp feedback_decoder = feedback == 1 ? GetMlp(&r, "the feedback decoder") : Mlp();
   try {
     model.network = OneFitNetwork(std::move(patch), std::move(body), std::move(decoder),
-                                  NumJetCoefficients(model.jet_order), warp_order, probes);
+                                  NumJetCoefficients(model.jet_order), warp_order, probes, std::move(feedback_decoder));
   } catch (const std::invalid_argument& e) {
     r.Fail(e.what());
   }

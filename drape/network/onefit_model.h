@@ -1,5 +1,5 @@
 // A trained OneFit network as a file (docs/onefit-model-format.md): the
-// three MLPs' layouts, the feature normalisers and the weights, with the
+// MLPs' layouts, the feature normalisers and the weights, with the
 // jet order and the rig's joint count it was trained for. Garment-agnostic:
 // a garment's patch features are computed when it is draped.
 #ifndef POLYFIT_DRAPE_NETWORK_ONEFIT_MODEL_H_
@@ -20,9 +20,10 @@ namespace polyfit {
 // feature (RootRotation), version 7 whether the patches were fitted to
 // curved faces, version 8 the output units (area_units), version 9 the
 // joint mask's reach, version 10 the warp's slide bound, version 11 whether
-// the decoder reads the body proximity, version 12 its probes per patch;
-// earlier files still load.
-inline constexpr int kOneFitModelVersion = 12;
+// the decoder reads the body proximity, version 12 its probes per patch,
+// version 13 whether a feedback decoder follows (and, if so, its layout
+// after the decoder's); earlier files still load.
+inline constexpr int kOneFitModelVersion = 13;
 
 class OneFitModelError : public Error {
  public:

@@ -34,6 +34,10 @@ std::string OneFitNetworkOptions::Validate() const {
     return "proximity_probes must be " + std::to_string(kProximityProbes) + " or " +
            std::to_string(kRimProximityProbes);
   }
+  if (feedback && !body_proximity) return "feedback reads the body proximity: it needs body_proximity";
+  for (int n : feedback_hidden) {
+    if (n < 1) return "hidden layers must have at least one unit";
+  }
   return {};
 }
 
@@ -51,14 +55,19 @@ OneFitNetwork::OneFitNetwork(int patch_features, int body_features, int num_coef
   if (const std::string problem = options.Validate(); !problem.empty()) {
     throw std::invalid_argument("OneFitNetworkOptions: " + problem);
   }
+  if (options.feedback) {
+    feedback_ = Mlp(Sizes(decoder_.input_size() + decoder_.output_size() + proximity_size_, options.feedback_hidden,
+                          decoder_.output_size()));
+  }
   Check();
 }
 
 OneFitNetwork::OneFitNetwork(Mlp patch_encoder, Mlp body_encoder, Mlp decoder, int num_coefficients, int warp_order,
-                             int proximity_probes)
+                             int proximity_probes, Mlp feedback)
     : patch_encoder_(std::move(patch_encoder)),
       body_encoder_(std::move(body_encoder)),
       decoder_(std::move(decoder)),
+      feedback_(std::move(feedback)),
       num_coefficients_(num_coefficients),
       warp_order_(warp_order),
       proximity_size_(ProximitySize(proximity_probes)) {
@@ -75,6 +84,7 @@ void OneFitNetwork::Initialize(std::uint64_t seed, double output_scale, double* 
   patch_encoder_.Initialize(seed, 1.0, weights);
   body_encoder_.Initialize(seed + 1, 1.0, weights + body_encoder_offset());
   decoder_.Initialize(seed + 2, output_scale, weights + decoder_offset());
+  if (feedback()) feedback_.Initialize(seed + 3, output_scale, weights + feedback_offset());
 }
 
 namespace {
@@ -106,20 +116,75 @@ void OneFitNetwork::Forward(const double* weights, const Eigen::MatrixXd& patch_
   patch_encoder_.Forward(weights, patch_features, &z_t, cache != nullptr ? &cache->patch : nullptr);
   body_encoder_.Forward(weights + body_encoder_offset(), body_features, &z_b,
                         cache != nullptr ? &cache->body : nullptr);
+  const Eigen::MatrixXd joint = AssembleDecoderInput(z_t, z_b, body_features, joint_weights, proximity);
+  decoder_.Forward(weights + decoder_offset(), joint, outputs, cache != nullptr ? &cache->decoder : nullptr);
+  if (cache != nullptr) cache->num_patches = static_cast<int>(num_patches);
+}
+
+Eigen::MatrixXd OneFitNetwork::AssembleDecoderInput(const Eigen::MatrixXd& z_t, const Eigen::MatrixXd& z_b,
+                                                    const Eigen::VectorXd& body_features,
+                                                    const Eigen::MatrixXd* joint_weights,
+                                                    const Eigen::MatrixXd* proximity) const {
+  const Eigen::Index num_patches = z_t.cols();
   Eigen::MatrixXd joint(decoder_.input_size(), num_patches);
   joint.topRows(z_t.rows()) = z_t;
   joint.middleRows(z_t.rows(), z_b.rows()) = z_b.col(0).replicate(1, num_patches);
   const Eigen::Index inputs = z_t.rows() + z_b.rows();
   if (local_size_ > 0) joint.middleRows(inputs, local_size_) = LocalPose(body_features, joint_weights, num_patches);
   if (proximity_size_ > 0) joint.bottomRows(proximity_size_) = Proximity(proximity, proximity_size_, num_patches);
-  decoder_.Forward(weights + decoder_offset(), joint, outputs, cache != nullptr ? &cache->decoder : nullptr);
-  if (cache != nullptr) cache->num_patches = static_cast<int>(num_patches);
+  return joint;
+}
+
+Eigen::MatrixXd OneFitNetwork::PatchEmbeddings(const double* weights, const Eigen::MatrixXd& patch_features) const {
+  Eigen::MatrixXd z_t;
+  patch_encoder_.Forward(weights, patch_features, &z_t);
+  return z_t;
+}
+
+Eigen::MatrixXd OneFitNetwork::DecoderInput(const double* weights, const Eigen::MatrixXd& patch_embeddings,
+                                            const Eigen::VectorXd& body_features,
+                                            const Eigen::MatrixXd* joint_weights,
+                                            const Eigen::MatrixXd* proximity) const {
+  Eigen::MatrixXd z_b;
+  body_encoder_.Forward(weights + body_encoder_offset(), body_features, &z_b);
+  return AssembleDecoderInput(patch_embeddings, z_b, body_features, joint_weights, proximity);
+}
+
+void OneFitNetwork::Feedback(const double* weights, const Eigen::MatrixXd& decoder_input,
+                             const Eigen::MatrixXd& outputs, const Eigen::MatrixXd& proximity,
+                             Eigen::MatrixXd* refined, Cache* cache) const {
+  if (!feedback()) throw std::invalid_argument("OneFitNetwork::Feedback: the network has no feedback decoder");
+  const Eigen::Index num_patches = outputs.cols();
+  if (decoder_input.rows() != decoder_.input_size() || decoder_input.cols() != num_patches ||
+      outputs.rows() != num_outputs() || proximity.rows() != proximity_size_ || proximity.cols() != num_patches) {
+    throw std::invalid_argument("OneFitNetwork::Feedback: inputs of the wrong size");
+  }
+  Eigen::MatrixXd input(feedback_.input_size(), num_patches);
+  input << decoder_input, outputs, proximity;
+  feedback_.Forward(weights + feedback_offset(), input, refined, cache != nullptr ? &cache->feedback : nullptr);
+  *refined += outputs;
+}
+
+void OneFitNetwork::FeedbackBackward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_refined,
+                                     double* gradient, Eigen::MatrixXd* d_outputs,
+                                     Eigen::MatrixXd* d_proximity) const {
+  Eigen::MatrixXd d_input;
+  feedback_.Backward(weights + feedback_offset(), cache.feedback, d_refined, gradient + feedback_offset(), &d_input);
+  const int joint = decoder_.input_size(), out = num_outputs();
+  *d_outputs = d_refined + d_input.middleRows(joint, out);
+  *d_proximity = d_input.bottomRows(proximity_size_);
+  EncodersBackward(weights, cache, d_input.topRows(joint), gradient);
 }
 
 void OneFitNetwork::Backward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_outputs,
                              double* gradient) const {
   Eigen::MatrixXd d_joint;
   decoder_.Backward(weights + decoder_offset(), cache.decoder, d_outputs, gradient + decoder_offset(), &d_joint);
+  EncodersBackward(weights, cache, d_joint, gradient);
+}
+
+void OneFitNetwork::EncodersBackward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_joint,
+                                     double* gradient) const {
   const int e_t = patch_encoder_.output_size();
   const Eigen::MatrixXd d_z_t = d_joint.topRows(e_t);
   // The local pose and the proximity are inputs: their rows carry no
@@ -177,6 +242,13 @@ void OneFitNetwork::Check() {
   if (decoder_.SkipsAt(0)) {
     throw std::invalid_argument(
         "OneFitNetwork: the decoder's first hidden layer must differ in width from the embeddings together");
+  }
+  if (feedback() && (proximity_size_ == 0 ||
+                     feedback_.input_size() != decoder_.input_size() + decoder_.output_size() + proximity_size_ ||
+                     feedback_.output_size() != decoder_.output_size())) {
+    throw std::invalid_argument(
+        "OneFitNetwork: the feedback decoder needs the body proximity and must read the decoder's input, outputs and "
+        "proximity and give its outputs");
   }
   // Layers 1.. of the decoder, as an MLP of their own (same weights layout).
   if (decoder_.num_layers() > 1) {

@@ -10,8 +10,20 @@
 // (BodyProximityFeatures, body_proximity.h): inputs, not learnt, so that
 // each patch also sees its own joints and the body next to it directly.
 //
-// E_T, E_B and D are MLPs (mlp.h) with skip connections; their weights are
-// one flat vector [E_T | E_B | D]. The output of patch k turns its rest
+// With feedback (needs the body proximity), a second decoder F reads the
+// proximity p'_k where the patch D's outputs give sits (PlaceProbes) and
+// corrects them:
+//
+//   y'_k = y_k + F(concat(Z_T,k, Z_B, x_k, p_k, y_k, p'_k))
+//
+// so that a patch sees where its own prediction, not only its skinned
+// rest, meets the body. p'_k depends on y_k through the distances to the
+// nearest body samples (their derivative is the samples' normals; which
+// sample is nearest is held): the gradient flows through it
+// (ChainProbesToPatchParameters).
+//
+// E_T, E_B, D (and F) are MLPs (mlp.h) with skip connections; their
+// weights are one flat vector [E_T | E_B | D | F]. The output of patch k turns its rest
 // parameters (alpha_0, s_0, T_0, frame R_0) into the drape's:
 //
 //   alpha = alpha_0 + u_a b_a(d alpha),   s = s_0 exp(b_s(d s)),   T = T_0 + L R_0 b_T(d T)
@@ -63,6 +75,9 @@ struct OneFitNetworkOptions {
   // 5 or 9 probes); Forward then needs them.
   bool body_proximity = false;
   int proximity_probes = 5;
+  // The feedback decoder F (needs body_proximity) and its hidden layers.
+  bool feedback = false;
+  std::vector<int> feedback_hidden = {64, 64};
   std::uint64_t seed = 1;
 
   std::string Validate() const;
@@ -77,12 +92,11 @@ class OneFitNetwork {
   // their sizes do not chain or proximity_probes is not a layout (0: no
   // body proximity). The decoder's input, less the proximity's, tells
   // whether it reads the local pose.
+  // feedback: F, or an MLP without layers (Mlp()) for none.
   OneFitNetwork(Mlp patch_encoder, Mlp body_encoder, Mlp decoder, int num_coefficients, int warp_order = -1,
-                int proximity_probes = 0);
+                int proximity_probes = 0, Mlp feedback = Mlp());
 
-  int num_parameters() const {
-    return patch_encoder_.num_parameters() + body_encoder_.num_parameters() + decoder_.num_parameters();
-  }
+  int num_parameters() const { return feedback_offset() + (feedback() ? feedback_.num_parameters() : 0); }
   // Per patch: NumJetCoefficients + 4 + 2 NumJetCoefficients(warp_order).
   int num_outputs() const { return decoder_.output_size(); }
   int num_coefficients() const { return num_coefficients_; }
@@ -94,14 +108,17 @@ class OneFitNetwork {
   const Mlp& patch_encoder() const { return patch_encoder_; }
   const Mlp& body_encoder() const { return body_encoder_; }
   const Mlp& decoder() const { return decoder_; }
-  // Offsets of E_B's and D's weights in the flat vector (E_T's is 0).
+  bool feedback() const { return !feedback_.sizes().empty(); }
+  const Mlp& feedback_decoder() const { return feedback_; }
+  // Offsets of E_B's, D's and F's weights in the flat vector (E_T's is 0).
   int body_encoder_offset() const { return patch_encoder_.num_parameters(); }
   int decoder_offset() const { return body_encoder_offset() + body_encoder_.num_parameters(); }
+  int feedback_offset() const { return decoder_offset() + decoder_.num_parameters(); }
 
   void Initialize(std::uint64_t seed, double output_scale, double* weights) const;
 
   struct Cache {
-    MlpCache patch, body, decoder;
+    MlpCache patch, body, decoder, feedback;
     int num_patches = 0;
   };
   // patch_features: #patch features by #patches; body_features: one frame.
@@ -124,10 +141,37 @@ class OneFitNetwork {
   // Adds dL/dweights to gradient given dL/doutputs.
   void Backward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_outputs, double* gradient) const;
 
+  // The feedback pass (feedback()): refined = outputs + F([decoder input;
+  // outputs; proximity]), the decoder's input being the cache's (Forward
+  // with a cache) or DecoderInput's; proximity: where the outputs' patches
+  // meet the body (ProximitySize by #patches). cache (may be null): the
+  // same Cache as Forward's, for FeedbackBackward.
+  void Feedback(const double* weights, const Eigen::MatrixXd& decoder_input, const Eigen::MatrixXd& outputs,
+                const Eigen::MatrixXd& proximity, Eigen::MatrixXd* refined, Cache* cache = nullptr) const;
+  // Given dL/drefined: adds F's and, through the decoder's input, the
+  // encoders' dL/dweights to gradient, and sets d_outputs (dL/doutputs
+  // through the skip and F's input: add what flows through the proximity,
+  // then call Backward with it) and d_proximity (dL/dproximity).
+  void FeedbackBackward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_refined,
+                        double* gradient, Eigen::MatrixXd* d_outputs, Eigen::MatrixXd* d_proximity) const;
+  // The decoder's input (decoder().input_size() by #patches: z_T, z_B, x_k,
+  // p_k) at inference, from the garment's patch embeddings z_T
+  // (PatchEmbeddings, once per garment).
+  Eigen::MatrixXd PatchEmbeddings(const double* weights, const Eigen::MatrixXd& patch_features) const;
+  Eigen::MatrixXd DecoderInput(const double* weights, const Eigen::MatrixXd& patch_embeddings,
+                               const Eigen::VectorXd& body_features, const Eigen::MatrixXd* joint_weights,
+                               const Eigen::MatrixXd* proximity) const;
+
  private:
   void Check();
+  Eigen::MatrixXd AssembleDecoderInput(const Eigen::MatrixXd& z_t, const Eigen::MatrixXd& z_b,
+                                       const Eigen::VectorXd& body_features, const Eigen::MatrixXd* joint_weights,
+                                       const Eigen::MatrixXd* proximity) const;
+  void EncodersBackward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_decoder_input,
+                        double* gradient) const;
 
   Mlp patch_encoder_, body_encoder_, decoder_;
+  Mlp feedback_;  // F, or no layers
   Mlp decoder_tail_;  // the decoder's layers after the first
   int num_coefficients_ = 0;
   int warp_order_ = -1;

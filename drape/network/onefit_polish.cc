@@ -170,6 +170,9 @@ double OneFitTrainer::OutputLayerGaussNewton(const double* weights, const std::v
 
 OneFitPolishSummary OneFitTrainer::PolishOutputLayer(std::vector<double>* weights, const PolishCallback& on_step) {
   const auto start = Clock::now();
+  if (network_.feedback()) {
+    throw std::invalid_argument("OneFitTrainer::PolishOutputLayer: the feedback decoder reads the decoder's outputs");
+  }
   const OneFitPolishOptions& o = options_.polish;
   OneFitPolishSummary summary;
   // Its own seeded draw, so that the polish's samples do not depend on how

@@ -12,6 +12,7 @@
 
 #include "drape/network/onefit_draper.h"
 #include "drape/network/onefit_trainer_garment.h"
+#include "drape/network/output_proximity.h"
 #include "polyfit/util/parallel_for.h"
 
 namespace polyfit {
@@ -61,6 +62,9 @@ std::string OneFitTrainerOptions::Validate() const {
   }
   if (polish.iterations < 0 || polish.samples < 1 || !(polish.initial_damping > 0.0)) {
     return "polish: iterations must be >= 0, samples >= 1 and initial_damping > 0";
+  }
+  if (polish.iterations > 0 && network.feedback) {
+    return "polish: it fits the decoder's output layer, which the feedback decoder reads: not with feedback";
   }
   if (lbfgs_rank < 1) return "lbfgs_rank must be >= 1";
   if (!(weight_step > 0.0)) return "weight_step must be > 0";
@@ -156,6 +160,7 @@ OneFitTrainer::OneFitTrainer(std::vector<OneFitTrainingBody> bodies, const OneFi
       for (auto& cache : proximity_) {
         if (!cache) cache = std::make_unique<ProximityCache>();
         cache->bodies.push_back(std::make_unique<PosedBodySamples>(body.body));
+        cache->posed.emplace_back(-1, -1);
       }
     }
     for (const OneFitTrainingGarment& g : body.garments) {
@@ -284,10 +289,11 @@ void OneFitTrainer::StartFrom(const OneFitModel& model) {
       model.area_units != options_.area_units || model.joint_mask_reach != options_.joint_mask_reach ||
       model.warp_slide_bound != options_.warp_slide_bound ||
       model.network.body_proximity() != options_.network.body_proximity ||
-      (model.network.body_proximity() && model.network.proximity_probes() != options_.network.proximity_probes)) {
+      (model.network.body_proximity() && model.network.proximity_probes() != options_.network.proximity_probes) ||
+      model.network.feedback() != options_.network.feedback) {
     throw std::invalid_argument(
         "OneFitTrainer::StartFrom: the model's jet order, warp order, slide bound, patching, root feature, output "
-        "units, joint mask, body proximity or rig differs from the training's");
+        "units, joint mask, body proximity, feedback or rig differs from the training's");
   }
   if (model.patch_normalizer.mean.size() != patch_normalizer_.mean.size() ||
       model.body_normalizer.mean.size() != body_normalizer_.mean.size()) {
@@ -297,6 +303,18 @@ void OneFitTrainer::StartFrom(const OneFitModel& model) {
   patch_normalizer_ = model.patch_normalizer;
   body_normalizer_ = model.body_normalizer;
   for (auto& g : garments_) g->features = patch_normalizer_.Apply(g->raw_features);
+}
+
+PosedBodySamples& OneFitTrainer::BodyPosedAt(int body, int clip, int frame, int thread) {
+  ProximityCache& cache = *proximity_.at(thread);
+  const OneFitTrainingClip& c = clips_[clip];
+  frame = std::clamp(frame, 0, static_cast<int>(c.poses.size()) - 1);
+  PosedBodySamples& samples = *cache.bodies[body];
+  if (cache.posed[body] != std::make_pair(clip, frame)) {
+    samples.Pose(c.poses[frame]);
+    cache.posed[body] = {clip, frame};
+  }
+  return samples;
 }
 
 const Eigen::MatrixXd* OneFitTrainer::ProximityAt(int garment, int clip, int frame, int thread) {
@@ -311,10 +329,19 @@ const Eigen::MatrixXd* OneFitTrainer::ProximityAt(int garment, int clip, int fra
   if (cache.features.size() >= 1024) cache.features.clear();
   const GarmentData& g = *garments_[garment];
   Eigen::MatrixXd& features = cache.features[key];
-  PosedBodySamples& body = *cache.bodies[g.body];
-  body.Pose(c.poses[frame]);
-  BodyProximityFeatures(g.probes, c.poses[frame], body, &features);
+  BodyProximityFeatures(g.probes, c.poses[frame], BodyPosedAt(g.body, clip, frame, thread), &features);
   return &features;
+}
+
+void OneFitTrainer::ApplyFeedback(const double* weights, int garment, int clip, int frame, int thread,
+                                  OutputProximity* at, OneFitNetwork::Cache* cache, Eigen::MatrixXd* outputs) {
+  const OneFitTrainingClip& c = clips_[clip];
+  const int f = std::clamp(frame, 0, static_cast<int>(c.poses.size()) - 1);
+  const Eigen::MatrixXd& proximity =
+      at->Evaluate(*outputs, c.poses[f], BodyPosedAt(garments_[garment]->body, clip, f, thread));
+  Eigen::MatrixXd refined;
+  network_.Feedback(weights, cache->decoder.inputs.front(), *outputs, proximity, &refined, cache);
+  *outputs = std::move(refined);
 }
 
 std::vector<double> OneFitTrainer::Predict(const double* weights, int garment, int clip, int frame) {
@@ -325,8 +352,13 @@ std::vector<double> OneFitTrainer::PredictOn(const double* weights, int garment,
   const GarmentData& g = *garments_.at(garment);
   if (g.body != clip_body_.at(clip)) throw std::invalid_argument("OneFitTrainer: a garment and a clip of two bodies");
   Eigen::MatrixXd outputs;
+  OneFitNetwork::Cache cache;  // the feedback's input
   network_.Forward(weights, g.features, GarmentBodyFeatures(g, clip, frame), &g.joint_weights,
-                   ProximityAt(garment, clip, frame, thread), &outputs);
+                   ProximityAt(garment, clip, frame, thread), &outputs, network_.feedback() ? &cache : nullptr);
+  if (network_.feedback()) {
+    OutputProximity at(g.map, g.probes, options_.drape.patching.jet_order);
+    ApplyFeedback(weights, garment, clip, frame, thread, &at, &cache, &outputs);
+  }
   return PatchParametersFromOutputs(g.map, outputs, network_.num_coefficients());
 }
 
@@ -354,13 +386,24 @@ double OneFitTrainer::SampleLoss(const double* weights, const double* history_we
   GarmentData& g = *garments_[sample.garment];
   Eigen::MatrixXd outputs;
   OneFitNetwork::Cache cache;
-  PrepareSample(weights, history_weights, sample, thread, epoch, &outputs, gradient != nullptr ? &cache : nullptr);
+  const bool feedback = network_.feedback();
+  PrepareSample(weights, history_weights, sample, thread, epoch, &outputs,
+                gradient != nullptr || feedback ? &cache : nullptr);
+  OutputProximity at(g.map, g.probes, options_.drape.patching.jet_order);
+  if (feedback) ApplyFeedback(weights, sample.garment, sample.clip, sample.frame, thread, &at, &cache, &outputs);
   const std::vector<double> params = PatchParametersFromOutputs(g.map, outputs, network_.num_coefficients());
   std::vector<double> d_params;
   const double energy = g.solvers[thread]->Evaluate(params, gradient != nullptr ? &d_params : nullptr);
   if (gradient != nullptr) {
-    network_.Backward(weights, cache,
-                      ChainPatchParameterGradient(g.map, outputs, network_.num_coefficients(), d_params), gradient);
+    Eigen::MatrixXd d_outputs = ChainPatchParameterGradient(g.map, outputs, network_.num_coefficients(), d_params);
+    if (feedback) {
+      // Back through F to D's outputs: directly, and through the proximity
+      // at the patches they give.
+      Eigen::MatrixXd d_first, d_proximity;
+      network_.FeedbackBackward(weights, cache, d_outputs, gradient, &d_first, &d_proximity);
+      d_outputs = d_first + at.Chain(d_proximity);
+    }
+    network_.Backward(weights, cache, d_outputs, gradient);
   }
   return energy;
 }

@@ -31,6 +31,9 @@
 
 namespace polyfit {
 
+class OutputProximity;
+class PosedBodySamples;
+
 struct OneFitTrainingGarment {
   std::string name;
   TriangleMesh mesh;  // in the body's rest pose
@@ -340,6 +343,13 @@ class OneFitTrainer {
   // a garment at a clip's frame, posed on the thread's copy of the body;
   // else null. Valid until the thread's next call.
   const Eigen::MatrixXd* ProximityAt(int garment, int clip, int frame, int thread);
+  // The thread's copy of a body posed at a clip's frame (posed again only
+  // when another frame was posed last).
+  PosedBodySamples& BodyPosedAt(int body, int clip, int frame, int thread);
+  // With the feedback decoder: *outputs (D's, with the Forward's cache)
+  // become F's refinement, the proximity at D's patches kept in *at.
+  void ApplyFeedback(const double* weights, int garment, int clip, int frame, int thread, OutputProximity* at,
+                     OneFitNetwork::Cache* cache, Eigen::MatrixXd* outputs);
   // Predict on a thread's drape and body.
   std::vector<double> PredictOn(const double* weights, int garment, int clip, int frame, int thread);
   OneFitSample DrawSample(std::mt19937_64* rng) const;

@@ -7,6 +7,7 @@
 #include <memory>
 #include <string>
 #include <tuple>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -37,6 +38,7 @@ struct OneFitTrainer::GarmentData {
 struct OneFitTrainer::ProximityCache {
   std::vector<std::unique_ptr<PosedBodySamples>> bodies;
   std::map<std::tuple<int, int, int>, Eigen::MatrixXd> features;
+  std::vector<std::pair<int, int>> posed;  // per body: the (clip, frame) it is posed for, or (-1, -1)
 };
 
 }  // namespace polyfit

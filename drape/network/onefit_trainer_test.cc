@@ -754,7 +754,7 @@ TEST_F(OneFitTrainerTest, NineProximityProbesRoundTripAndDrapeAsTraining) {
     std::ifstream in(path, std::ios::binary);
     bytes.assign(std::istreambuf_iterator<char>(in), {});
   }
-  ASSERT_EQ(bytes[8], 12);
+  ASSERT_EQ(bytes[8], 13);
   ASSERT_EQ(bytes[80], kRimProximityProbes);  // the probes' count
   const std::string damaged = ::testing::TempDir() + "/onefit_rim_probes_damaged.pfonefit";
   for (const char count : {'\x00', '\x05', '\x07'}) {
@@ -767,7 +767,7 @@ TEST_F(OneFitTrainerTest, NineProximityProbesRoundTripAndDrapeAsTraining) {
   // no room.
   std::string v11 = bytes;
   v11[8] = 11;
-  v11.erase(80, 4);
+  v11.erase(80, 8);  // the count and version 13's feedback flag
   std::ofstream(damaged, std::ios::binary) << v11;
   EXPECT_THROW(LoadOneFitModel(damaged), OneFitModelError);
   SaveOneFitModel(path, five.MakeModel(JiggledWeights(five, 5)));
@@ -776,9 +776,76 @@ TEST_F(OneFitTrainerTest, NineProximityProbesRoundTripAndDrapeAsTraining) {
     v11.assign(std::istreambuf_iterator<char>(in), {});
   }
   v11[8] = 11;
-  v11.erase(80, 4);
+  v11.erase(80, 8);
   std::ofstream(damaged, std::ios::binary) << v11;
   EXPECT_EQ(LoadOneFitModel(damaged).network.proximity_probes(), kProximityProbes);
+}
+
+// The feedback decoder: a new one leaves the decoder's prediction nearly
+// as it is; the gradient through it and through the proximity at the
+// decoder's patches is right; a round trip (version 13) and a draper that
+// predicts what training sees; it needs the proximity, and the polish
+// (which fits the decoder's output layer) is refused with it.
+TEST_F(OneFitTrainerTest, TheFeedbackDecoderHasTheRightGradientRoundTripsAndDrapesAsTraining) {
+  options_.network.body_proximity = true;
+  const OneFitTrainer plain = ShirtTrainer(body_, options_);
+  options_.network.feedback = true;
+  options_.network.feedback_hidden = {12, 12};
+  OneFitTrainer trainer = ShirtTrainer(body_, options_);
+  EXPECT_EQ(trainer.num_parameters(),
+            plain.num_parameters() + trainer.MakeModel(trainer.InitialWeights()).network.feedback_decoder()
+                                         .num_parameters());
+  {
+    // F's last layer starts scaled as D's: it moves the patches by
+    // millimetres, as a new D moves the rest patches.
+    std::vector<double> weights = trainer.InitialWeights();
+    const std::vector<double> refined = trainer.Predict(weights.data(), 0, 0, 3);
+    std::fill(weights.begin() + plain.num_parameters(), weights.end(), 0.0);  // F's weights zero: D's outputs
+    const std::vector<double> decoded = trainer.Predict(weights.data(), 0, 0, 3);
+    OneFitTrainingGarment shirt = TubeShirt();
+    DrapeSolverOptions drape = options_.drape;
+    drape.slide.warp_order = options_.network.warp_order;
+    DrapeSolver solver(body_, shirt.mesh, shirt.weights, drape);
+    const double moved = (solver.PositionsOf(refined) - solver.PositionsOf(decoded)).colwise().norm().maxCoeff();
+    EXPECT_GT(moved, 0.0);
+    EXPECT_LT(moved, 0.008);
+  }
+  ExpectGradientMatchesCentralDifferences(&trainer, 3, true);
+  const std::vector<double> weights = JiggledWeights(trainer, 7);
+  const std::string path = ::testing::TempDir() + "/onefit_feedback.pfonefit";
+  SaveOneFitModel(path, trainer.MakeModel(weights));
+  const OneFitModel loaded = LoadOneFitModel(path);
+  ASSERT_TRUE(loaded.network.feedback());
+  EXPECT_EQ(loaded.network.feedback_decoder().sizes(),
+            (std::vector<int>{8 + 8 + kProximitySize + loaded.network.num_outputs() + kProximitySize, 12, 12,
+                              loaded.network.num_outputs()}));
+  ExpectDraperPredictsAsTraining(body_, options_, Sway(body_, 8), loaded, trainer, weights);
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  ASSERT_EQ(bytes[8], 13);
+  ASSERT_EQ(bytes[84], 1);  // the feedback flag
+  const std::string damaged = ::testing::TempDir() + "/onefit_feedback_damaged.pfonefit";
+  for (const char flag : {'\x00', '\x02'}) {
+    std::string b = bytes;
+    b[84] = flag;
+    std::ofstream(damaged, std::ios::binary) << b;
+    EXPECT_THROW(LoadOneFitModel(damaged), OneFitModelError) << int{flag};
+  }
+  // A network without it cannot resume it, and the polish is refused.
+  options_.network.feedback = false;
+  OneFitTrainer without = ShirtTrainer(body_, options_);
+  EXPECT_THROW(without.StartFrom(loaded), std::invalid_argument);
+  std::vector<double> polished = weights;
+  EXPECT_THROW(trainer.PolishOutputLayer(&polished), std::invalid_argument);
+  options_.network.feedback = true;
+  options_.polish.iterations = 2;
+  EXPECT_NE(options_.Validate(), "");
+  options_.polish.iterations = 0;
+  options_.network.body_proximity = false;
+  EXPECT_NE(options_.network.Validate(), "");
 }
 
 // A warp head of order 3 under a slide bound: the gradient through the
@@ -1034,8 +1101,8 @@ TEST_F(OneFitTrainerTest, AModelFileRoundTripsAndTheDraperPredictsAsTraining) {
   wrong_version[8] = kOneFitModelVersion + 1;
   expect_error(wrong_version, "version " + std::to_string(kOneFitModelVersion + 1));
   std::string huge = bytes;
-  huge[84] = '\xff';  // the patch encoder's layer count
-  huge[85] = '\xff';
+  huge[88] = '\xff';  // the patch encoder's layer count
+  huge[89] = '\xff';
   expect_error(huge, "layer sizes");
   EXPECT_THROW(LoadOneFitModel(path + ".absent"), OneFitModelError);
 }
@@ -1106,7 +1173,7 @@ TEST(OneFitModelTest, OlderVersionsStillLoadAndTheFlagsRoundTrip) {
     std::ifstream in(path, std::ios::binary);
     bytes.assign(std::istreambuf_iterator<char>(in), {});
   }
-  ASSERT_EQ(bytes[8], 12);  // the version
+  ASSERT_EQ(bytes[8], 13);  // the version
   EXPECT_EQ(LoadOneFitModel(path).joint_mask_reach, 0.0);
   EXPECT_EQ(LoadOneFitModel(path).warp_slide_bound, 0.0);
   model.joint_mask_reach = 0.05;
@@ -1131,6 +1198,12 @@ TEST(OneFitModelTest, OlderVersionsStillLoadAndTheFlagsRoundTrip) {
     bytes.erase(at, size);
     std::ofstream(file, std::ios::binary) << bytes;
   };
+  const std::string path12 = ::testing::TempDir() + "/onefit_v12_old.pfonefit";
+  expect_refused(84, 1, path12);  // a feedback decoder without the proximity
+  expect_refused(84, 2, path12);
+  // Version 12: no feedback decoder.
+  downgrade(12, 84, 4, path12);
+  EXPECT_FALSE(LoadOneFitModel(path12).network.feedback());
   const std::string path11 = ::testing::TempDir() + "/onefit_v11_old.pfonefit";
   expect_refused(80, 5, path11);  // probes without the proximity
   // Version 11: one layout of probes (none here).

@@ -282,6 +282,16 @@ void AddTrainModelFlags(CLI::App* train, polyfit::OneFitTrainerOptions* trainer)
       ->capture_default_str()
       ->check(CLI::IsMember({5, 9}))
       ->needs(proximity);
+  CLI::Option* feedback =
+      train
+          ->add_flag("--feedback", t.network.feedback,
+                     "with --body-proximity: a second, small decoder reads where the first's patches meet the body "
+                     "and corrects them (recorded in the model)")
+          ->needs(proximity);
+  train
+      ->add_option("--feedback-hidden", t.network.feedback_hidden, "with --feedback: its hidden layers' widths")
+      ->capture_default_str()
+      ->needs(feedback);
   train->add_flag("--align-frames", t.drape.patching.align_frames,
                   "patch frames turned to the body's up axis (recorded in the model)");
   train->add_flag("--curved-faces", t.drape.patching.curved_faces,

@@ -179,6 +179,12 @@ def generated_seeds(build):
             "--patch-hidden", "4", "--validate-every", "0", "--patch-area", "1", "--body-proximity",
             "--proximity-probes", "9")
         shutil.copy(model, os.path.join(CORPUS, "onefit_model_fuzzer", "tiny_rim_probes.pfonefit"))
+        # A feedback decoder after the decoder (file version 13's last header field and a fourth MLP).
+        run(os.path.join(bin_dir, "onefit"), "train", "--garments", garment, "--motions", clip, "--out", model,
+            "--batches", "1", "--batch-size", "1", "--decoder-hidden", "4", "--body-hidden", "4",
+            "--patch-hidden", "4", "--validate-every", "0", "--patch-area", "1", "--body-proximity",
+            "--feedback", "--feedback-hidden", "4")
+        shutil.copy(model, os.path.join(CORPUS, "onefit_model_fuzzer", "tiny_feedback.pfonefit"))
 
 
 def main():

@@ -1,0 +1,26 @@
+#include "drape/network/output_proximity.h"
+
+#include "polyfit/jet/jet_basis.h"
+
+namespace polyfit {
+
+OutputProximity::OutputProximity(const PatchOutputMap& map, const PatchProbes& probes, int jet_order)
+    : map_(map), probes_(probes), jet_order_(jet_order) {}
+
+const Eigen::MatrixXd& OutputProximity::Evaluate(const Eigen::MatrixXd& outputs, const JointTransforms& pose,
+                                                 const PosedBodySamples& body) {
+  outputs_ = outputs;
+  parameters_ = PatchParametersFromOutputs(map_, outputs, NumJetCoefficients(jet_order_));
+  PlaceProbes(probes_, parameters_, jet_order_, static_cast<int>(map_.units.rows()), &points_);
+  BodyProximityFeatures(probes_, points_, pose, body, &features_, &distance_gradients_);
+  return features_;
+}
+
+Eigen::MatrixXd OutputProximity::Chain(const Eigen::MatrixXd& d_features) const {
+  std::vector<double> d_parameters(parameters_.size(), 0.0);
+  ChainProbesToPatchParameters(probes_, parameters_, jet_order_, static_cast<int>(map_.units.rows()),
+                               distance_gradients_, d_features, &d_parameters);
+  return ChainPatchParameterGradient(map_, outputs_, NumJetCoefficients(jet_order_), d_parameters);
+}
+
+}  // namespace polyfit
