@@ -5,7 +5,7 @@
 // by area into about as many patches as the 2k suit has) and the network's
 // width, with and without a warp head, the local pose and the body
 // proximity at five or nine probes a patch (which poses the body each
-// frame). Random weights: the time does not depend on them. The MakeHuman
+// frame), and with the feedback decoder (default width) after it. Random weights: the time does not depend on them. The MakeHuman
 // body when the shared data is there (its rig's features), else the
 // procedural body.
 //
@@ -44,6 +44,7 @@ struct Inputs {
   int warp_order;
   bool local_pose;
   int proximity_probes;  // 0: no body proximity
+  bool feedback = false;
 };
 
 polyfit::OneFitModel RandomModel(const polyfit::SkinnedBody& body, int width, const Inputs& inputs) {
@@ -54,6 +55,7 @@ polyfit::OneFitModel RandomModel(const polyfit::SkinnedBody& body, int width, co
   options.local_pose = inputs.local_pose;
   options.body_proximity = inputs.proximity_probes > 0;
   if (options.body_proximity) options.proximity_probes = inputs.proximity_probes;
+  options.feedback = inputs.feedback;
   const int joints = body.skeleton.num_joints(), order = 4;
   polyfit::OneFitModel model;
   model.jet_order = order;
@@ -98,7 +100,8 @@ int main(int argc, char** argv) {
     tube.vertices.row(2).array() += centre.z();
     const polyfit::SkinWeights weights =
         polyfit::SingleJointWeights(tube.num_vertices(), std::min(1, body.skeleton.num_joints() - 1));
-    for (const Inputs& inputs : {Inputs{-1, false, 0}, {2, false, 0}, {2, true, 0}, {2, true, 5}, {2, true, 9}}) {
+    for (const Inputs& inputs :
+         {Inputs{-1, false, 0}, {2, false, 0}, {2, true, 0}, {2, true, 5}, {2, true, 9}, {2, true, 5, true}}) {
       polyfit::DrapeSolverOptions options;
       options.num_threads = 1;
       options.slide.warp_order = inputs.warp_order;
@@ -119,7 +122,10 @@ int main(int argc, char** argv) {
         std::nth_element(ms.begin(), ms.begin() + ms.size() / 2, ms.end());
         std::printf("| %d | %d | %d | %s | %s | %s | %d | %.3f |\n", tube.num_vertices(), solver.num_patches(), width,
                     inputs.warp_order < 0 ? "none" : "order 2", inputs.local_pose ? "yes" : "no",
-                    inputs.proximity_probes == 0 ? "no" : (std::to_string(inputs.proximity_probes) + " probes").c_str(),
+                    inputs.proximity_probes == 0
+                        ? "no"
+                        : (std::to_string(inputs.proximity_probes) + " probes" + (inputs.feedback ? ", feedback" : ""))
+                              .c_str(),
                     model.network.num_parameters(), ms[ms.size() / 2]);
         if (!std::isfinite(checksum)) return 1;
       }
