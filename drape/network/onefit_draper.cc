@@ -61,7 +61,7 @@ OneFitDraper::OneFitDraper(const OneFitModel& model, const DrapeSolver& solver, 
     posed_body_ = std::make_unique<PosedBodySamples>(*body);
   }
   if (model.network.feedback()) {
-    patch_embeddings_ = model.network.PatchEmbeddings(model.weights.data(), features);
+    feedback_half_ = model.network.FeedbackGarmentHalf(model.weights.data(), features);
     output_proximity_ = std::make_unique<OutputProximity>(map_, probes_, model.jet_order);
   }
 }
@@ -77,14 +77,14 @@ std::vector<double> OneFitDraper::Predict(const JointTransforms& before_previous
     posed_body_->Pose(now);
     BodyProximityFeatures(probes_, now, *posed_body_, &proximity_);
   }
+  Eigen::VectorXd z_b;
   model_.network.ForwardWithGarmentHalf(model_.weights.data(), garment_half_, body, &joint_weights_, &proximity_,
-                                        &outputs);
+                                        &outputs, &z_b);
   if (output_proximity_) {
-    const Eigen::MatrixXd input =
-        model_.network.DecoderInput(model_.weights.data(), patch_embeddings_, body, &joint_weights_, &proximity_);
     Eigen::MatrixXd refined;
-    model_.network.Feedback(model_.weights.data(), input, outputs, output_proximity_->Evaluate(outputs, now, *posed_body_),
-                            &refined);
+    model_.network.FeedbackWithGarmentHalf(model_.weights.data(), feedback_half_, z_b, body, &joint_weights_,
+                                           &proximity_, outputs,
+                                           output_proximity_->Evaluate(outputs, now, *posed_body_), &refined);
     outputs = std::move(refined);
   }
   return PatchParametersFromOutputs(map_, outputs, model_.network.num_coefficients());

@@ -61,9 +61,9 @@ class OneFitDraper {
   PatchProbes probes_;
   std::unique_ptr<PosedBodySamples> posed_body_;
   mutable Eigen::MatrixXd proximity_;
-  // With the feedback decoder: the patch embeddings z_T (its input) and
-  // the proximity at the decoder's patches.
-  Eigen::MatrixXd patch_embeddings_;
+  // With the feedback decoder: its garment half and the proximity at the
+  // decoder's patches.
+  Eigen::MatrixXd feedback_half_;
   std::unique_ptr<OutputProximity> output_proximity_;
 };
 

@@ -135,21 +135,6 @@ Eigen::MatrixXd OneFitNetwork::AssembleDecoderInput(const Eigen::MatrixXd& z_t, 
   return joint;
 }
 
-Eigen::MatrixXd OneFitNetwork::PatchEmbeddings(const double* weights, const Eigen::MatrixXd& patch_features) const {
-  Eigen::MatrixXd z_t;
-  patch_encoder_.Forward(weights, patch_features, &z_t);
-  return z_t;
-}
-
-Eigen::MatrixXd OneFitNetwork::DecoderInput(const double* weights, const Eigen::MatrixXd& patch_embeddings,
-                                            const Eigen::VectorXd& body_features,
-                                            const Eigen::MatrixXd* joint_weights,
-                                            const Eigen::MatrixXd* proximity) const {
-  Eigen::MatrixXd z_b;
-  body_encoder_.Forward(weights + body_encoder_offset(), body_features, &z_b);
-  return AssembleDecoderInput(patch_embeddings, z_b, body_features, joint_weights, proximity);
-}
-
 void OneFitNetwork::Feedback(const double* weights, const Eigen::MatrixXd& decoder_input,
                              const Eigen::MatrixXd& outputs, const Eigen::MatrixXd& proximity,
                              Eigen::MatrixXd* refined, Cache* cache) const {
@@ -208,9 +193,11 @@ Eigen::MatrixXd OneFitNetwork::GarmentHalf(const double* weights, const Eigen::M
 
 void OneFitNetwork::ForwardWithGarmentHalf(const double* weights, const Eigen::MatrixXd& garment_half,
                                            const Eigen::VectorXd& body_features, const Eigen::MatrixXd* joint_weights,
-                                           const Eigen::MatrixXd* proximity, Eigen::MatrixXd* outputs) const {
+                                           const Eigen::MatrixXd* proximity, Eigen::MatrixXd* outputs,
+                                           Eigen::VectorXd* body_embedding) const {
   Eigen::MatrixXd z_b;
   body_encoder_.Forward(weights + body_encoder_offset(), body_features, &z_b);
+  if (body_embedding != nullptr) *body_embedding = z_b.col(0);
   const double* d = weights + decoder_offset();
   const int width = decoder_.sizes()[1], e_t = patch_encoder_.output_size();
   const Eigen::Map<const Eigen::MatrixXd> w(d + decoder_.weight_offset(0), width, decoder_.input_size());
@@ -227,6 +214,50 @@ void OneFitNetwork::ForwardWithGarmentHalf(const double* weights, const Eigen::M
   // The rest of the decoder: its layers 1.. as an MLP of their own.
   const Eigen::MatrixXd h = (a.array() > 0.0).select(a, decoder_.leaky_slope() * a);
   decoder_tail_.Forward(d + decoder_.weight_offset(1), h, outputs);
+}
+
+Eigen::MatrixXd OneFitNetwork::FeedbackGarmentHalf(const double* weights,
+                                                   const Eigen::MatrixXd& patch_features) const {
+  if (!feedback()) throw std::invalid_argument("OneFitNetwork: the network has no feedback decoder");
+  Eigen::MatrixXd z_t;
+  patch_encoder_.Forward(weights, patch_features, &z_t);
+  const double* f = weights + feedback_offset();
+  const int width = feedback_.sizes()[1], e_t = patch_encoder_.output_size();
+  const Eigen::Map<const Eigen::MatrixXd> w(f + feedback_.weight_offset(0), width, feedback_.input_size());
+  const Eigen::Map<const Eigen::VectorXd> b(f + feedback_.bias_offset(0), width);
+  Eigen::MatrixXd half = w.leftCols(e_t) * z_t;
+  half.colwise() += b;
+  return half;
+}
+
+void OneFitNetwork::FeedbackWithGarmentHalf(const double* weights, const Eigen::MatrixXd& feedback_half,
+                                            const Eigen::VectorXd& body_embedding,
+                                            const Eigen::VectorXd& body_features,
+                                            const Eigen::MatrixXd* joint_weights, const Eigen::MatrixXd* proximity,
+                                            const Eigen::MatrixXd& outputs, const Eigen::MatrixXd& output_proximity,
+                                            Eigen::MatrixXd* refined) const {
+  const double* f = weights + feedback_offset();
+  const int width = feedback_.sizes()[1], e_t = patch_encoder_.output_size();
+  const int e_b = static_cast<int>(body_embedding.size()), joint = decoder_.input_size();
+  const Eigen::Index n = feedback_half.cols();
+  if (!feedback() || e_b != body_encoder_.output_size() || outputs.rows() != num_outputs() || outputs.cols() != n ||
+      output_proximity.rows() != proximity_size_ || output_proximity.cols() != n) {
+    throw std::invalid_argument("OneFitNetwork::FeedbackWithGarmentHalf: inputs of the wrong size");
+  }
+  const Eigen::Map<const Eigen::MatrixXd> w(f + feedback_.weight_offset(0), width, feedback_.input_size());
+  Eigen::MatrixXd a = feedback_half;
+  a.colwise() += w.middleCols(e_t, e_b) * body_embedding;
+  if (local_size_ > 0) a.noalias() += w.middleCols(e_t + e_b, local_size_) * LocalPose(body_features, joint_weights, n);
+  a.noalias() += w.middleCols(joint - proximity_size_, proximity_size_) * Proximity(proximity, proximity_size_, n);
+  a.noalias() += w.middleCols(joint, num_outputs()) * outputs;
+  a.noalias() += w.rightCols(proximity_size_) * output_proximity;
+  if (feedback_.num_layers() == 1) {
+    *refined = a + outputs;
+    return;
+  }
+  const Eigen::MatrixXd h = (a.array() > 0.0).select(a, feedback_.leaky_slope() * a);
+  feedback_tail_.Forward(f + feedback_.weight_offset(1), h, refined);
+  *refined += outputs;
 }
 
 void OneFitNetwork::Check() {
@@ -249,6 +280,14 @@ void OneFitNetwork::Check() {
     throw std::invalid_argument(
         "OneFitNetwork: the feedback decoder needs the body proximity and must read the decoder's input, outputs and "
         "proximity and give its outputs");
+  }
+  if (feedback() && feedback_.SkipsAt(0)) {
+    throw std::invalid_argument("OneFitNetwork: the feedback decoder's first hidden layer must differ in width from "
+                                "its input");
+  }
+  if (feedback() && feedback_.num_layers() > 1) {
+    feedback_tail_ = Mlp(std::vector<int>(feedback_.sizes().begin() + 1, feedback_.sizes().end()),
+                         feedback_.residual(), feedback_.leaky_slope());
   }
   // Layers 1.. of the decoder, as an MLP of their own (same weights layout).
   if (decoder_.num_layers() > 1) {

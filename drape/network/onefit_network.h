@@ -135,15 +135,17 @@ class OneFitNetwork {
   // first-layer width by #patches; ForwardWithGarmentHalf gives Forward's
   // outputs.
   Eigen::MatrixXd GarmentHalf(const double* weights, const Eigen::MatrixXd& patch_features) const;
+  // body_embedding (may be null): z_B, for FeedbackWithGarmentHalf.
   void ForwardWithGarmentHalf(const double* weights, const Eigen::MatrixXd& garment_half,
                               const Eigen::VectorXd& body_features, const Eigen::MatrixXd* joint_weights,
-                              const Eigen::MatrixXd* proximity, Eigen::MatrixXd* outputs) const;
+                              const Eigen::MatrixXd* proximity, Eigen::MatrixXd* outputs,
+                              Eigen::VectorXd* body_embedding = nullptr) const;
   // Adds dL/dweights to gradient given dL/doutputs.
   void Backward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_outputs, double* gradient) const;
 
   // The feedback pass (feedback()): refined = outputs + F([decoder input;
   // outputs; proximity]), the decoder's input being the cache's (Forward
-  // with a cache) or DecoderInput's; proximity: where the outputs' patches
+  // with a cache); proximity: where the outputs' patches
   // meet the body (ProximitySize by #patches). cache (may be null): the
   // same Cache as Forward's, for FeedbackBackward.
   void Feedback(const double* weights, const Eigen::MatrixXd& decoder_input, const Eigen::MatrixXd& outputs,
@@ -154,13 +156,17 @@ class OneFitNetwork {
   // then call Backward with it) and d_proximity (dL/dproximity).
   void FeedbackBackward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_refined,
                         double* gradient, Eigen::MatrixXd* d_outputs, Eigen::MatrixXd* d_proximity) const;
-  // The decoder's input (decoder().input_size() by #patches: z_T, z_B, x_k,
-  // p_k) at inference, from the garment's patch embeddings z_T
-  // (PatchEmbeddings, once per garment).
-  Eigen::MatrixXd PatchEmbeddings(const double* weights, const Eigen::MatrixXd& patch_features) const;
-  Eigen::MatrixXd DecoderInput(const double* weights, const Eigen::MatrixXd& patch_embeddings,
-                               const Eigen::VectorXd& body_features, const Eigen::MatrixXd* joint_weights,
-                               const Eigen::MatrixXd* proximity) const;
+  // Inference with the feedback decoder's garment half precomputed, as
+  // the decoder's: FeedbackGarmentHalf is W_F,T z_T + b_F (F's first-layer
+  // width by #patches, once per garment); FeedbackWithGarmentHalf gives
+  // Feedback's refined outputs from the frame's z_B (ForwardWithGarmentHalf's
+  // body_embedding), its x_k and p_k, D's outputs and the proximity at them.
+  Eigen::MatrixXd FeedbackGarmentHalf(const double* weights, const Eigen::MatrixXd& patch_features) const;
+  void FeedbackWithGarmentHalf(const double* weights, const Eigen::MatrixXd& feedback_half,
+                               const Eigen::VectorXd& body_embedding, const Eigen::VectorXd& body_features,
+                               const Eigen::MatrixXd* joint_weights, const Eigen::MatrixXd* proximity,
+                               const Eigen::MatrixXd& outputs, const Eigen::MatrixXd& output_proximity,
+                               Eigen::MatrixXd* refined) const;
 
  private:
   void Check();
@@ -171,7 +177,8 @@ class OneFitNetwork {
                         double* gradient) const;
 
   Mlp patch_encoder_, body_encoder_, decoder_;
-  Mlp feedback_;  // F, or no layers
+  Mlp feedback_;       // F, or no layers
+  Mlp feedback_tail_;  // F's layers after the first
   Mlp decoder_tail_;  // the decoder's layers after the first
   int num_coefficients_ = 0;
   int warp_order_ = -1;
