@@ -179,16 +179,38 @@ void OneFitNetwork::EncodersBackward(const double* weights, const Cache& cache, 
   body_encoder_.Backward(weights + body_encoder_offset(), cache.body, d_z_b, gradient + body_encoder_offset());
 }
 
+namespace {
+
+// An MLP's first layer split over its input [z_T; rest]: W_T z_T + b (its
+// width by #patches), the part that depends on the garment only.
+Eigen::MatrixXd FirstLayerGarmentHalf(const Mlp& mlp, const double* params, const Eigen::MatrixXd& z_t) {
+  const int width = mlp.sizes()[1];
+  const Eigen::Map<const Eigen::MatrixXd> w(params + mlp.weight_offset(0), width, mlp.input_size());
+  const Eigen::Map<const Eigen::VectorXd> b(params + mlp.bias_offset(0), width);
+  Eigen::MatrixXd half = w.leftCols(z_t.rows()) * z_t;
+  half.colwise() += b;
+  return half;
+}
+
+// The MLP's output from its first layer's pre-activation a: its layers
+// 1.. (`tail`, an MLP of their own over the same weights' layout) after
+// the activation, or a itself for a one-layer MLP.
+void FinishFromFirstLayer(const Mlp& mlp, const Mlp& tail, const double* params, Eigen::MatrixXd a,
+                          Eigen::MatrixXd* outputs) {
+  if (mlp.num_layers() == 1) {
+    *outputs = std::move(a);
+    return;
+  }
+  const Eigen::MatrixXd h = (a.array() > 0.0).select(a, mlp.leaky_slope() * a);
+  tail.Forward(params + mlp.weight_offset(1), h, outputs);
+}
+
+}  // namespace
+
 Eigen::MatrixXd OneFitNetwork::GarmentHalf(const double* weights, const Eigen::MatrixXd& patch_features) const {
   Eigen::MatrixXd z_t;
   patch_encoder_.Forward(weights, patch_features, &z_t);
-  const double* d = weights + decoder_offset();
-  const int width = decoder_.sizes()[1], e_t = patch_encoder_.output_size();
-  const Eigen::Map<const Eigen::MatrixXd> w(d + decoder_.weight_offset(0), width, decoder_.input_size());
-  const Eigen::Map<const Eigen::VectorXd> b(d + decoder_.bias_offset(0), width);
-  Eigen::MatrixXd half = w.leftCols(e_t) * z_t;
-  half.colwise() += b;
-  return half;
+  return FirstLayerGarmentHalf(decoder_, weights + decoder_offset(), z_t);
 }
 
 void OneFitNetwork::ForwardWithGarmentHalf(const double* weights, const Eigen::MatrixXd& garment_half,
@@ -207,13 +229,7 @@ void OneFitNetwork::ForwardWithGarmentHalf(const double* weights, const Eigen::M
     a.noalias() += w.middleCols(e_t + z_b.rows(), local_size_) * LocalPose(body_features, joint_weights, a.cols());
   }
   if (proximity_size_ > 0) a.noalias() += w.rightCols(proximity_size_) * Proximity(proximity, proximity_size_, a.cols());
-  if (decoder_.num_layers() == 1) {
-    *outputs = std::move(a);
-    return;
-  }
-  // The rest of the decoder: its layers 1.. as an MLP of their own.
-  const Eigen::MatrixXd h = (a.array() > 0.0).select(a, decoder_.leaky_slope() * a);
-  decoder_tail_.Forward(d + decoder_.weight_offset(1), h, outputs);
+  FinishFromFirstLayer(decoder_, decoder_tail_, d, std::move(a), outputs);
 }
 
 Eigen::MatrixXd OneFitNetwork::FeedbackGarmentHalf(const double* weights,
@@ -221,13 +237,7 @@ Eigen::MatrixXd OneFitNetwork::FeedbackGarmentHalf(const double* weights,
   if (!feedback()) throw std::invalid_argument("OneFitNetwork: the network has no feedback decoder");
   Eigen::MatrixXd z_t;
   patch_encoder_.Forward(weights, patch_features, &z_t);
-  const double* f = weights + feedback_offset();
-  const int width = feedback_.sizes()[1], e_t = patch_encoder_.output_size();
-  const Eigen::Map<const Eigen::MatrixXd> w(f + feedback_.weight_offset(0), width, feedback_.input_size());
-  const Eigen::Map<const Eigen::VectorXd> b(f + feedback_.bias_offset(0), width);
-  Eigen::MatrixXd half = w.leftCols(e_t) * z_t;
-  half.colwise() += b;
-  return half;
+  return FirstLayerGarmentHalf(feedback_, weights + feedback_offset(), z_t);
 }
 
 void OneFitNetwork::FeedbackWithGarmentHalf(const double* weights, const Eigen::MatrixXd& feedback_half,
@@ -251,12 +261,7 @@ void OneFitNetwork::FeedbackWithGarmentHalf(const double* weights, const Eigen::
   a.noalias() += w.middleCols(joint - proximity_size_, proximity_size_) * Proximity(proximity, proximity_size_, n);
   a.noalias() += w.middleCols(joint, num_outputs()) * outputs;
   a.noalias() += w.rightCols(proximity_size_) * output_proximity;
-  if (feedback_.num_layers() == 1) {
-    *refined = a + outputs;
-    return;
-  }
-  const Eigen::MatrixXd h = (a.array() > 0.0).select(a, feedback_.leaky_slope() * a);
-  feedback_tail_.Forward(f + feedback_.weight_offset(1), h, refined);
+  FinishFromFirstLayer(feedback_, feedback_tail_, f, std::move(a), refined);
   *refined += outputs;
 }
 

@@ -19,6 +19,12 @@
 namespace polyfit {
 namespace {
 
+// A file's bytes.
+std::string FileBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
 // The procedural body bobbing up and down and turning a little: every
 // joint moved alike.
 OneFitTrainingClip Bob(const SkinnedBody& body, int frames) {
@@ -749,11 +755,7 @@ TEST_F(OneFitTrainerTest, NineProximityProbesRoundTripAndDrapeAsTraining) {
   OneFitTrainer five = ShirtTrainer(body_, options_);
   EXPECT_THROW(five.StartFrom(loaded), std::invalid_argument);
 
-  std::string bytes;
-  {
-    std::ifstream in(path, std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), {});
-  }
+  std::string bytes = FileBytes(path);
   ASSERT_EQ(bytes[8], 13);
   ASSERT_EQ(bytes[80], kRimProximityProbes);  // the probes' count
   const std::string damaged = ::testing::TempDir() + "/onefit_rim_probes_damaged.pfonefit";
@@ -771,10 +773,7 @@ TEST_F(OneFitTrainerTest, NineProximityProbesRoundTripAndDrapeAsTraining) {
   std::ofstream(damaged, std::ios::binary) << v11;
   EXPECT_THROW(LoadOneFitModel(damaged), OneFitModelError);
   SaveOneFitModel(path, five.MakeModel(JiggledWeights(five, 5)));
-  {
-    std::ifstream in(path, std::ios::binary);
-    v11.assign(std::istreambuf_iterator<char>(in), {});
-  }
+  v11 = FileBytes(path);
   v11[8] = 11;
   v11.erase(80, 8);
   std::ofstream(damaged, std::ios::binary) << v11;
@@ -820,11 +819,7 @@ TEST_F(OneFitTrainerTest, TheFeedbackDecoderHasTheRightGradientRoundTripsAndDrap
             (std::vector<int>{8 + 8 + kProximitySize + loaded.network.num_outputs() + kProximitySize, 12, 12,
                               loaded.network.num_outputs()}));
   ExpectDraperPredictsAsTraining(body_, options_, Sway(body_, 8), loaded, trainer, weights);
-  std::string bytes;
-  {
-    std::ifstream in(path, std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), {});
-  }
+  std::string bytes = FileBytes(path);
   ASSERT_EQ(bytes[8], 13);
   ASSERT_EQ(bytes[84], 1);  // the feedback flag
   const std::string damaged = ::testing::TempDir() + "/onefit_feedback_damaged.pfonefit";
@@ -1083,8 +1078,7 @@ TEST_F(OneFitTrainerTest, AModelFileRoundTripsAndTheDraperPredictsAsTraining) {
   ExpectDraperPredictsAsTraining(body_, options_, Bob(body_, 8), loaded, *trainer_, weights);
 
   // Damaged files are named, never half-read.
-  std::ifstream in(path, std::ios::binary);
-  const std::string bytes((std::istreambuf_iterator<char>(in)), {});
+  const std::string bytes = FileBytes(path);
   const auto expect_error = [&](const std::string& content, const std::string& needle) {
     std::ofstream(path, std::ios::binary) << content;
     try {
@@ -1160,19 +1154,12 @@ TEST(OneFitModelTest, OlderVersionsStillLoadAndTheFlagsRoundTrip) {
   EXPECT_EQ(LoadOneFitModel(path).root_rotation, RootRotation::kAbsolute);
   model.root_rotation = RootRotation::kHeadingFree;
   SaveOneFitModel(path, model);
-  std::string bytes;
-  {
-    std::ifstream in(path, std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), {});
-  }
+  std::string bytes = FileBytes(path);
   EXPECT_FALSE(LoadOneFitModel(path).curved_faces);
   model.curved_faces = true;
   SaveOneFitModel(path, model);
   EXPECT_TRUE(LoadOneFitModel(path).curved_faces);
-  {
-    std::ifstream in(path, std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), {});
-  }
+  bytes = FileBytes(path);
   ASSERT_EQ(bytes[8], 13);  // the version
   EXPECT_EQ(LoadOneFitModel(path).joint_mask_reach, 0.0);
   EXPECT_EQ(LoadOneFitModel(path).warp_slide_bound, 0.0);
@@ -1181,10 +1168,7 @@ TEST(OneFitModelTest, OlderVersionsStillLoadAndTheFlagsRoundTrip) {
   SaveOneFitModel(path, model);
   EXPECT_EQ(LoadOneFitModel(path).joint_mask_reach, 0.05);
   EXPECT_EQ(LoadOneFitModel(path).warp_slide_bound, 0.5);
-  {
-    std::ifstream in(path, std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), {});
-  }
+  bytes = FileBytes(path);
   // `bytes` with byte `at` set to `value` is refused.
   const auto expect_refused = [&bytes](size_t at, char value, const std::string& file) {
     std::string damaged = bytes;
