@@ -36,8 +36,8 @@ PatchProbes MakePatchProbes(const PolyFitModel& model, const std::vector<double>
     // (u, v) are in the frame's scaled units.
     const double rho = std::sqrt(std::max(areas[p], 0.0) / M_PI) / patch.frame.scale;
     const double a = kProbeReach * rho, b = rho / std::sqrt(2.0);
-    const double uv[kRimProximityProbes][2] = {{0.0, 0.0}, {a, 0.0},  {-a, 0.0}, {0.0, a},  {0.0, -a},
-                                               {b, b},     {-b, b},   {-b, -b},  {b, -b}};
+    const double uv[kRimProximityProbes][2] = {{0.0, 0.0}, {a, 0.0}, {-a, 0.0}, {0.0, a}, {0.0, -a},
+                                               {b, b},     {-b, b},  {-b, -b},  {b, -b}};
     for (int i = 0; i < m; ++i) {
       probes.uv.col(m * p + i) = Eigen::Vector2d(uv[i][0], uv[i][1]);
       probes.rest_points.col(m * p + i) = patch.PointInWorld(uv[i][0], uv[i][1]);
@@ -116,8 +116,8 @@ struct PatchView {
 };
 PatchView ViewPatch(const std::vector<double>& parameters, int stride, int num_coefficients, int p) {
   const double* x = parameters.data() + static_cast<size_t>(p) * stride;
-  return {x, x[num_coefficients], Eigen::Vector3d(x[num_coefficients + 1], x[num_coefficients + 2],
-                                                  x[num_coefficients + 3])};
+  return {x, x[num_coefficients],
+          Eigen::Vector3d(x[num_coefficients + 1], x[num_coefficients + 2], x[num_coefficients + 3])};
 }
 
 int CheckedCoefficients(const PatchProbes& probes, const std::vector<double>& parameters, int jet_order, int stride,
@@ -165,8 +165,7 @@ void ChainProbesToPatchParameters(const PatchProbes& probes, const std::vector<d
     double* g = gradient->data() + static_cast<size_t>(p) * stride;
     for (int i = 0; i < m; ++i) {
       // dL/dX for the probe's canonical point X = s R_0 [u, v, z] + T.
-      const Eigen::Vector3d d_x =
-          d_features(kProximityValuesPerProbe * i, p) * distance_gradients.col(m * p + i);
+      const Eigen::Vector3d d_x = d_features(kProximityValuesPerProbe * i, p) * distance_gradients.col(m * p + i);
       if (d_x.isZero(0.0)) continue;
       const double u = probes.uv(0, m * p + i), v = probes.uv(1, m * p + i);
       JetMonomials(jet_order, u, v, monomials);

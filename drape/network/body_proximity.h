@@ -122,7 +122,8 @@ void BodyProximityFeatures(const PatchProbes& probes, const Eigen::Matrix3Xd& po
                            Eigen::Matrix3Xd* distance_gradients = nullptr);
 
 // The probes on other patch parameters (DrapeSolver's layout: alpha
-// (NumJetCoefficients(jet_order)), s, T first of `stride` per patch): each probe's canonical point X = s R_0 [u, v, z(u, v)] + T
+// (NumJetCoefficients(jet_order)), s, T first of `stride` per patch):
+// each probe's canonical point X = s R_0 [u, v, z(u, v)] + T
 // (SkinnedPatchPoint::Canonical), at the probe's rest (u, v): the
 // warp's slides move the material along the surface, not the surface,
 // and are left out. At the rest parameters, the rest points. points:
@@ -134,9 +135,8 @@ void PlaceProbes(const PatchProbes& probes, const std::vector<double>& patch_par
 // (ProximitySize by #patches) and the distance gradients at the placed
 // probes (BodyProximityFeatures).
 void ChainProbesToPatchParameters(const PatchProbes& probes, const std::vector<double>& patch_parameters, int jet_order,
-                                  int stride,
-                                  const Eigen::Matrix3Xd& distance_gradients, const Eigen::MatrixXd& d_features,
-                                  std::vector<double>* gradient);
+                                  int stride, const Eigen::Matrix3Xd& distance_gradients,
+                                  const Eigen::MatrixXd& d_features, std::vector<double>* gradient);
 
 }  // namespace polyfit
 

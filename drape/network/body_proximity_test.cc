@@ -68,8 +68,8 @@ TEST(PatchProbesTest, TheRimLayoutAddsFourDiagonalProbesOnTheAreasRadius) {
   // The features: four values a probe.
   const SkinnedBody body = MakeProceduralBody();
   const PosedBodySamples samples(body, 0.05);
-  PatchProbes on_body = MakePatchProbes(patch, {area}, Eigen::MatrixXd::Zero(body.skeleton.num_joints(), 1),
-                                        kRimProximityProbes);
+  PatchProbes on_body =
+      MakePatchProbes(patch, {area}, Eigen::MatrixXd::Zero(body.skeleton.num_joints(), 1), kRimProximityProbes);
   on_body.joint_weights(0, 0) = 1.0;
   Eigen::MatrixXd features;
   BodyProximityFeatures(on_body, JointTransforms(body.skeleton.num_joints(), Eigen::Isometry3d::Identity()), samples,
@@ -77,8 +77,9 @@ TEST(PatchProbesTest, TheRimLayoutAddsFourDiagonalProbesOnTheAreasRadius) {
   EXPECT_EQ(features.rows(), ProximitySize(kRimProximityProbes));
   EXPECT_EQ(features.cols(), 1);
   for (int i = 0; i < kRimProximityProbes; ++i) {
-    EXPECT_NEAR(features(4 * i, 0), std::clamp(samples.Query(on_body.rest_points.col(i)).distance / kProximityScale,
-                                               -kProximityClamp, kProximityClamp),
+    EXPECT_NEAR(features(4 * i, 0),
+                std::clamp(samples.Query(on_body.rest_points.col(i)).distance / kProximityScale, -kProximityClamp,
+                           kProximityClamp),
                 1e-12);
     EXPECT_NEAR(features.col(0).segment<3>(4 * i + 1).norm(), 1.0, 1e-12);  // a unit normal
   }

@@ -56,8 +56,8 @@ OneFitDraper::OneFitDraper(const OneFitModel& model, const DrapeSolver& solver, 
       throw OneFitModelError("the model reads where the garment meets the body: the body is needed",
                              ErrorKind::kInvalidArgument);
     }
-    probes_ = MakePatchProbes(solver.model(), solver.PatchRestAreas(), joint_weights_,
-                              model.network.proximity_probes());
+    probes_ =
+        MakePatchProbes(solver.model(), solver.PatchRestAreas(), joint_weights_, model.network.proximity_probes());
     posed_body_ = std::make_unique<PosedBodySamples>(*body);
   }
   if (model.network.feedback()) {

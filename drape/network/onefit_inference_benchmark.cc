@@ -5,9 +5,8 @@
 // by area into about as many patches as the 2k suit has) and the network's
 // width, with and without a warp head, the local pose and the body
 // proximity at five or nine probes a patch (which poses the body each
-// frame), and with the feedback decoder (default width) after it. Random weights: the time does not depend on them. The MakeHuman
-// body when the shared data is there (its rig's features), else the
-// procedural body.
+// frame), and with the feedback decoder (default width) after it. Random weights: the time does not depend on them. The
+// MakeHuman body when the shared data is there (its rig's features), else the procedural body.
 //
 //   onefit_inference_benchmark [BODY_DIR [PATCH_AREA]]
 //   (PATCH_AREA, m^2: 0.006 gives the tube about the suit's 95 patches at
@@ -120,13 +119,13 @@ int main(int argc, char** argv) {
           checksum += x(0, 0);
         }
         std::nth_element(ms.begin(), ms.begin() + ms.size() / 2, ms.end());
-        std::printf("| %d | %d | %d | %s | %s | %s | %d | %.3f |\n", tube.num_vertices(), solver.num_patches(), width,
-                    inputs.warp_order < 0 ? "none" : "order 2", inputs.local_pose ? "yes" : "no",
-                    inputs.proximity_probes == 0
-                        ? "no"
-                        : (std::to_string(inputs.proximity_probes) + " probes" + (inputs.feedback ? ", feedback" : ""))
-                              .c_str(),
-                    model.network.num_parameters(), ms[ms.size() / 2]);
+        std::printf(
+            "| %d | %d | %d | %s | %s | %s | %d | %.3f |\n", tube.num_vertices(), solver.num_patches(), width,
+            inputs.warp_order < 0 ? "none" : "order 2", inputs.local_pose ? "yes" : "no",
+            inputs.proximity_probes == 0
+                ? "no"
+                : (std::to_string(inputs.proximity_probes) + " probes" + (inputs.feedback ? ", feedback" : "")).c_str(),
+            model.network.num_parameters(), ms[ms.size() / 2]);
         if (!std::isfinite(checksum)) return 1;
       }
     }

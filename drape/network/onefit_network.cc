@@ -136,8 +136,8 @@ Eigen::MatrixXd OneFitNetwork::AssembleDecoderInput(const Eigen::MatrixXd& z_t, 
 }
 
 void OneFitNetwork::Feedback(const double* weights, const Eigen::MatrixXd& decoder_input,
-                             const Eigen::MatrixXd& outputs, const Eigen::MatrixXd& proximity,
-                             Eigen::MatrixXd* refined, Cache* cache) const {
+                             const Eigen::MatrixXd& outputs, const Eigen::MatrixXd& proximity, Eigen::MatrixXd* refined,
+                             Cache* cache) const {
   if (!feedback()) throw std::invalid_argument("OneFitNetwork::Feedback: the network has no feedback decoder");
   const Eigen::Index num_patches = outputs.cols();
   if (decoder_input.rows() != decoder_.input_size() || decoder_input.cols() != num_patches ||
@@ -151,8 +151,7 @@ void OneFitNetwork::Feedback(const double* weights, const Eigen::MatrixXd& decod
 }
 
 void OneFitNetwork::FeedbackBackward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_refined,
-                                     double* gradient, Eigen::MatrixXd* d_outputs,
-                                     Eigen::MatrixXd* d_proximity) const {
+                                     double* gradient, Eigen::MatrixXd* d_outputs, Eigen::MatrixXd* d_proximity) const {
   Eigen::MatrixXd d_input;
   feedback_.Backward(weights + feedback_offset(), cache.feedback, d_refined, gradient + feedback_offset(), &d_input);
   const int joint = decoder_.input_size(), out = num_outputs();
@@ -228,12 +227,12 @@ void OneFitNetwork::ForwardWithGarmentHalf(const double* weights, const Eigen::M
   if (local_size_ > 0) {
     a.noalias() += w.middleCols(e_t + z_b.rows(), local_size_) * LocalPose(body_features, joint_weights, a.cols());
   }
-  if (proximity_size_ > 0) a.noalias() += w.rightCols(proximity_size_) * Proximity(proximity, proximity_size_, a.cols());
+  if (proximity_size_ > 0)
+    a.noalias() += w.rightCols(proximity_size_) * Proximity(proximity, proximity_size_, a.cols());
   FinishFromFirstLayer(decoder_, decoder_tail_, d, std::move(a), outputs);
 }
 
-Eigen::MatrixXd OneFitNetwork::FeedbackGarmentHalf(const double* weights,
-                                                   const Eigen::MatrixXd& patch_features) const {
+Eigen::MatrixXd OneFitNetwork::FeedbackGarmentHalf(const double* weights, const Eigen::MatrixXd& patch_features) const {
   if (!feedback()) throw std::invalid_argument("OneFitNetwork: the network has no feedback decoder");
   Eigen::MatrixXd z_t;
   patch_encoder_.Forward(weights, patch_features, &z_t);
@@ -241,8 +240,7 @@ Eigen::MatrixXd OneFitNetwork::FeedbackGarmentHalf(const double* weights,
 }
 
 void OneFitNetwork::FeedbackWithGarmentHalf(const double* weights, const Eigen::MatrixXd& feedback_half,
-                                            const Eigen::VectorXd& body_embedding,
-                                            const Eigen::VectorXd& body_features,
+                                            const Eigen::VectorXd& body_embedding, const Eigen::VectorXd& body_features,
                                             const Eigen::MatrixXd* joint_weights, const Eigen::MatrixXd* proximity,
                                             const Eigen::MatrixXd& outputs, const Eigen::MatrixXd& output_proximity,
                                             Eigen::MatrixXd* refined) const {
@@ -287,12 +285,13 @@ void OneFitNetwork::Check() {
         "proximity and give its outputs");
   }
   if (feedback() && feedback_.SkipsAt(0)) {
-    throw std::invalid_argument("OneFitNetwork: the feedback decoder's first hidden layer must differ in width from "
-                                "its input");
+    throw std::invalid_argument(
+        "OneFitNetwork: the feedback decoder's first hidden layer must differ in width from "
+        "its input");
   }
   if (feedback() && feedback_.num_layers() > 1) {
-    feedback_tail_ = Mlp(std::vector<int>(feedback_.sizes().begin() + 1, feedback_.sizes().end()),
-                         feedback_.residual(), feedback_.leaky_slope());
+    feedback_tail_ = Mlp(std::vector<int>(feedback_.sizes().begin() + 1, feedback_.sizes().end()), feedback_.residual(),
+                         feedback_.leaky_slope());
   }
   // Layers 1.. of the decoder, as an MLP of their own (same weights layout).
   if (decoder_.num_layers() > 1) {

@@ -23,8 +23,9 @@
 // (ChainProbesToPatchParameters).
 //
 // E_T, E_B, D (and F) are MLPs (mlp.h) with skip connections; their
-// weights are one flat vector [E_T | E_B | D | F]. The output of patch k turns its rest
-// parameters (alpha_0, s_0, T_0, frame R_0) into the drape's:
+// weights are one flat vector [E_T | E_B | D | F]. The output of patch k
+// (F's, with feedback) turns its rest parameters (alpha_0, s_0, T_0,
+// frame R_0) into the drape's:
 //
 //   alpha = alpha_0 + u_a b_a(d alpha),   s = s_0 exp(b_s(d s)),   T = T_0 + L R_0 b_T(d T)
 //
@@ -154,8 +155,8 @@ class OneFitNetwork {
   // encoders' dL/dweights to gradient, and sets d_outputs (dL/doutputs
   // through the skip and F's input: add what flows through the proximity,
   // then call Backward with it) and d_proximity (dL/dproximity).
-  void FeedbackBackward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_refined,
-                        double* gradient, Eigen::MatrixXd* d_outputs, Eigen::MatrixXd* d_proximity) const;
+  void FeedbackBackward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_refined, double* gradient,
+                        Eigen::MatrixXd* d_outputs, Eigen::MatrixXd* d_proximity) const;
   // Inference with the feedback decoder's garment half precomputed, as
   // the decoder's: FeedbackGarmentHalf is W_F,T z_T + b_F (F's first-layer
   // width by #patches, once per garment); FeedbackWithGarmentHalf gives
@@ -179,7 +180,7 @@ class OneFitNetwork {
   Mlp patch_encoder_, body_encoder_, decoder_;
   Mlp feedback_;       // F, or no layers
   Mlp feedback_tail_;  // F's layers after the first
-  Mlp decoder_tail_;  // the decoder's layers after the first
+  Mlp decoder_tail_;   // the decoder's layers after the first
   int num_coefficients_ = 0;
   int warp_order_ = -1;
   int local_size_ = 0;      // 0 or kLocalPoseSize

@@ -791,9 +791,9 @@ TEST_F(OneFitTrainerTest, TheFeedbackDecoderHasTheRightGradientRoundTripsAndDrap
   options_.network.feedback = true;
   options_.network.feedback_hidden = {12, 12};
   OneFitTrainer trainer = ShirtTrainer(body_, options_);
-  EXPECT_EQ(trainer.num_parameters(),
-            plain.num_parameters() + trainer.MakeModel(trainer.InitialWeights()).network.feedback_decoder()
-                                         .num_parameters());
+  EXPECT_EQ(
+      trainer.num_parameters(),
+      plain.num_parameters() + trainer.MakeModel(trainer.InitialWeights()).network.feedback_decoder().num_parameters());
   {
     // F's last layer starts scaled as D's: it moves the patches by
     // millimetres, as a new D moves the rest patches.

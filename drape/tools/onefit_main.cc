@@ -288,8 +288,7 @@ void AddTrainModelFlags(CLI::App* train, polyfit::OneFitTrainerOptions* trainer)
                      "with --body-proximity: a second, small decoder reads where the first's patches meet the body "
                      "and corrects them (recorded in the model)")
           ->needs(proximity);
-  train
-      ->add_option("--feedback-hidden", t.network.feedback_hidden, "with --feedback: its hidden layers' widths")
+  train->add_option("--feedback-hidden", t.network.feedback_hidden, "with --feedback: its hidden layers' widths")
       ->capture_default_str()
       ->needs(feedback);
   train->add_flag("--align-frames", t.drape.patching.align_frames,
