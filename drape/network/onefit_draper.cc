@@ -80,7 +80,7 @@ std::vector<double> OneFitDraper::Predict(const JointTransforms& before_previous
   Eigen::VectorXd z_b;
   model_.network.ForwardWithGarmentHalf(model_.weights.data(), garment_half_, body, &joint_weights_, &proximity_,
                                         &outputs, &z_b);
-  if (output_proximity_) {
+  for (int pass = 0; pass < model_.network.feedback_passes(); ++pass) {
     Eigen::MatrixXd refined;
     model_.network.FeedbackWithGarmentHalf(model_.weights.data(), feedback_half_, z_b, body, &joint_weights_,
                                            &proximity_, outputs,

@@ -1,5 +1,6 @@
 #include "drape/network/onefit_model.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -121,7 +122,7 @@ void SaveOneFitModel(const std::string& path, const OneFitModel& model) {
   w.Put<double>(model.warp_slide_bound);
   w.Put<std::int32_t>(model.network.body_proximity() ? 1 : 0);
   w.Put<std::int32_t>(model.network.proximity_probes());
-  w.Put<std::int32_t>(model.network.feedback() ? 1 : 0);
+  w.Put<std::int32_t>(model.network.feedback_passes());
   PutMlp(model.network.patch_encoder(), &w);
   PutMlp(model.network.body_encoder(), &w);
   PutMlp(model.network.decoder(), &w);
@@ -227,7 +228,9 @@ OneFitModel LoadOneFitModel(const std::string& path) {
   const int probes = version >= 12 ? r.Get<std::int32_t>("the header") : (proximity == 1 ? kProximityProbes : 0);
   if (proximity == 0 ? probes != 0 : !IsProximityLayout(probes)) r.Fail("proximity probes out of range");
   const int feedback = version >= 13 ? r.Get<std::int32_t>("the header") : 0;
-  if (feedback != 0 && (feedback != 1 || proximity == 0)) r.Fail("feedback flag out of range or without the proximity");
+  if (feedback < 0 || feedback > kMaxFeedbackPasses || (feedback > 0 && proximity == 0)) {
+    r.Fail("feedback passes out of range or without the proximity");
+  }
   if (aligned != 0 && aligned != 1) r.Fail("frame alignment flag out of range");
   if (local_pose != 0 && local_pose != 1) r.Fail("local pose flag out of range");
   model.aligned_frames = aligned == 1;
@@ -237,10 +240,11 @@ OneFitModel LoadOneFitModel(const std::string& path) {
   Mlp patch = GetMlp(&r, "the patch encoder");
   Mlp body = GetMlp(&r, "the body encoder");
   Mlp decoder = GetMlp(&r, "the decoder");
-  Mlp feedback_decoder = feedback == 1 ? GetMlp(&r, "the feedback decoder") : Mlp();
+  Mlp feedback_decoder = feedback > 0 ? GetMlp(&r, "the feedback decoder") : Mlp();
   try {
     model.network = OneFitNetwork(std::move(patch), std::move(body), std::move(decoder),
-                                  NumJetCoefficients(model.jet_order), warp_order, probes, std::move(feedback_decoder));
+                                  NumJetCoefficients(model.jet_order), warp_order, probes, std::move(feedback_decoder),
+                                  std::max(feedback, 1));
   } catch (const std::invalid_argument& e) {
     r.Fail(e.what());
   }

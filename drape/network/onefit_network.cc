@@ -35,6 +35,9 @@ std::string OneFitNetworkOptions::Validate() const {
            std::to_string(kRimProximityProbes);
   }
   if (feedback && !body_proximity) return "feedback reads the body proximity: it needs body_proximity";
+  if (feedback_passes < 1 || feedback_passes > kMaxFeedbackPasses) {
+    return "feedback_passes must be in [1, " + std::to_string(kMaxFeedbackPasses) + "]";
+  }
   for (int n : feedback_hidden) {
     if (n < 1) return "hidden layers must have at least one unit";
   }
@@ -56,6 +59,7 @@ OneFitNetwork::OneFitNetwork(int patch_features, int body_features, int num_coef
     throw std::invalid_argument("OneFitNetworkOptions: " + problem);
   }
   if (options.feedback) {
+    feedback_passes_ = options.feedback_passes;
     feedback_ = Mlp(Sizes(decoder_.input_size() + decoder_.output_size() + proximity_size_, options.feedback_hidden,
                           decoder_.output_size()));
   }
@@ -63,11 +67,12 @@ OneFitNetwork::OneFitNetwork(int patch_features, int body_features, int num_coef
 }
 
 OneFitNetwork::OneFitNetwork(Mlp patch_encoder, Mlp body_encoder, Mlp decoder, int num_coefficients, int warp_order,
-                             int proximity_probes, Mlp feedback)
+                             int proximity_probes, Mlp feedback, int feedback_passes)
     : patch_encoder_(std::move(patch_encoder)),
       body_encoder_(std::move(body_encoder)),
       decoder_(std::move(decoder)),
       feedback_(std::move(feedback)),
+      feedback_passes_(feedback_passes),
       num_coefficients_(num_coefficients),
       warp_order_(warp_order),
       proximity_size_(ProximitySize(proximity_probes)) {
@@ -137,7 +142,7 @@ Eigen::MatrixXd OneFitNetwork::AssembleDecoderInput(const Eigen::MatrixXd& z_t, 
 
 void OneFitNetwork::Feedback(const double* weights, const Eigen::MatrixXd& decoder_input,
                              const Eigen::MatrixXd& outputs, const Eigen::MatrixXd& proximity, Eigen::MatrixXd* refined,
-                             Cache* cache) const {
+                             Cache* cache, int pass) const {
   if (!feedback()) throw std::invalid_argument("OneFitNetwork::Feedback: the network has no feedback decoder");
   const Eigen::Index num_patches = outputs.cols();
   if (decoder_input.rows() != decoder_.input_size() || decoder_input.cols() != num_patches ||
@@ -146,14 +151,21 @@ void OneFitNetwork::Feedback(const double* weights, const Eigen::MatrixXd& decod
   }
   Eigen::MatrixXd input(feedback_.input_size(), num_patches);
   input << decoder_input, outputs, proximity;
-  feedback_.Forward(weights + feedback_offset(), input, refined, cache != nullptr ? &cache->feedback : nullptr);
+  MlpCache* pass_cache = nullptr;
+  if (cache != nullptr) {
+    if (static_cast<int>(cache->feedback.size()) <= pass) cache->feedback.resize(pass + 1);
+    pass_cache = &cache->feedback[pass];
+  }
+  feedback_.Forward(weights + feedback_offset(), input, refined, pass_cache);
   *refined += outputs;
 }
 
 void OneFitNetwork::FeedbackBackward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_refined,
-                                     double* gradient, Eigen::MatrixXd* d_outputs, Eigen::MatrixXd* d_proximity) const {
+                                     double* gradient, Eigen::MatrixXd* d_outputs, Eigen::MatrixXd* d_proximity,
+                                     int pass) const {
   Eigen::MatrixXd d_input;
-  feedback_.Backward(weights + feedback_offset(), cache.feedback, d_refined, gradient + feedback_offset(), &d_input);
+  feedback_.Backward(weights + feedback_offset(), cache.feedback.at(pass), d_refined, gradient + feedback_offset(),
+                     &d_input);
   const int joint = decoder_.input_size(), out = num_outputs();
   *d_outputs = d_refined + d_input.middleRows(joint, out);
   *d_proximity = d_input.bottomRows(proximity_size_);
@@ -283,6 +295,9 @@ void OneFitNetwork::Check() {
     throw std::invalid_argument(
         "OneFitNetwork: the feedback decoder needs the body proximity and must read the decoder's input, outputs and "
         "proximity and give its outputs");
+  }
+  if (feedback() && (feedback_passes_ < 1 || feedback_passes_ > kMaxFeedbackPasses)) {
+    throw std::invalid_argument("OneFitNetwork: " + std::to_string(feedback_passes_) + " feedback passes");
   }
   if (feedback() && feedback_.SkipsAt(0)) {
     throw std::invalid_argument(

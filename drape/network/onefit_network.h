@@ -76,9 +76,12 @@ struct OneFitNetworkOptions {
   // 5 or 9 probes); Forward then needs them.
   bool body_proximity = false;
   int proximity_probes = 5;
-  // The feedback decoder F (needs body_proximity) and its hidden layers.
+  // The feedback decoder F (needs body_proximity), its hidden layers and
+  // how many times it is applied, each pass reading the proximity where
+  // the last one's patches sit (1 to kMaxFeedbackPasses).
   bool feedback = false;
   std::vector<int> feedback_hidden = {64, 64};
+  int feedback_passes = 1;
   std::uint64_t seed = 1;
 
   std::string Validate() const;
@@ -93,9 +96,10 @@ class OneFitNetwork {
   // their sizes do not chain or proximity_probes is not a layout (0: no
   // body proximity). The decoder's input, less the proximity's, tells
   // whether it reads the local pose.
-  // feedback: F, or an MLP without layers (Mlp()) for none.
+  // feedback: F, or an MLP without layers (Mlp()) for none, applied
+  // feedback_passes times.
   OneFitNetwork(Mlp patch_encoder, Mlp body_encoder, Mlp decoder, int num_coefficients, int warp_order = -1,
-                int proximity_probes = 0, Mlp feedback = Mlp());
+                int proximity_probes = 0, Mlp feedback = Mlp(), int feedback_passes = 1);
 
   int num_parameters() const { return feedback_offset() + (feedback() ? feedback_.num_parameters() : 0); }
   // Per patch: NumJetCoefficients + 4 + 2 NumJetCoefficients(warp_order).
@@ -111,6 +115,8 @@ class OneFitNetwork {
   const Mlp& decoder() const { return decoder_; }
   bool feedback() const { return !feedback_.sizes().empty(); }
   const Mlp& feedback_decoder() const { return feedback_; }
+  // F's passes (0 without F).
+  int feedback_passes() const { return feedback() ? feedback_passes_ : 0; }
   // Offsets of E_B's, D's and F's weights in the flat vector (E_T's is 0).
   int body_encoder_offset() const { return patch_encoder_.num_parameters(); }
   int decoder_offset() const { return body_encoder_offset() + body_encoder_.num_parameters(); }
@@ -119,7 +125,8 @@ class OneFitNetwork {
   void Initialize(std::uint64_t seed, double output_scale, double* weights) const;
 
   struct Cache {
-    MlpCache patch, body, decoder, feedback;
+    MlpCache patch, body, decoder;
+    std::vector<MlpCache> feedback;  // per pass of F
     int num_patches = 0;
   };
   // patch_features: #patch features by #patches; body_features: one frame.
@@ -148,15 +155,18 @@ class OneFitNetwork {
   // outputs; proximity]), the decoder's input being the cache's (Forward
   // with a cache); proximity: where the outputs' patches
   // meet the body (ProximitySize by #patches). cache (may be null): the
-  // same Cache as Forward's, for FeedbackBackward.
+  // same Cache as Forward's, for FeedbackBackward; pass: which of F's
+  // passes (its outputs the last pass's refined ones).
   void Feedback(const double* weights, const Eigen::MatrixXd& decoder_input, const Eigen::MatrixXd& outputs,
-                const Eigen::MatrixXd& proximity, Eigen::MatrixXd* refined, Cache* cache = nullptr) const;
+                const Eigen::MatrixXd& proximity, Eigen::MatrixXd* refined, Cache* cache = nullptr,
+                int pass = 0) const;
   // Given dL/drefined: adds F's and, through the decoder's input, the
   // encoders' dL/dweights to gradient, and sets d_outputs (dL/doutputs
   // through the skip and F's input: add what flows through the proximity,
-  // then call Backward with it) and d_proximity (dL/dproximity).
+  // then call Backward with it) and d_proximity (dL/dproximity), for
+  // F's pass `pass` (the last first).
   void FeedbackBackward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_refined, double* gradient,
-                        Eigen::MatrixXd* d_outputs, Eigen::MatrixXd* d_proximity) const;
+                        Eigen::MatrixXd* d_outputs, Eigen::MatrixXd* d_proximity, int pass = 0) const;
   // Inference with the feedback decoder's garment half precomputed, as
   // the decoder's: FeedbackGarmentHalf is W_F,T z_T + b_F (F's first-layer
   // width by #patches, once per garment); FeedbackWithGarmentHalf gives
@@ -180,6 +190,7 @@ class OneFitNetwork {
   Mlp patch_encoder_, body_encoder_, decoder_;
   Mlp feedback_;       // F, or no layers
   Mlp feedback_tail_;  // F's layers after the first
+  int feedback_passes_ = 1;
   Mlp decoder_tail_;   // the decoder's layers after the first
   int num_coefficients_ = 0;
   int warp_order_ = -1;
@@ -189,6 +200,7 @@ class OneFitNetwork {
 
 // The output bounds b_c above (part of the model's meaning: changing them
 // needs a new model version).
+inline constexpr int kMaxFeedbackPasses = 4;
 inline constexpr double kOutputBoundAlpha = 1.0;
 inline constexpr double kOutputBoundLogScale = 0.25;
 inline constexpr double kOutputBoundTranslation = 0.5;

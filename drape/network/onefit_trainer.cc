@@ -290,7 +290,8 @@ void OneFitTrainer::StartFrom(const OneFitModel& model) {
       model.warp_slide_bound != options_.warp_slide_bound ||
       model.network.body_proximity() != options_.network.body_proximity ||
       (model.network.body_proximity() && model.network.proximity_probes() != options_.network.proximity_probes) ||
-      model.network.feedback() != options_.network.feedback) {
+      model.network.feedback() != options_.network.feedback ||
+      (model.network.feedback() && model.network.feedback_passes() != options_.network.feedback_passes)) {
     throw std::invalid_argument(
         "OneFitTrainer::StartFrom: the model's jet order, warp order, slide bound, patching, root feature, output "
         "units, joint mask, body proximity, feedback or rig differs from the training's");
@@ -334,14 +335,21 @@ const Eigen::MatrixXd* OneFitTrainer::ProximityAt(int garment, int clip, int fra
 }
 
 void OneFitTrainer::ApplyFeedback(const double* weights, int garment, int clip, int frame, int thread,
-                                  OutputProximity* at, OneFitNetwork::Cache* cache, Eigen::MatrixXd* outputs) {
+                                  std::vector<OutputProximity>* at, OneFitNetwork::Cache* cache,
+                                  Eigen::MatrixXd* outputs) {
   const OneFitTrainingClip& c = clips_[clip];
   const int f = std::clamp(frame, 0, static_cast<int>(c.poses.size()) - 1);
-  const Eigen::MatrixXd& proximity =
-      at->Evaluate(*outputs, c.poses[f], BodyPosedAt(garments_[garment]->body, clip, f, thread));
+  const GarmentData& g = *garments_[garment];
+  const PosedBodySamples& body = BodyPosedAt(g.body, clip, f, thread);
+  at->clear();
+  at->reserve(network_.feedback_passes());
   Eigen::MatrixXd refined;
-  network_.Feedback(weights, cache->decoder.inputs.front(), *outputs, proximity, &refined, cache);
-  *outputs = std::move(refined);
+  for (int pass = 0; pass < network_.feedback_passes(); ++pass) {
+    at->emplace_back(g.map, g.probes, options_.drape.patching.jet_order);
+    const Eigen::MatrixXd& proximity = at->back().Evaluate(*outputs, c.poses[f], body);
+    network_.Feedback(weights, cache->decoder.inputs.front(), *outputs, proximity, &refined, cache, pass);
+    *outputs = refined;
+  }
 }
 
 std::vector<double> OneFitTrainer::Predict(const double* weights, int garment, int clip, int frame) {
@@ -356,7 +364,7 @@ std::vector<double> OneFitTrainer::PredictOn(const double* weights, int garment,
   network_.Forward(weights, g.features, GarmentBodyFeatures(g, clip, frame), &g.joint_weights,
                    ProximityAt(garment, clip, frame, thread), &outputs, network_.feedback() ? &cache : nullptr);
   if (network_.feedback()) {
-    OutputProximity at(g.map, g.probes, options_.drape.patching.jet_order);
+    std::vector<OutputProximity> at;
     ApplyFeedback(weights, garment, clip, frame, thread, &at, &cache, &outputs);
   }
   return PatchParametersFromOutputs(g.map, outputs, network_.num_coefficients());
@@ -389,19 +397,19 @@ double OneFitTrainer::SampleLoss(const double* weights, const double* history_we
   const bool feedback = network_.feedback();
   PrepareSample(weights, history_weights, sample, thread, epoch, &outputs,
                 gradient != nullptr || feedback ? &cache : nullptr);
-  OutputProximity at(g.map, g.probes, options_.drape.patching.jet_order);
+  std::vector<OutputProximity> at;  // per pass of F
   if (feedback) ApplyFeedback(weights, sample.garment, sample.clip, sample.frame, thread, &at, &cache, &outputs);
   const std::vector<double> params = PatchParametersFromOutputs(g.map, outputs, network_.num_coefficients());
   std::vector<double> d_params;
   const double energy = g.solvers[thread]->Evaluate(params, gradient != nullptr ? &d_params : nullptr);
   if (gradient != nullptr) {
     Eigen::MatrixXd d_outputs = ChainPatchParameterGradient(g.map, outputs, network_.num_coefficients(), d_params);
-    if (feedback) {
-      // Back through F to D's outputs: directly, and through the proximity
-      // at the patches they give.
-      Eigen::MatrixXd d_first, d_proximity;
-      network_.FeedbackBackward(weights, cache, d_outputs, gradient, &d_first, &d_proximity);
-      d_outputs = d_first + at.Chain(d_proximity);
+    // Back through F's passes to D's outputs: directly, and through the
+    // proximity at the patches each pass read.
+    for (int pass = static_cast<int>(at.size()) - 1; pass >= 0; --pass) {
+      Eigen::MatrixXd d_input, d_proximity;
+      network_.FeedbackBackward(weights, cache, d_outputs, gradient, &d_input, &d_proximity, pass);
+      d_outputs = d_input + at[pass].Chain(d_proximity);
     }
     network_.Backward(weights, cache, d_outputs, gradient);
   }

@@ -347,9 +347,10 @@ class OneFitTrainer {
   // when another frame was posed last).
   PosedBodySamples& BodyPosedAt(int body, int clip, int frame, int thread);
   // With the feedback decoder: *outputs (D's, with the Forward's cache)
-  // become F's refinement, the proximity at D's patches kept in *at.
-  void ApplyFeedback(const double* weights, int garment, int clip, int frame, int thread, OutputProximity* at,
-                     OneFitNetwork::Cache* cache, Eigen::MatrixXd* outputs);
+  // become F's refinement after its passes, the proximity each pass read
+  // kept in *at (one per pass).
+  void ApplyFeedback(const double* weights, int garment, int clip, int frame, int thread,
+                     std::vector<OutputProximity>* at, OneFitNetwork::Cache* cache, Eigen::MatrixXd* outputs);
   // Predict on a thread's drape and body.
   std::vector<double> PredictOn(const double* weights, int garment, int clip, int frame, int thread);
   OneFitSample DrawSample(std::mt19937_64* rng) const;

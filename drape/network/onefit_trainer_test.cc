@@ -823,7 +823,7 @@ TEST_F(OneFitTrainerTest, TheFeedbackDecoderHasTheRightGradientRoundTripsAndDrap
   ASSERT_EQ(bytes[8], 13);
   ASSERT_EQ(bytes[84], 1);  // the feedback flag
   const std::string damaged = ::testing::TempDir() + "/onefit_feedback_damaged.pfonefit";
-  for (const char flag : {'\x00', '\x02'}) {
+  for (const char flag : {'\x00', '\x05', '\xff'}) {
     std::string b = bytes;
     b[84] = flag;
     std::ofstream(damaged, std::ios::binary) << b;
@@ -840,6 +840,41 @@ TEST_F(OneFitTrainerTest, TheFeedbackDecoderHasTheRightGradientRoundTripsAndDrap
   EXPECT_NE(options_.Validate(), "");
   options_.polish.iterations = 0;
   options_.network.body_proximity = false;
+  EXPECT_NE(options_.network.Validate(), "");
+}
+
+// Two passes of the feedback decoder: the gradient through both (and
+// the proximity each read), a round trip (the passes in the header) and a
+// draper that predicts what training sees; a count past the bound is
+// refused.
+TEST_F(OneFitTrainerTest, TwoFeedbackPassesHaveTheRightGradientAndDrapeAsTraining) {
+  options_.network.body_proximity = true;
+  options_.network.feedback = true;
+  options_.network.feedback_hidden = {12, 12};
+  options_.network.feedback_passes = 2;
+  OneFitTrainer trainer = ShirtTrainer(body_, options_);
+  ExpectGradientMatchesCentralDifferences(&trainer, 3, true);
+  const std::vector<double> weights = JiggledWeights(trainer, 9);
+  const std::string path = ::testing::TempDir() + "/onefit_feedback_twice.pfonefit";
+  SaveOneFitModel(path, trainer.MakeModel(weights));
+  const OneFitModel loaded = LoadOneFitModel(path);
+  EXPECT_EQ(loaded.network.feedback_passes(), 2);
+  ExpectDraperPredictsAsTraining(body_, options_, Sway(body_, 8), loaded, trainer, weights);
+  // The second pass moves the prediction.
+  options_.network.feedback_passes = 1;
+  OneFitTrainer once = ShirtTrainer(body_, options_);
+  const std::vector<double> a = trainer.Predict(weights.data(), 0, 0, 3), b = once.Predict(weights.data(), 0, 0, 3);
+  double change = 0.0;
+  for (size_t i = 0; i < a.size(); ++i) change = std::max(change, std::abs(a[i] - b[i]));
+  EXPECT_GT(change, 1e-9);
+  EXPECT_THROW(once.StartFrom(loaded), std::invalid_argument);
+  std::string bytes = FileBytes(path);
+  ASSERT_EQ(bytes[84], 2);
+  bytes[84] = kMaxFeedbackPasses + 1;
+  const std::string damaged = ::testing::TempDir() + "/onefit_feedback_twice_damaged.pfonefit";
+  std::ofstream(damaged, std::ios::binary) << bytes;
+  EXPECT_THROW(LoadOneFitModel(damaged), OneFitModelError);
+  options_.network.feedback_passes = 0;
   EXPECT_NE(options_.network.Validate(), "");
 }
 

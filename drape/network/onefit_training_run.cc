@@ -333,6 +333,7 @@ std::unique_ptr<OneFitTrainer> MakeTrainer(const OneFitTrainingRunOptions& optio
     trainer_options.network.body_proximity = init.network.body_proximity();
     if (init.network.body_proximity()) trainer_options.network.proximity_probes = init.network.proximity_probes();
     trainer_options.network.feedback = init.network.feedback();
+    if (init.network.feedback()) trainer_options.network.feedback_passes = init.network.feedback_passes();
     trainer_options.root_rotation = init.root_rotation;
     trainer_options.area_units = init.area_units;
     trainer_options.joint_mask_reach = init.joint_mask_reach;

@@ -291,6 +291,13 @@ void AddTrainModelFlags(CLI::App* train, polyfit::OneFitTrainerOptions* trainer)
   train->add_option("--feedback-hidden", t.network.feedback_hidden, "with --feedback: its hidden layers' widths")
       ->capture_default_str()
       ->needs(feedback);
+  train
+      ->add_option("--feedback-passes", t.network.feedback_passes,
+                   "with --feedback: how many times it is applied, each pass reading the proximity where the last "
+                   "one's patches sit (recorded in the model)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, polyfit::kMaxFeedbackPasses))
+      ->needs(feedback);
   train->add_flag("--align-frames", t.drape.patching.align_frames,
                   "patch frames turned to the body's up axis (recorded in the model)");
   train->add_flag("--curved-faces", t.drape.patching.curved_faces,
