@@ -5,7 +5,8 @@
 // by area into about as many patches as the 2k suit has) and the network's
 // width, with and without a warp head, the local pose and the body
 // proximity at five or nine probes a patch (which poses the body each
-// frame), and with the feedback decoder (default width) after it. Random weights: the time does not depend on them. The
+// frame), and with the feedback decoder (default width) after it, once
+// or twice. Random weights: the time does not depend on them. The
 // MakeHuman body when the shared data is there (its rig's features), else the procedural body.
 //
 //   onefit_inference_benchmark [BODY_DIR [PATCH_AREA]]
@@ -44,6 +45,7 @@ struct Inputs {
   bool local_pose;
   int proximity_probes;  // 0: no body proximity
   bool feedback = false;
+  int feedback_passes = 1;
 };
 
 polyfit::OneFitModel RandomModel(const polyfit::SkinnedBody& body, int width, const Inputs& inputs) {
@@ -55,6 +57,7 @@ polyfit::OneFitModel RandomModel(const polyfit::SkinnedBody& body, int width, co
   options.body_proximity = inputs.proximity_probes > 0;
   if (options.body_proximity) options.proximity_probes = inputs.proximity_probes;
   options.feedback = inputs.feedback;
+  options.feedback_passes = inputs.feedback_passes;
   const int joints = body.skeleton.num_joints(), order = 4;
   polyfit::OneFitModel model;
   model.jet_order = order;
@@ -99,8 +102,13 @@ int main(int argc, char** argv) {
     tube.vertices.row(2).array() += centre.z();
     const polyfit::SkinWeights weights =
         polyfit::SingleJointWeights(tube.num_vertices(), std::min(1, body.skeleton.num_joints() - 1));
-    for (const Inputs& inputs :
-         {Inputs{-1, false, 0}, {2, false, 0}, {2, true, 0}, {2, true, 5}, {2, true, 9}, {2, true, 5, true}}) {
+    for (const Inputs& inputs : {Inputs{-1, false, 0},
+                                 {2, false, 0},
+                                 {2, true, 0},
+                                 {2, true, 5},
+                                 {2, true, 9},
+                                 {2, true, 5, true},
+                                 {2, true, 5, true, 2}}) {
       polyfit::DrapeSolverOptions options;
       options.num_threads = 1;
       options.slide.warp_order = inputs.warp_order;
@@ -119,13 +127,14 @@ int main(int argc, char** argv) {
           checksum += x(0, 0);
         }
         std::nth_element(ms.begin(), ms.begin() + ms.size() / 2, ms.end());
-        std::printf(
-            "| %d | %d | %d | %s | %s | %s | %d | %.3f |\n", tube.num_vertices(), solver.num_patches(), width,
-            inputs.warp_order < 0 ? "none" : "order 2", inputs.local_pose ? "yes" : "no",
-            inputs.proximity_probes == 0
-                ? "no"
-                : (std::to_string(inputs.proximity_probes) + " probes" + (inputs.feedback ? ", feedback" : "")).c_str(),
-            model.network.num_parameters(), ms[ms.size() / 2]);
+        std::printf("| %d | %d | %d | %s | %s | %s | %d | %.3f |\n", tube.num_vertices(), solver.num_patches(), width,
+                    inputs.warp_order < 0 ? "none" : "order 2", inputs.local_pose ? "yes" : "no",
+                    inputs.proximity_probes == 0
+                        ? "no"
+                        : (std::to_string(inputs.proximity_probes) + " probes" +
+                           (inputs.feedback ? ", feedback x" + std::to_string(inputs.feedback_passes) : ""))
+                              .c_str(),
+                    model.network.num_parameters(), ms[ms.size() / 2]);
         if (!std::isfinite(checksum)) return 1;
       }
     }
