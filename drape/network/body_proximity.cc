@@ -120,6 +120,14 @@ PatchView ViewPatch(const std::vector<double>& parameters, int stride, int num_c
           Eigen::Vector3d(x[num_coefficients + 1], x[num_coefficients + 2], x[num_coefficients + 3])};
 }
 
+// z(u, v) of the jet alpha (k coefficients), with its monomials.
+double JetHeight(int jet_order, int k, const double* alpha, double u, double v, double* monomials) {
+  JetMonomials(jet_order, u, v, monomials);
+  double z = 0.0;
+  for (int c = 0; c < k; ++c) z += alpha[c] * monomials[c];
+  return z;
+}
+
 int CheckedCoefficients(const PatchProbes& probes, const std::vector<double>& parameters, int jet_order, int stride,
                         const char* who) {
   if (jet_order < 0 || jet_order > kMaxJetOrder) throw std::invalid_argument(std::string(who) + ": bad jet order");
@@ -142,9 +150,7 @@ void PlaceProbes(const PatchProbes& probes, const std::vector<double>& patch_par
     const PatchView patch = ViewPatch(patch_parameters, stride, k, p);
     for (int i = 0; i < m; ++i) {
       const double u = probes.uv(0, m * p + i), v = probes.uv(1, m * p + i);
-      JetMonomials(jet_order, u, v, monomials);
-      double z = 0.0;
-      for (int c = 0; c < k; ++c) z += patch.alpha[c] * monomials[c];
+      const double z = JetHeight(jet_order, k, patch.alpha, u, v, monomials);
       points->col(m * p + i) = patch.s * (probes.frames[p] * Eigen::Vector3d(u, v, z)) + patch.t;
     }
   }
@@ -168,9 +174,7 @@ void ChainProbesToPatchParameters(const PatchProbes& probes, const std::vector<d
       const Eigen::Vector3d d_x = d_features(kProximityValuesPerProbe * i, p) * distance_gradients.col(m * p + i);
       if (d_x.isZero(0.0)) continue;
       const double u = probes.uv(0, m * p + i), v = probes.uv(1, m * p + i);
-      JetMonomials(jet_order, u, v, monomials);
-      double z = 0.0;
-      for (int c = 0; c < k; ++c) z += patch.alpha[c] * monomials[c];
+      const double z = JetHeight(jet_order, k, patch.alpha, u, v, monomials);
       const Eigen::Vector3d r_x = probes.frames[p].transpose() * d_x;  // R_0^T dL/dX
       for (int c = 0; c < k; ++c) g[c] += patch.s * r_x.z() * monomials[c];
       g[k] += r_x.dot(Eigen::Vector3d(u, v, z));

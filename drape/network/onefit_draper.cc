@@ -80,12 +80,12 @@ std::vector<double> OneFitDraper::Predict(const JointTransforms& before_previous
   Eigen::VectorXd z_b;
   model_.network.ForwardWithGarmentHalf(model_.weights.data(), garment_half_, body, &joint_weights_, &proximity_,
                                         &outputs, &z_b);
+  Eigen::MatrixXd refined;
   for (int pass = 0; pass < model_.network.feedback_passes(); ++pass) {
-    Eigen::MatrixXd refined;
     model_.network.FeedbackWithGarmentHalf(model_.weights.data(), feedback_half_, z_b, body, &joint_weights_,
                                            &proximity_, outputs,
                                            output_proximity_->Evaluate(outputs, now, *posed_body_), &refined);
-    outputs = std::move(refined);
+    outputs.swap(refined);
   }
   return PatchParametersFromOutputs(map_, outputs, model_.network.num_coefficients());
 }

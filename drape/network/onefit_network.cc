@@ -162,20 +162,25 @@ void OneFitNetwork::Feedback(const double* weights, const Eigen::MatrixXd& decod
 
 void OneFitNetwork::FeedbackBackward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_refined,
                                      double* gradient, Eigen::MatrixXd* d_outputs, Eigen::MatrixXd* d_proximity,
-                                     int pass) const {
+                                     Eigen::MatrixXd* d_decoder_input, int pass) const {
   Eigen::MatrixXd d_input;
   feedback_.Backward(weights + feedback_offset(), cache.feedback.at(pass), d_refined, gradient + feedback_offset(),
                      &d_input);
   const int joint = decoder_.input_size(), out = num_outputs();
   *d_outputs = d_refined + d_input.middleRows(joint, out);
   *d_proximity = d_input.bottomRows(proximity_size_);
-  EncodersBackward(weights, cache, d_input.topRows(joint), gradient);
+  if (d_decoder_input->size() == 0) {
+    *d_decoder_input = d_input.topRows(joint);
+  } else {
+    *d_decoder_input += d_input.topRows(joint);
+  }
 }
 
 void OneFitNetwork::Backward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_outputs,
-                             double* gradient) const {
+                             double* gradient, const Eigen::MatrixXd* d_decoder_input) const {
   Eigen::MatrixXd d_joint;
   decoder_.Backward(weights + decoder_offset(), cache.decoder, d_outputs, gradient + decoder_offset(), &d_joint);
+  if (d_decoder_input != nullptr) d_joint += *d_decoder_input;
   EncodersBackward(weights, cache, d_joint, gradient);
 }
 

@@ -148,8 +148,10 @@ class OneFitNetwork {
                               const Eigen::VectorXd& body_features, const Eigen::MatrixXd* joint_weights,
                               const Eigen::MatrixXd* proximity, Eigen::MatrixXd* outputs,
                               Eigen::VectorXd* body_embedding = nullptr) const;
-  // Adds dL/dweights to gradient given dL/doutputs.
-  void Backward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_outputs, double* gradient) const;
+  // Adds dL/dweights to gradient given dL/doutputs, and, when given,
+  // dL/d(decoder input) that reached it otherwise (FeedbackBackward's).
+  void Backward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_outputs, double* gradient,
+                const Eigen::MatrixXd* d_decoder_input = nullptr) const;
 
   // The feedback pass (feedback()): refined = outputs + F([decoder input;
   // outputs; proximity]), the decoder's input being the cache's (Forward
@@ -158,15 +160,16 @@ class OneFitNetwork {
   // same Cache as Forward's, for FeedbackBackward; pass: which of F's
   // passes (its outputs the last pass's refined ones).
   void Feedback(const double* weights, const Eigen::MatrixXd& decoder_input, const Eigen::MatrixXd& outputs,
-                const Eigen::MatrixXd& proximity, Eigen::MatrixXd* refined, Cache* cache = nullptr,
-                int pass = 0) const;
-  // Given dL/drefined: adds F's and, through the decoder's input, the
-  // encoders' dL/dweights to gradient, and sets d_outputs (dL/doutputs
-  // through the skip and F's input: add what flows through the proximity,
-  // then call Backward with it) and d_proximity (dL/dproximity), for
-  // F's pass `pass` (the last first).
+                const Eigen::MatrixXd& proximity, Eigen::MatrixXd* refined, Cache* cache = nullptr, int pass = 0) const;
+  // Given dL/drefined: adds F's dL/dweights to gradient, sets d_outputs
+  // (dL/doutputs through the skip and F's input: add what flows through
+  // the proximity, then give it to the pass before, or to Backward) and
+  // d_proximity (dL/dproximity), and adds dL/d(decoder input) to
+  // *d_decoder_input (set when empty; Backward's), for F's pass `pass`
+  // (the last first).
   void FeedbackBackward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_refined, double* gradient,
-                        Eigen::MatrixXd* d_outputs, Eigen::MatrixXd* d_proximity, int pass = 0) const;
+                        Eigen::MatrixXd* d_outputs, Eigen::MatrixXd* d_proximity, Eigen::MatrixXd* d_decoder_input,
+                        int pass = 0) const;
   // Inference with the feedback decoder's garment half precomputed, as
   // the decoder's: FeedbackGarmentHalf is W_F,T z_T + b_F (F's first-layer
   // width by #patches, once per garment); FeedbackWithGarmentHalf gives
@@ -191,7 +194,7 @@ class OneFitNetwork {
   Mlp feedback_;       // F, or no layers
   Mlp feedback_tail_;  // F's layers after the first
   int feedback_passes_ = 1;
-  Mlp decoder_tail_;   // the decoder's layers after the first
+  Mlp decoder_tail_;  // the decoder's layers after the first
   int num_coefficients_ = 0;
   int warp_order_ = -1;
   int local_size_ = 0;      // 0 or kLocalPoseSize

@@ -348,7 +348,7 @@ void OneFitTrainer::ApplyFeedback(const double* weights, int garment, int clip, 
     at->emplace_back(g.map, g.probes, options_.drape.patching.jet_order);
     const Eigen::MatrixXd& proximity = at->back().Evaluate(*outputs, c.poses[f], body);
     network_.Feedback(weights, cache->decoder.inputs.front(), *outputs, proximity, &refined, cache, pass);
-    *outputs = refined;
+    outputs->swap(refined);
   }
 }
 
@@ -406,12 +406,13 @@ double OneFitTrainer::SampleLoss(const double* weights, const double* history_we
     Eigen::MatrixXd d_outputs = ChainPatchParameterGradient(g.map, outputs, network_.num_coefficients(), d_params);
     // Back through F's passes to D's outputs: directly, and through the
     // proximity at the patches each pass read.
+    Eigen::MatrixXd d_decoder_input;  // what reaches the encoders through F's passes
     for (int pass = static_cast<int>(at.size()) - 1; pass >= 0; --pass) {
       Eigen::MatrixXd d_input, d_proximity;
-      network_.FeedbackBackward(weights, cache, d_outputs, gradient, &d_input, &d_proximity, pass);
+      network_.FeedbackBackward(weights, cache, d_outputs, gradient, &d_input, &d_proximity, &d_decoder_input, pass);
       d_outputs = d_input + at[pass].Chain(d_proximity);
     }
-    network_.Backward(weights, cache, d_outputs, gradient);
+    network_.Backward(weights, cache, d_outputs, gradient, at.empty() ? nullptr : &d_decoder_input);
   }
   return energy;
 }
