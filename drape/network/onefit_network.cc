@@ -92,6 +92,20 @@ void OneFitNetwork::Initialize(std::uint64_t seed, double output_scale, double* 
   if (feedback()) feedback_.Initialize(seed + 3, output_scale, weights + feedback_offset());
 }
 
+std::vector<std::pair<int, int>> OneFitNetwork::WeightMatrixRanges() const {
+  std::vector<std::pair<int, int>> ranges;
+  const auto add = [&ranges](const Mlp& mlp, int offset) {
+    for (int l = 0; l < mlp.num_layers(); ++l) {
+      ranges.emplace_back(offset + mlp.weight_offset(l), mlp.sizes()[l + 1] * mlp.sizes()[l]);
+    }
+  };
+  add(patch_encoder_, 0);
+  add(body_encoder_, body_encoder_offset());
+  add(decoder_, decoder_offset());
+  if (feedback()) add(feedback_, feedback_offset());
+  return ranges;
+}
+
 namespace {
 
 // x_k of every patch (kLocalPoseSize by #patches), checked.

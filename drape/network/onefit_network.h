@@ -49,6 +49,7 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -123,6 +124,9 @@ class OneFitNetwork {
   int feedback_offset() const { return decoder_offset() + decoder_.num_parameters(); }
 
   void Initialize(std::uint64_t seed, double output_scale, double* weights) const;
+  // Where the layers' matrices W_l sit in the flat vector, as (offset,
+  // size) pairs over every MLP (biases excluded): what weight decay shrinks.
+  std::vector<std::pair<int, int>> WeightMatrixRanges() const;
 
   struct Cache {
     MlpCache patch, body, decoder;

@@ -72,6 +72,8 @@ std::string OneFitTrainerOptions::Validate() const {
   if (warmup_batches < 0) return "warmup_batches must be >= 0";
   if (!(final_rate_fraction > 0.0 && final_rate_fraction <= 1.0)) return "final_rate_fraction must be in (0, 1]";
   if (average_batches < 0) return "average_batches must be >= 0";
+  if (!(weight_decay >= 0.0) || !std::isfinite(weight_decay)) return "weight_decay must be finite and >= 0";
+  if (weight_decay > 0.0 && optimizer != OneFitOptimizer::kAdam) return "weight_decay needs the Adam optimiser";
   if (average_batches > 0 && optimizer != OneFitOptimizer::kAdam) {
     return "average_batches needs the Adam optimiser (its average is checkpointed with Adam's moments)";
   }
@@ -503,7 +505,9 @@ double AdamStepSize(const OneFitTrainerOptions& options, long long step) {
 }
 
 // Adam (Kingma and Ba): m = b1 m + (1 - b1) g, v = b2 v + (1 - b2) g^2,
-// w -= rate m_hat / (sqrt(v_hat) + eps), its moments kept across batches.
+// w -= rate m_hat / (sqrt(v_hat) + eps), its moments kept across batches;
+// with weight decay (AdamW) the layers' matrices also W -= rate lambda W,
+// from the weights the gradient was taken at.
 OneFitBatchSummary OneFitTrainer::AdamBatch(const std::vector<OneFitSample>& batch, int index, AdamState* state,
                                             std::vector<double>* weights) {
   constexpr double kBeta1 = 0.9, kBeta2 = 0.999, kEpsilon = 1e-8;
@@ -513,6 +517,7 @@ OneFitBatchSummary OneFitTrainer::AdamBatch(const std::vector<OneFitSample>& bat
     state->v.assign(n, 0.0);
   }
   std::vector<double> gradient(n);
+  const std::vector<std::pair<int, int>> decayed = network_.WeightMatrixRanges();
   OneFitBatchSummary record;
   record.batch = index;
   for (int k = 0; k < options_.iterations_per_batch; ++k) {
@@ -521,6 +526,12 @@ OneFitBatchSummary OneFitTrainer::AdamBatch(const std::vector<OneFitSample>& bat
     ++state->steps;
     const double c1 = 1.0 - std::pow(kBeta1, state->steps), c2 = 1.0 - std::pow(kBeta2, state->steps);
     const double rate = AdamStepSize(options_, state->steps);
+    if (options_.weight_decay > 0.0) {
+      const double shrink = 1.0 - rate * options_.weight_decay;
+      for (const auto& [offset, size] : decayed) {
+        for (int i = offset; i < offset + size; ++i) (*weights)[i] *= shrink;
+      }
+    }
     for (size_t i = 0; i < n; ++i) {
       state->m[i] = kBeta1 * state->m[i] + (1.0 - kBeta1) * gradient[i];
       state->v[i] = kBeta2 * state->v[i] + (1.0 - kBeta2) * gradient[i] * gradient[i];

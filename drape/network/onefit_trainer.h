@@ -124,6 +124,12 @@ struct OneFitTrainerOptions {
   // steps on the weights themselves; the average smooths the scatter of
   // the last batches' steps. 0: none (the last batch's weights).
   int average_batches = 0;
+  // Decoupled weight decay (AdamW, Loshchilov and Hutter; Adam only): each
+  // step also shrinks the layers' matrices (not the biases) by
+  // rate * weight_decay, the rate following the schedule above. It holds
+  // the weights near what the training data needs, against fitting the
+  // training clips and garments at the cost of unseen ones. 0: none.
+  double weight_decay = 0.0;
   std::uint64_t seed = 1;
   // k_ext's epoch (DrapePhysicsOptions::k_ext) over training: batches map
   // linearly onto [0, kext_final_epoch], so that the paper's 100-epoch

@@ -1,5 +1,6 @@
 #include "drape/network/onefit_trainer.h"
 
+#include <algorithm>
 #include <cmath>
 #include <condition_variable>
 #include <fstream>
@@ -306,6 +307,45 @@ TEST_F(OneFitTrainerTest, AdamLowersTheLossToo) {
   double largest = 0.0;
   for (size_t i = 0; i < start.size(); ++i) largest = std::max(largest, std::abs(stepped[i] - start[i]));
   EXPECT_NEAR(largest, options.learning_rate / 4.0, 1e-3 * options.learning_rate);
+}
+
+// AdamW's decay: one step with it lands where the step without it lands
+// less rate * lambda * w on the layers' matrices, and on the biases alike.
+TEST_F(OneFitTrainerTest, WeightDecayShrinksTheMatricesButNotTheBiases) {
+  OneFitTrainerOptions options = options_;
+  options.optimizer = OneFitOptimizer::kAdam;
+  options.learning_rate = 1e-5;  // a step too small to be undone as a spike
+  options.final_rate_fraction = 1.0;
+  options.iterations_per_batch = 1;
+  options.num_batches = 1;
+  OneFitTrainingGarment shirt = TubeShirt();
+  OneFitTrainer plain(body_, {shirt}, {Bob(body_, 8)}, options);
+  options.weight_decay = 10.0;
+  OneFitTrainer decaying(body_, {shirt}, {Bob(body_, 8)}, options);
+  const std::vector<double> start = plain.InitialWeights();
+  std::vector<double> a = start, b = start;
+  ASSERT_EQ(plain.Train(&a).undone_batches, 0);
+  ASSERT_EQ(decaying.Train(&b).undone_batches, 0);
+  ASSERT_NE(a, start);
+
+  std::vector<char> in_matrix(start.size(), 0);
+  const auto ranges = plain.network().WeightMatrixRanges();
+  for (const auto& [offset, size] : ranges) std::fill(in_matrix.begin() + offset, in_matrix.begin() + offset + size, 1);
+  const int num_matrix = static_cast<int>(std::count(in_matrix.begin(), in_matrix.end(), 1));
+  EXPECT_GT(num_matrix, 0);
+  EXPECT_LT(num_matrix, static_cast<int>(start.size()));  // the biases are left out
+  double worst = 0.0;
+  for (size_t i = 0; i < start.size(); ++i) {
+    const double expected = in_matrix[i] ? a[i] - options.learning_rate * options.weight_decay * start[i] : a[i];
+    worst = std::max(worst, std::abs(b[i] - expected));
+  }
+  EXPECT_LT(worst, 1e-12);
+
+  options.optimizer = OneFitOptimizer::kLbfgs;
+  EXPECT_NE(options.Validate().find("weight_decay"), std::string::npos);
+  options.optimizer = OneFitOptimizer::kAdam;
+  options.weight_decay = -1.0;
+  EXPECT_NE(options.Validate().find("weight_decay"), std::string::npos);
 }
 
 // A batch whose loss grows over kSpikeRatio-fold is undone: the weights

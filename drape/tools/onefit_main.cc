@@ -357,6 +357,11 @@ void AddTrainRunFlags(CLI::App* train, TrainFlags* f) {
                    "batches (Adam only; 0: the last batch's)")
       ->capture_default_str();
   train
+      ->add_option("--weight-decay", t.weight_decay,
+                   "decoupled weight decay (AdamW): each step also shrinks the layers' matrices by the step size "
+                   "times this (Adam only; 0: none)")
+      ->capture_default_str();
+  train
       ->add_option("--polish", t.polish.iterations,
                    "then this many Levenberg-Marquardt iterations on the output layer, features frozen (with "
                    "--batches 0: a polish of --init's model); progress in MODEL.polish.csv")
