@@ -1,6 +1,7 @@
 #include "sft/solver/patch_atlas.h"
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <numeric>
 #include <utility>
@@ -13,9 +14,13 @@ std::string PatchAtlasOptions::Validate() const {
   if (max_patches < 1) return "atlas.max_patches must be >= 1";
   if (!(split_ratio >= 1.0)) return "atlas.split_ratio must be >= 1";
   if (!(split_significance > 0.0)) return "atlas.split_significance must be > 0";
+  if (!(split_min_step_pixels >= 0.0) || !std::isfinite(split_min_step_pixels)) {
+    return "atlas.split_min_step_pixels must be finite and >= 0";
+  }
   if (children < 2 || children > 8) return "atlas.children must be in [2, 8]";
   if (min_vertices < 4) return "atlas.min_vertices must be >= 4";
-  if (!(seam_position_weight >= 0.0) || !(seam_normal_weight >= 0.0) || !(seam_uv_weight >= 0.0)) {
+  if (!(seam_position_weight >= 0.0) || !(coarse_seam_position_weight >= 0.0) || !(seam_normal_weight >= 0.0) ||
+      !(seam_uv_weight >= 0.0)) {
     return "atlas seam weights must be >= 0";
   }
   return {};

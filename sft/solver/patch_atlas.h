@@ -32,8 +32,8 @@
 namespace polyfit {
 
 struct PatchAtlasOptions {
-  // 1: the paper's single patch, never split (the default, see above).
-  int max_patches = 1;
+  // 1: the paper's single patch, never split.
+  int max_patches = 16;
   // A patch is a candidate when its residual per pixel exceeds this many
   // times its first-frame floor; the worst candidate splits when one
   // Gauss-Newton step with the split would lower the frame's cost by
@@ -41,6 +41,11 @@ struct PatchAtlasOptions {
   // noise alone (the score test).
   double split_ratio = 1.1;
   double split_significance = 10.0;
+  // ... and when that step moves some vertex of the patch by at least this
+  // many pixels of the finest level: a step that moves nothing visibly
+  // refines what one jet already holds (a smooth bend's residual has a
+  // significant score too, its step a tenth of a pixel).
+  double split_min_step_pixels = 0.2;
   int children = 4;
   // A patch splits only when each child would have this many vertices.
   int min_vertices = 20;
@@ -48,6 +53,10 @@ struct PatchAtlasOptions {
   // normals. Normals are left free by default: a crease on a seam is a
   // real shape, and only the images should decide it.
   double seam_position_weight = 1.0;
+  // The same on the pyramid's coarse levels, which place a frame's large
+  // motion: stiffer there, so that the patches move together where the
+  // images are too coarse to tell them apart.
+  double coarse_seam_position_weight = 10.0;
   double seam_normal_weight = 0.0;
   // Neighbouring patches' uv fields alike (SharedUvCost), per seam: small
   // patches that each slide on their own lose a smooth bend that one patch

@@ -216,7 +216,7 @@ class PolySftController {
       double cost = 0.0;
       int iterations = 0;
       if (!SolveWindow(&cost, &iterations)) break;
-      if (RefineAtlas(t) && !SolveWindow(&cost, &iterations)) break;
+      if (RefineAtlas(t, cost) && !SolveWindow(&cost, &iterations)) break;
       RecoverLostFrame(t, &cost, &iterations);
       frame_time_[t] = Seconds(frame_start);
       frame_cost_[t] = cost;
@@ -624,7 +624,7 @@ class PolySftController {
   // temporal link to the frames before it (in the window, or finalised
   // before it; as many as temporal_order asks and exist): each over the
   // blocks of the patches it joins.
-  void AddRegularizers(size_t k, ceres::Problem* problem) {
+  void AddRegularizers(size_t k, bool coarse, ceres::Problem* problem) {
     const std::vector<double*> blocks = Blocks(window_[k]->theta);
     auto of = [&](const std::vector<double*>& all, const std::vector<int>& patches) {
       std::vector<double*> some;
@@ -640,10 +640,11 @@ class PolySftController {
       }
     }
     const PatchAtlasOptions& atlas = options_.atlas;
-    if (!atlas_terms_.seams.empty() && (atlas.seam_position_weight > 0.0 || atlas.seam_normal_weight > 0.0)) {
+    const double position_weight = coarse ? atlas.coarse_seam_position_weight : atlas.seam_position_weight;
+    if (!atlas_terms_.seams.empty() && (position_weight > 0.0 || atlas.seam_normal_weight > 0.0)) {
       size_t count = 0;
       for (const AtlasTerms::Seam& seam : atlas_terms_.seams) count += seam.vertices.size();
-      const double wx = std::sqrt(atlas.seam_position_weight / count), wn = std::sqrt(atlas.seam_normal_weight / count);
+      const double wx = std::sqrt(position_weight / count), wn = std::sqrt(atlas.seam_normal_weight / count);
       for (const AtlasTerms::Seam& seam : atlas_terms_.seams) {
         problem->AddResidualBlock(
             new CompressedCost(CreateSeamCost(&model_, seam.a, seam.b, seam.vertices, mean_edge_, wx, wn)), nullptr,
@@ -735,7 +736,7 @@ class PolySftController {
         if (!AddImageTerm(l, frame, &problem, &split)) {
           return Fail("frame " + std::to_string(frame.frame.index) + ": the surface went behind the camera");
         }
-        AddRegularizers(k, &problem);
+        AddRegularizers(k, l + 1 < static_cast<int>(levels_.size()), &problem);
       }
       ceres::Solver::Options solver = LevelSolverOptions();
       SftIterationSummary row;
@@ -782,10 +783,15 @@ class PolySftController {
   // residual per vertex (the floor); later, the patch that fits worst
   // against its floor is split if the split passes the score test (below);
   // true when it was, and the window must be solved again.
-  bool RefineAtlas(int t) {
+  bool RefineAtlas(int t, double cost) {
     if (!model_.can_split() || options_.atlas.max_patches <= 1 || (!use_photometric_ && !use_masks_)) return false;
     FrameData& newest = *window_.back();
     if (newest.mask_empty || (t > 0 && floor_squared_.size() == 0)) return false;
+    // A frame that is lost, or whose colours are not the texture's, fits
+    // badly for want of tracking, not of patches: a split there only frees
+    // the sheet to fit what it cannot find.
+    if (t > 0 && (CostRatio(cost) > kLostCostRatio || newest.brightness.correlation < 0.2 || !newest.settled))
+      return false;
     // A full atlas: nothing to measure.
     if (t > 0 && model_.num_patches() + options_.atlas.children - 1 > options_.atlas.max_patches) return false;
     RenderCost::Data d;
@@ -824,10 +830,12 @@ class PolySftController {
     if (!finals_.empty()) previous_final_theta_ = model_.InheritParameters(split, previous_final_theta_);
     atlas_terms_ = GroupAtlasTerms(model_, edges_, rest_lengths_);
     render_groups_ = MakePatchGroups(model_, scene_.template_mesh.faces);
-    const double gain = PredictedDecrease() - before;
+    Eigen::VectorXd step;
+    const double gain = PredictedDecrease(&step) - before;
     const double noise = (split.num_children - 1) * model_.block_size() * noise_cost_;
-    if (gain > options_.atlas.split_significance * noise) {
-      summary_.splits.push_back({newest.frame.index, p, split.num_children, ratios[p], gain / noise});
+    const double step_pixels = step.size() == model_.num_parameters() ? LargestStepPixels(newest, step, child) : 0.0;
+    if (gain > options_.atlas.split_significance * noise && step_pixels >= options_.atlas.split_min_step_pixels) {
+      summary_.splits.push_back({newest.frame.index, p, split.num_children, ratios[p], gain / noise, step_pixels});
       return true;
     }
     model_ = unsplit;
@@ -838,9 +846,27 @@ class PolySftController {
     return false;
   }
 
+  // How far the score test's step moves the split patch's vertices in the
+  // finest level's image (the largest, in pixels): a split whose step moves
+  // nothing visibly refines what one jet already holds.
+  double LargestStepPixels(const FrameData& frame, const Eigen::VectorXd& step, const std::vector<int>& child) const {
+    Eigen::Matrix3Xd before, after;
+    model_.Evaluate(frame.theta.data(), &before);
+    std::vector<double> moved = frame.theta;
+    for (Eigen::Index i = 0; i < step.size(); ++i) moved[i] += step[i];
+    model_.Evaluate(moved.data(), &after);
+    const PinholeCamera& camera = levels_.back().camera;
+    double largest = 0.0;
+    for (Eigen::Index i = 0; i < before.cols(); ++i) {
+      if (child[i] < 0 || !(before(2, i) > 0.0) || !(after(2, i) > 0.0)) continue;
+      largest = std::max(largest, (camera.Project(after.col(i)) - camera.Project(before.col(i))).norm());
+    }
+    return largest;
+  }
+
   // The decrease of the newest frame's cost at the finest level that one
   // Gauss-Newton step (lightly damped) would give, the other frames held.
-  double PredictedDecrease() {
+  double PredictedDecrease(Eigen::VectorXd* step_out = nullptr) {
     SplitTerms split(1);  // one frame, its render on the rasterizer's threads
     solving_frames_ = 1;
     ceres::Problem::Options problem_options;
@@ -852,7 +878,7 @@ class PolySftController {
     const std::vector<double*> blocks = Blocks(frame.theta);
     for (double* block : blocks) problem.AddParameterBlock(block, model_.block_size());
     if (!AddImageTerm(static_cast<int>(levels_.size()) - 1, frame, &problem, &split)) return 0.0;
-    AddRegularizers(k, &problem);
+    AddRegularizers(k, false, &problem);
     ceres::Problem::EvaluateOptions evaluate;
     evaluate.parameter_blocks = blocks;
     evaluate.num_threads = ResolveNumThreads(options_.num_threads);
@@ -874,6 +900,7 @@ class PolySftController {
     Eigen::MatrixXd damped = jtj;
     damped.diagonal() *= 1.0 + 1e-4;
     const Eigen::VectorXd step = -damped.ldlt().solve(g);
+    if (step_out != nullptr) *step_out = step;
     return std::max(0.0, -(g.dot(step) + 0.5 * step.dot(jtj * step)));
   }
 
@@ -1124,7 +1151,8 @@ void WriteSftOutputs(const std::string& directory, const SftScene& scene, const 
                       {"patch", s.patch},
                       {"children", s.children},
                       {"ratio", JsonNumber(s.ratio)},
-                      {"significance", JsonNumber(s.significance)}});
+                      {"significance", JsonNumber(s.significance)},
+                      {"step_px", JsonNumber(s.step_pixels)}});
   }
   nlohmann::json terms = nlohmann::json::object();
   for (const auto& [name, weight] : summary.terms) terms[name] = weight;

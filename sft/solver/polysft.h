@@ -193,6 +193,8 @@ struct SftPatchSplit {
   double ratio = 0.0;
   // The score test's gain over its noise level.
   double significance = 0.0;
+  // How far the score test's step moved the patch's vertices (largest, px).
+  double step_pixels = 0.0;
 };
 
 struct PolySftSummary {

@@ -45,9 +45,11 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.atlas.max_patches = 10;
   changed.atlas.split_ratio = 1.5;
   changed.atlas.split_significance = 30.0;
+  changed.atlas.split_min_step_pixels = 0.5;
   changed.atlas.children = 2;
   changed.atlas.min_vertices = 12;
   changed.atlas.seam_position_weight = 3.0;
+  changed.atlas.coarse_seam_position_weight = 30.0;
   changed.atlas.seam_normal_weight = 0.01;
   changed.atlas.seam_uv_weight = 1.0;
   const nlohmann::json written = PolySftSettingsToJson(changed);

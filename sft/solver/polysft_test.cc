@@ -62,6 +62,28 @@ TEST(PolySftTest, RecoversAMixedSequenceFarBetterThanTheTemplate) {
   EXPECT_EQ(header, "frame,window,iteration,time_s,cost,e3d,patches,recovery");
 }
 
+// A sheet that only moves rigidly: one jet holds it, so the atlas never
+// splits it (its residual still rises over the first frame's with the
+// resampled texture, but no split would move it visibly) and the solve is
+// one patch's.
+TEST(PolySftTest, TheAtlasLeavesARigidlyMovingSheetOnePatch) {
+  ScopedTempDir dir("polyfit_sft_rigid_atlas");
+  SheetSceneOptions o = SheetSceneOptions::Small(160, 16, 10);
+  o.motion = SheetMotion::kRigid;
+  GenerateSheetScene(o, dir.path().string());
+  const SftScene scene = LoadScene(dir.path().string());
+  PolySftOptions options;
+  options.atlas.max_patches = 1;
+  const PolySftSummary one = SolvePolySft(options, scene);
+  options.atlas.max_patches = 7;
+  options.atlas.min_vertices = 10;
+  const PolySftSummary atlas = SolvePolySft(options, scene);
+  ExpectFinite(atlas);
+  EXPECT_TRUE(atlas.splits.empty());
+  EXPECT_EQ(atlas.frames.back().patches, 1);
+  EXPECT_NEAR(atlas.mean_rmse_mm, one.mean_rmse_mm, 1e-6);
+}
+
 // A crease no single 4-jet holds: with the atlas on, the sheet splits
 // where the fold is (the split reported per frame and in the summary) and
 // the error falls below the one patch's.
@@ -72,13 +94,17 @@ TEST(PolySftTest, TheAtlasSplitsACreaseAndFollowsItBetterThanOnePatch) {
   GenerateSheetScene(o, dir.path().string());
   const SftScene scene = LoadScene(dir.path().string());
   PolySftOptions options;
+  options.atlas.max_patches = 1;
   const PolySftSummary one = SolvePolySft(options, scene);
   options.atlas.max_patches = 7;
   options.atlas.min_vertices = 10;
   const PolySftSummary atlas = SolvePolySft(options, scene);
   ExpectFinite(atlas);
   ASSERT_FALSE(atlas.splits.empty());
-  EXPECT_GT(atlas.splits.front().significance, options.atlas.split_significance);
+  for (const SftPatchSplit& split : atlas.splits) {
+    EXPECT_GT(split.significance, options.atlas.split_significance);
+    EXPECT_GE(split.step_pixels, options.atlas.split_min_step_pixels);
+  }
   EXPECT_EQ(atlas.patch_vertices.size(), 1u + 3u * atlas.splits.size());
   EXPECT_EQ(atlas.frames.back().patches, 1 + 3 * static_cast<int>(atlas.splits.size()));
   EXPECT_EQ(one.frames.back().patches, 1);
@@ -97,6 +123,10 @@ TEST(PolySftTest, TheAtlasSplitsACreaseAndFollowsItBetterThanOnePatch) {
   // with the atlas (8.5), after two splits.
   EXPECT_LT(atlas.mean_rmse_mm, 0.8 * one.mean_rmse_mm);
   EXPECT_LT(atlas.frames.back().rmse_mm, one.frames.back().rmse_mm);
+
+  // No split moves the surface by a whole image: none is made.
+  options.atlas.split_min_step_pixels = 1e3;
+  EXPECT_TRUE(SolvePolySft(options, scene).splits.empty());
 }
 
 TEST(PolySftTest, RolledSheetUsesTheTextureSpaceFallback) {
