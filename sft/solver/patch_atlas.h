@@ -11,13 +11,15 @@
 // parameters (JetDeformationModel::InheritParameters), if the split passes
 // a score test: one Gauss-Newton step on the frame would lower its cost by
 // split_significance times what the children's extra parameters would gain
-// from noise alone. The window is then solved again.
+// from noise alone and moving the patch visibly (split_min_step_pixels).
+// Lost or unsettled frames are not split (polysft.cc). The window is then
+// solved again.
 //
-// Off by default (max_patches 1), as measured (docs/benchmarks.md): with
-// up to 16 patches it holds creases and wave packets that one patch cannot
-// (RMSE 7.7 -> 2.6 mm, 7.6 -> 3.5 mm) and a strong smooth bend a little
-// better (1.2 -> 0.8 mm), but a smooth bend passes the score test as well
-// and then costs 1.3-1.9 s per frame instead of 0.5-0.7.
+// On by default (up to 16 patches), as measured (docs/benchmarks.md,
+// "PolySfT: the atlas by default"): it holds creases and wave packets that
+// one patch cannot (RMSE 7.6 -> 2.2 mm, 7.1 -> 3.1 mm) and is as good or
+// better on every other generated scene, at 1.3-2.5 times one patch's time
+// where it splits.
 #ifndef POLYFIT_SFT_SOLVER_PATCH_ATLAS_H_
 #define POLYFIT_SFT_SOLVER_PATCH_ATLAS_H_
 
