@@ -62,22 +62,34 @@ TEST(PolySftTest, RecoversAMixedSequenceFarBetterThanTheTemplate) {
   EXPECT_EQ(header, "frame,window,iteration,time_s,cost,e3d,patches,recovery");
 }
 
+// A 160 px sheet of 16 cells across under `motion` (finer than SmallScene,
+// so that patches of 10 vertices can split), generated into dir and loaded.
+SftScene SmallSheet(SheetMotion motion, int frames, const ScopedTempDir& dir) {
+  SheetSceneOptions o = SheetSceneOptions::Small(160, 16, frames);
+  o.motion = motion;
+  GenerateSheetScene(o, dir.path().string());
+  return LoadScene(dir.path().string());
+}
+
+// The atlas at that size: up to 7 patches of at least 10 vertices.
+PolySftOptions SmallAtlasOptions() {
+  PolySftOptions options;
+  options.atlas.max_patches = 7;
+  options.atlas.min_vertices = 10;
+  return options;
+}
+
 // A sheet that only moves rigidly: one jet holds it, so the atlas never
 // splits it (its residual still rises over the first frame's with the
 // resampled texture, but no split would move it visibly) and the solve is
 // one patch's.
 TEST(PolySftTest, TheAtlasLeavesARigidlyMovingSheetOnePatch) {
   ScopedTempDir dir("polyfit_sft_rigid_atlas");
-  SheetSceneOptions o = SheetSceneOptions::Small(160, 16, 10);
-  o.motion = SheetMotion::kRigid;
-  GenerateSheetScene(o, dir.path().string());
-  const SftScene scene = LoadScene(dir.path().string());
-  PolySftOptions options;
+  const SftScene scene = SmallSheet(SheetMotion::kRigid, 10, dir);
+  PolySftOptions options = SmallAtlasOptions();
   options.atlas.max_patches = 1;
   const PolySftSummary one = SolvePolySft(options, scene);
-  options.atlas.max_patches = 7;
-  options.atlas.min_vertices = 10;
-  const PolySftSummary atlas = SolvePolySft(options, scene);
+  const PolySftSummary atlas = SolvePolySft(SmallAtlasOptions(), scene);
   ExpectFinite(atlas);
   EXPECT_TRUE(atlas.splits.empty());
   EXPECT_EQ(atlas.frames.back().patches, 1);
@@ -89,15 +101,11 @@ TEST(PolySftTest, TheAtlasLeavesARigidlyMovingSheetOnePatch) {
 // the error falls below the one patch's.
 TEST(PolySftTest, TheAtlasSplitsACreaseAndFollowsItBetterThanOnePatch) {
   ScopedTempDir dir("polyfit_sft_crease");
-  SheetSceneOptions o = SheetSceneOptions::Small(160, 16, 12);
-  o.motion = SheetMotion::kCrease;
-  GenerateSheetScene(o, dir.path().string());
-  const SftScene scene = LoadScene(dir.path().string());
-  PolySftOptions options;
+  const SftScene scene = SmallSheet(SheetMotion::kCrease, 12, dir);
+  PolySftOptions options = SmallAtlasOptions();
   options.atlas.max_patches = 1;
   const PolySftSummary one = SolvePolySft(options, scene);
-  options.atlas.max_patches = 7;
-  options.atlas.min_vertices = 10;
+  options = SmallAtlasOptions();
   const PolySftSummary atlas = SolvePolySft(options, scene);
   ExpectFinite(atlas);
   ASSERT_FALSE(atlas.splits.empty());
