@@ -809,8 +809,14 @@ class PolySftController {
     std::vector<double> ratios;
     const std::vector<int> chosen =
         PatchesToSplit(options_.atlas, model_, squared, pixels, floor_squared_, floor_pixels_, &ratios);
-    if (chosen.empty()) return false;
-    const int p = chosen.front();
+    // A patch that failed the test is tried again only once it fits worse
+    // than it did then: on a smooth scene the same patch would otherwise
+    // be tested, and fail, every frame.
+    failed_ratio_.resize(model_.num_patches(), 0.0);
+    const auto untried =
+        std::find_if(chosen.begin(), chosen.end(), [&](int q) { return ratios[q] > failed_ratio_[q]; });
+    if (untried == chosen.end()) return false;
+    const int p = *untried;
     const std::vector<int> child =
         SplitPatchVertices(scene_.template_mesh, model_.vertex_patches(), p, options_.atlas.children);
     if (child.empty()) return false;
@@ -836,6 +842,7 @@ class PolySftController {
     const double step_pixels = step.size() == model_.num_parameters() ? LargestStepPixels(newest, step, child) : 0.0;
     if (gain > options_.atlas.split_significance * noise && step_pixels >= options_.atlas.split_min_step_pixels) {
       summary_.splits.push_back({newest.frame.index, p, split.num_children, ratios[p], gain / noise, step_pixels});
+      failed_ratio_.assign(model_.num_patches(), 0.0);  // the patches are numbered anew
       return true;
     }
     model_ = unsplit;
@@ -843,6 +850,7 @@ class PolySftController {
     render_groups_ = unsplit_groups;
     for (size_t k = 0; k < window_.size(); ++k) window_[k]->theta = thetas[k];
     previous_final_theta_ = previous;
+    failed_ratio_[p] = ratios[p];
     return false;
   }
 
@@ -1065,6 +1073,9 @@ class PolySftController {
   // fit is compared with).
   Eigen::VectorXd floor_squared_, floor_pixels_;
   double noise_cost_ = 0.0;
+  // Per patch, its residual ratio when it last failed the split's test (0:
+  // not tested since the last split).
+  std::vector<double> failed_ratio_;
   PolySftSummary summary_;
   bool use_masks_ = false, use_temporal_ = false, use_photometric_ = false, use_inextensibility_ = false;
   ScreenMesh mesh_template_;
