@@ -716,6 +716,16 @@ std::vector<double> JiggledWeights(const OneFitTrainer& trainer, std::uint64_t s
   return weights;
 }
 
+// The trainer's model at these weights written to TempDir()/name and read
+// back; *path (if given) is where.
+OneFitModel RoundTrip(const OneFitTrainer& trainer, const std::vector<double>& weights, const std::string& name,
+                      std::string* path = nullptr) {
+  const std::string file = ::testing::TempDir() + "/" + name;
+  SaveOneFitModel(file, trainer.MakeModel(weights));
+  if (path != nullptr) *path = file;
+  return LoadOneFitModel(file);
+}
+
 TEST_F(OneFitTrainerTest, TheLocalPoseHasTheRightGradientRoundTripsAndDrapesAsTraining) {
   options_.network.local_pose = true;
   OneFitTrainer trainer = ShirtTrainer(body_, options_);
@@ -723,9 +733,7 @@ TEST_F(OneFitTrainerTest, TheLocalPoseHasTheRightGradientRoundTripsAndDrapesAsTr
   // history's own share varies with the features, here about 1e-3).
   ExpectGradientMatchesCentralDifferences(&trainer, 2, true);
   const std::vector<double> weights = JiggledWeights(trainer, 3);
-  const std::string path = ::testing::TempDir() + "/onefit_local_pose.pfonefit";
-  SaveOneFitModel(path, trainer.MakeModel(weights));
-  const OneFitModel loaded = LoadOneFitModel(path);
+  const OneFitModel loaded = RoundTrip(trainer, weights, "onefit_local_pose.pfonefit");
   EXPECT_TRUE(loaded.network.local_pose());
   EXPECT_EQ(loaded.network.decoder().input_size(), 8 + 8 + kLocalPoseSize);
   ExpectDraperPredictsAsTraining(body_, options_, Sway(body_, 8), loaded, trainer, weights);
@@ -745,9 +753,7 @@ TEST_F(OneFitTrainerTest, TheBodyProximityHasTheRightGradientRoundTripsAndDrapes
   OneFitTrainer trainer = ShirtTrainer(body_, options_);
   ExpectGradientMatchesCentralDifferences(&trainer, 2, true);
   const std::vector<double> weights = JiggledWeights(trainer, 5);
-  const std::string path = ::testing::TempDir() + "/onefit_proximity.pfonefit";
-  SaveOneFitModel(path, trainer.MakeModel(weights));
-  const OneFitModel loaded = LoadOneFitModel(path);
+  const OneFitModel loaded = RoundTrip(trainer, weights, "onefit_proximity.pfonefit");
   EXPECT_TRUE(loaded.network.body_proximity());
   EXPECT_EQ(loaded.network.decoder().input_size(), 8 + 8 + kProximitySize);
   ExpectDraperPredictsAsTraining(body_, options_, Sway(body_, 8), loaded, trainer, weights);
@@ -784,9 +790,8 @@ TEST_F(OneFitTrainerTest, NineProximityProbesRoundTripAndDrapeAsTraining) {
   options_.network.proximity_probes = kRimProximityProbes;
   OneFitTrainer trainer = ShirtTrainer(body_, options_);
   const std::vector<double> weights = JiggledWeights(trainer, 5);
-  const std::string path = ::testing::TempDir() + "/onefit_rim_probes.pfonefit";
-  SaveOneFitModel(path, trainer.MakeModel(weights));
-  const OneFitModel loaded = LoadOneFitModel(path);
+  std::string path;
+  const OneFitModel loaded = RoundTrip(trainer, weights, "onefit_rim_probes.pfonefit", &path);
   EXPECT_EQ(loaded.network.proximity_probes(), kRimProximityProbes);
   EXPECT_EQ(loaded.network.decoder().input_size(), 8 + 8 + ProximitySize(kRimProximityProbes));
   ExpectDraperPredictsAsTraining(body_, options_, Sway(body_, 8), loaded, trainer, weights);
@@ -851,9 +856,8 @@ TEST_F(OneFitTrainerTest, TheFeedbackDecoderHasTheRightGradientRoundTripsAndDrap
   }
   ExpectGradientMatchesCentralDifferences(&trainer, 3, true);
   const std::vector<double> weights = JiggledWeights(trainer, 7);
-  const std::string path = ::testing::TempDir() + "/onefit_feedback.pfonefit";
-  SaveOneFitModel(path, trainer.MakeModel(weights));
-  const OneFitModel loaded = LoadOneFitModel(path);
+  std::string path;
+  const OneFitModel loaded = RoundTrip(trainer, weights, "onefit_feedback.pfonefit", &path);
   ASSERT_TRUE(loaded.network.feedback());
   EXPECT_EQ(loaded.network.feedback_decoder().sizes(),
             (std::vector<int>{8 + 8 + kProximitySize + loaded.network.num_outputs() + kProximitySize, 12, 12,
@@ -895,9 +899,8 @@ TEST_F(OneFitTrainerTest, TwoFeedbackPassesHaveTheRightGradientAndDrapeAsTrainin
   OneFitTrainer trainer = ShirtTrainer(body_, options_);
   ExpectGradientMatchesCentralDifferences(&trainer, 3, true);
   const std::vector<double> weights = JiggledWeights(trainer, 9);
-  const std::string path = ::testing::TempDir() + "/onefit_feedback_twice.pfonefit";
-  SaveOneFitModel(path, trainer.MakeModel(weights));
-  const OneFitModel loaded = LoadOneFitModel(path);
+  std::string path;
+  const OneFitModel loaded = RoundTrip(trainer, weights, "onefit_feedback_twice.pfonefit", &path);
   EXPECT_EQ(loaded.network.feedback_passes(), 2);
   ExpectDraperPredictsAsTraining(body_, options_, Sway(body_, 8), loaded, trainer, weights);
   // The second pass moves the prediction.
@@ -928,9 +931,7 @@ TEST_F(OneFitTrainerTest, AWarpUnderASlideBoundHasTheRightGradientAndDrapesAsTra
   OneFitTrainer trainer = ShirtTrainer(body_, options_);
   ExpectGradientMatchesCentralDifferences(&trainer, 2, true);
   const std::vector<double> weights = JiggledWeights(trainer, 4);
-  const std::string path = ::testing::TempDir() + "/onefit_slide_bound.pfonefit";
-  SaveOneFitModel(path, trainer.MakeModel(weights));
-  const OneFitModel loaded = LoadOneFitModel(path);
+  const OneFitModel loaded = RoundTrip(trainer, weights, "onefit_slide_bound.pfonefit");
   EXPECT_EQ(loaded.warp_slide_bound, 0.5);
   EXPECT_EQ(loaded.network.warp_order(), 3);
   ExpectDraperPredictsAsTraining(body_, options_, Sway(body_, 8), loaded, trainer, weights);
@@ -1123,9 +1124,7 @@ TEST_F(OneFitTrainerTest, AJointMaskHidesTheJointsTheGarmentDoesNotFollow) {
       EXPECT_EQ(trainer.JointMaskReport(),
                 "joints read: shirt 2/12 (not Neck Head LeftArm LeftForeArm RightArm RightForeArm LeftUpLeg LeftLeg "
                 "RightUpLeg RightLeg)");
-      const std::string path = ::testing::TempDir() + "/onefit_joint_mask.pfonefit";
-      SaveOneFitModel(path, trainer.MakeModel(weights));
-      const OneFitModel loaded = LoadOneFitModel(path);
+      const OneFitModel loaded = RoundTrip(trainer, weights, "onefit_joint_mask.pfonefit");
       EXPECT_EQ(loaded.joint_mask_reach, reach);
       ExpectDraperPredictsAsTraining(body_, options_, kick, loaded, trainer, weights);
     } else {

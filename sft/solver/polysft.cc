@@ -216,7 +216,8 @@ class PolySftController {
       double cost = 0.0;
       int iterations = 0;
       if (!SolveWindow(&cost, &iterations)) break;
-      if (RefineAtlas(t, cost) && !SolveWindow(&cost, &iterations)) break;
+      frame_cost_[t] = cost;  // whether it is tracked, for RefineAtlas
+      if (RefineAtlas(t) && !SolveWindow(&cost, &iterations)) break;
       RecoverLostFrame(t, &cost, &iterations);
       frame_time_[t] = Seconds(frame_start);
       frame_cost_[t] = cost;
@@ -783,15 +784,14 @@ class PolySftController {
   // residual per vertex (the floor); later, the patch that fits worst
   // against its floor is split if the split passes the score test (below);
   // true when it was, and the window must be solved again.
-  bool RefineAtlas(int t, double cost) {
+  bool RefineAtlas(int t) {
     if (!model_.can_split() || options_.atlas.max_patches <= 1 || (!use_photometric_ && !use_masks_)) return false;
     FrameData& newest = *window_.back();
     if (newest.mask_empty || (t > 0 && floor_squared_.size() == 0)) return false;
-    // A frame that is lost, or whose colours are not the texture's, fits
-    // badly for want of tracking, not of patches: a split there only frees
-    // the sheet to fit what it cannot find.
-    if (t > 0 && (CostRatio(cost) > kLostCostRatio || newest.brightness.correlation < 0.2 || !newest.settled))
-      return false;
+    // A frame that is not tracked (lost, or its colours not the texture's)
+    // or did not settle fits badly for want of tracking, not of patches: a
+    // split there only frees the sheet to fit what it cannot find.
+    if (t > 0 && !(Tracked(newest) && newest.settled)) return false;
     // A full atlas: nothing to measure.
     if (t > 0 && model_.num_patches() + options_.atlas.children - 1 > options_.atlas.max_patches) return false;
     RenderCost::Data d;
