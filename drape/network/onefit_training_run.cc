@@ -10,6 +10,7 @@
 #include <sstream>
 #include <utility>
 
+#include "drape/garment/procedural_garment.h"
 #include "drape/motion/mirror_pose.h"
 #include "drape/motion/mix_pose.h"
 #include "drape/motion/perturb_pose.h"
@@ -25,6 +26,7 @@ namespace {
 constexpr char kDecimatedTag[] = "~decimated";
 constexpr char kRepatchedTag[] = "~patched";
 constexpr char kOffsetTag[] = "~offset";
+constexpr char kProceduralTag[] = "~procedural";
 
 // The garment moved `distance` along its vertex normals.
 TriangleMesh OffsetAlongNormals(const TriangleMesh& mesh, double distance) {
@@ -87,6 +89,20 @@ std::vector<OneFitTrainingGarment> LoadGarments(const OneFitTrainingRunOptions& 
       garments.push_back(std::move(r));
     }
   }
+  // Cut from this body, so that a sampled shape's are fitted to it; the
+  // same cuts for every body.
+  for (int k = 0; k < options.procedural_garments; ++k) {
+    const ProceduralGarmentOptions cut = DrawProceduralGarment(options.trainer.seed * 104729 + 17 + k);
+    OneFitTrainingGarment p;
+    p.name = std::string(kProceduralTag) + std::to_string(k) + " " + cut.Describe();
+    try {
+      p.mesh = MakeProceduralGarment(body, cut);
+      p.weights = TransferSkinWeights(body, p.mesh, options.skin);
+    } catch (const std::invalid_argument& e) {
+      throw Error(ErrorKind::kInput, std::string("--procedural-garments: ") + e.what());
+    }
+    garments.push_back(std::move(p));
+  }
   return garments;
 }
 
@@ -137,16 +153,20 @@ std::string ClipReport(const std::vector<OneFitTrainingClip>& clips) {
          std::to_string(mixed) + " mixed" + (perturbed > 0 ? ", each also perturbed)" : ")");
 }
 
-// "N garments per body (G given, D decimated[, O offset], R re-patched)".
+// "N garments per body (G given, D decimated[, O offset], R re-patched[, P procedural])".
 std::string GarmentReport(const std::vector<OneFitTrainingGarment>& garments) {
   const auto [repatched, decimated] = CountTagged(garments, kRepatchedTag, kDecimatedTag);
   const long offset = std::count_if(garments.begin(), garments.end(), [](const OneFitTrainingGarment& g) {
     return g.name.find(kOffsetTag) != std::string::npos && g.name.find(kRepatchedTag) == std::string::npos;
   });
-  const long given = static_cast<long>(garments.size()) - decimated - repatched - offset;
+  const long procedural = std::count_if(garments.begin(), garments.end(), [](const OneFitTrainingGarment& g) {
+    return g.name.find(kProceduralTag) != std::string::npos;
+  });
+  const long given = static_cast<long>(garments.size()) - decimated - repatched - offset - procedural;
   return std::to_string(garments.size()) + " garments per body (" + std::to_string(given) + " given, " +
          std::to_string(decimated) + " decimated, " + (offset > 0 ? std::to_string(offset) + " offset, " : "") +
-         std::to_string(repatched) + " re-patched)";
+         std::to_string(repatched) + " re-patched" +
+         (procedural > 0 ? ", " + std::to_string(procedural) + " procedural)" : ")");
 }
 
 // Frame f of a clip played forth and back (a donor shorter than its base
@@ -281,6 +301,10 @@ std::string OneFitTrainingRunOptions::Validate() const {
     if (!(std::abs(d) <= 0.03) || d == 0.0) return "garment_offsets must be non-zero and within 0.03 m";
   }
   if (shape_samples > 0 && body_dir.empty()) return "shape_samples needs the MakeHuman body (a body folder)";
+  if (procedural_garments < 0 || procedural_garments > 64) return "procedural_garments must be in [0, 64]";
+  if (procedural_garments > 0 && body_dir.empty()) {
+    return "procedural_garments needs the MakeHuman body (a body folder): they are cut from its skin";
+  }
   if (std::string p = shape.Validate(); !p.empty()) return "shape: " + p;
   if (std::string p = trainer.Validate(); !p.empty()) return "trainer: " + p;
   return {};

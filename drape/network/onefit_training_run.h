@@ -66,6 +66,13 @@ struct OneFitTrainingRunOptions {
   // layout of patches on it (a network trained on one leaves more of the
   // same garment inside under another); 0: none.
   int repatch = 0;
+  // Augmentation: this many tight garments cut from each body's own skin
+  // (drape/garment/procedural_garment.h: a top, a bottom or a suit, sleeves
+  // and legs of drawn lengths, 3-15 mm off the skin, about 2,000 vertices;
+  // drawn with trainer.seed), after every other garment and not decimated,
+  // offset or re-patched: more cuts and fits than the garments given, for
+  // garments never seen (MakeHuman body only); 0: none.
+  int procedural_garments = 0;
   // Augmentation: this many further body shapes, each macro value drawn
   // uniformly in [0, 1] (seeded by trainer.seed), each with the garments
   // fitted to it and the clips retargeted onto its rig, so that the

@@ -236,6 +236,11 @@ void AddTrainDataFlags(CLI::App* train, TrainFlags* f) {
           "seeds (0: none)")
       ->capture_default_str();
   train
+      ->add_option("--procedural-garments", o.procedural_garments,
+                   "augmentation: this many tight garments cut from the body's skin (tops, bottoms, suits of drawn "
+                   "sleeve and leg lengths, 3-15 mm off it; seeded; needs --body)")
+      ->capture_default_str();
+  train
       ->add_option("--shape-samples", o.shape_samples,
                    "augmentation: also train on this many body shapes sampled uniformly in range (seeded; needs "
                    "--body), each with every garment fitted to it and every clip")
