@@ -6,6 +6,7 @@
 
 #include "polyfit/eval/surface_distance.h"
 #include "polyfit/mesh/cotangent_laplacian.h"
+#include "polyfit/mesh/edge_split.h"
 #include "polyfit/mesh/mesh_topology.h"
 #include "polyfit/mesh/unique_edges.h"
 
@@ -74,6 +75,19 @@ SkinWeights TransferSkinWeights(const SkinnedBody& body, const TriangleMesh& gar
   if (n == 0) throw std::invalid_argument("TransferSkinWeights: the garment has no vertex");
   if (!garment.vertices.allFinite())
     throw std::invalid_argument("TransferSkinWeights: the garment has non-finite vertices");
+  if (!(options.resample_edge_length >= 0.0))
+    throw std::invalid_argument("TransferSkinWeights: resample_edge_length must be >= 0");
+  if (options.resample_edge_length > 0.0) {
+    SkinTransferOptions fine = options;
+    fine.resample_edge_length = 0.0;
+    const SkinWeights all = TransferSkinWeights(body, SplitLongEdges(garment, options.resample_edge_length), fine);
+    // The garment's vertices come first in the split mesh.
+    SkinWeights out;
+    out.joint.assign(all.joint.begin(), all.joint.begin() + all.offsets[n]);
+    out.value.assign(all.value.begin(), all.value.begin() + all.offsets[n]);
+    out.offsets.assign(all.offsets.begin(), all.offsets.begin() + n + 1);
+    return out;
+  }
   // Dense #joints by #V: the rigs have tens of joints.
   Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(num_joints, n);
   std::vector<double> rate(n, 1.0);

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "drape/body/procedural_body.h"
+#include "polyfit/mesh/edge_split.h"
 #include "polyfit/mesh/primitives.h"
 #include "polyfit/mesh/subdivision.h"
 #include "polyfit/mesh/unique_edges.h"
@@ -135,6 +136,40 @@ TEST(SkinTransferTest, AFinerMeshingOfAGarmentGetsTheSameWeights) {
                            coarse.num_vertices(), joints);
   EXPECT_LT(calibration_gap, 0.5 * steps_gap) << calibration_gap;
   EXPECT_GT(steps_gap, 0.01);
+}
+
+TEST(SkinTransferTest, ResamplingGivesAGradedMeshingTheWeightsOfAUniformOne) {
+  // The tube, and the same tube with its upper half's faces split (its
+  // vertices first): Jacobi steps spread the weights by counts of edges,
+  // so the half with short edges diffuses less far. Transferred on copies
+  // split to a quarter of the edge, both meshings smooth on about the same
+  // mesh.
+  const SkinnedBody body = MakeProceduralBody();
+  const TriangleMesh tube = MakeTube(0.15, 0.1, 0.4, 24, 8);
+  TriangleMesh graded = tube;
+  auto stretch = [](double y, double f) { return y < 0.25 ? y : 0.25 + f * (y - 0.25); };
+  for (int v = 0; v < graded.num_vertices(); ++v) graded.vertices(1, v) = stretch(graded.vertices(1, v), 3.0);
+  const double h = MeanEdgeLength(tube);
+  graded = SplitLongEdges(graded, 1.5 * h);
+  for (int v = 0; v < graded.num_vertices(); ++v) graded.vertices(1, v) = stretch(graded.vertices(1, v), 1.0 / 3.0);
+  ASSERT_GT(graded.num_vertices(), tube.num_vertices());
+  ASSERT_TRUE(graded.vertices.leftCols(tube.num_vertices()).isApprox(tube.vertices));
+  const int joints = body.skeleton.num_joints();
+  SkinTransferOptions own;
+  own.loose_distance = 0.0;
+  own.smoothing_length = 0.15;
+  const double own_gap = MeanWeightDifference(TransferSkinWeights(body, tube, own),
+                                              TransferSkinWeights(body, graded, own), tube.num_vertices(), joints);
+  SkinTransferOptions resampled = own;
+  resampled.resample_edge_length = 0.25 * h;
+  const SkinWeights tube_resampled = TransferSkinWeights(body, tube, resampled);
+  ASSERT_EQ(tube_resampled.num_vertices(), tube.num_vertices());
+  const double resampled_gap =
+      MeanWeightDifference(tube_resampled, TransferSkinWeights(body, graded, resampled), tube.num_vertices(), joints);
+  EXPECT_GT(own_gap, 0.004);
+  EXPECT_LT(resampled_gap, 0.3 * own_gap) << resampled_gap << " " << own_gap;
+  resampled.resample_edge_length = -1.0;
+  EXPECT_THROW(TransferSkinWeights(body, tube, resampled), std::invalid_argument);
 }
 
 TEST(SkinTransferTest, RejectsEmptyAndNonFiniteGarments) {

@@ -77,6 +77,9 @@ std::string OneFitModel::Validate() const {
   if (num_joints < 1) return "no joint";
   if (!(joint_mask_reach >= 0.0 && joint_mask_reach <= 1.0)) return "joint_mask_reach out of [0, 1]";
   if (!(warp_slide_bound >= 0.0 && warp_slide_bound <= 1.0)) return "warp_slide_bound out of [0, 1]";
+  if (!(skin_resample_edge_length >= 0.0 && skin_resample_edge_length <= 1.0)) {
+    return "skin_resample_edge_length out of [0, 1] m";
+  }
   if (network.num_coefficients() != NumJetCoefficients(jet_order)) return "the decoder does not fit the jet order";
   if (network.patch_encoder().input_size() != PatchFeatureSize(jet_order, num_joints)) {
     return "the patch encoder does not read this rig's patch features";
@@ -123,6 +126,7 @@ void SaveOneFitModel(const std::string& path, const OneFitModel& model) {
   w.Put<std::int32_t>(model.network.body_proximity() ? 1 : 0);
   w.Put<std::int32_t>(model.network.proximity_probes());
   w.Put<std::int32_t>(model.network.feedback_passes());
+  w.Put<double>(model.skin_resample_edge_length);
   PutMlp(model.network.patch_encoder(), &w);
   PutMlp(model.network.body_encoder(), &w);
   PutMlp(model.network.decoder(), &w);
@@ -231,6 +235,10 @@ OneFitModel LoadOneFitModel(const std::string& path) {
   if (feedback < 0 || feedback > kMaxFeedbackPasses || (feedback > 0 && proximity == 0)) {
     r.Fail("feedback passes out of range or without the proximity");
   }
+  model.skin_resample_edge_length = version >= 14 ? r.Get<double>("the header") : 0.0;
+  if (!(model.skin_resample_edge_length >= 0.0 && model.skin_resample_edge_length <= 1.0)) {
+    r.Fail("skin resample edge length out of [0, 1] m");
+  }
   if (aligned != 0 && aligned != 1) r.Fail("frame alignment flag out of range");
   if (local_pose != 0 && local_pose != 1) r.Fail("local pose flag out of range");
   model.aligned_frames = aligned == 1;
@@ -242,9 +250,9 @@ OneFitModel LoadOneFitModel(const std::string& path) {
   Mlp decoder = GetMlp(&r, "the decoder");
   Mlp feedback_decoder = feedback > 0 ? GetMlp(&r, "the feedback decoder") : Mlp();
   try {
-    model.network = OneFitNetwork(std::move(patch), std::move(body), std::move(decoder),
-                                  NumJetCoefficients(model.jet_order), warp_order, probes, std::move(feedback_decoder),
-                                  std::max(feedback, 1));
+    model.network =
+        OneFitNetwork(std::move(patch), std::move(body), std::move(decoder), NumJetCoefficients(model.jet_order),
+                      warp_order, probes, std::move(feedback_decoder), std::max(feedback, 1));
   } catch (const std::invalid_argument& e) {
     r.Fail(e.what());
   }

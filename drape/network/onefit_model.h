@@ -23,7 +23,7 @@ namespace polyfit {
 // the decoder reads the body proximity, version 12 its probes per patch,
 // version 13 whether a feedback decoder follows (and, if so, its layout
 // after the decoder's); earlier files still load.
-inline constexpr int kOneFitModelVersion = 13;
+inline constexpr int kOneFitModelVersion = 14;
 
 class OneFitModelError : public Error {
  public:
@@ -53,6 +53,10 @@ struct OneFitModel {
   // The warp head's bound on each point's slide, in units of its patch's
   // radius (PatchWarpBound; 0, and before version 10: each coefficient's).
   double warp_slide_bound = 0.0;
+  // The garments' skinning transfer it was trained with
+  // (SkinTransferOptions::resample_edge_length; before version 14: 0): a
+  // garment is skinned alike to be draped.
+  double skin_resample_edge_length = 0.0;
   // How its body features hold the root's rotation (before version 6:
   // kAbsolute).
   RootRotation root_rotation = RootRotation::kHeadingFree;

@@ -274,6 +274,7 @@ OneFitModel OneFitTrainer::MakeModel(const std::vector<double>& weights) const {
   model.area_units = options_.area_units;
   model.joint_mask_reach = options_.joint_mask_reach;
   model.warp_slide_bound = options_.warp_slide_bound;
+  model.skin_resample_edge_length = options_.skin_resample_edge_length;
   model.network = network_;
   model.patch_normalizer = patch_normalizer_;
   model.body_normalizer = body_normalizer_;
@@ -290,13 +291,14 @@ void OneFitTrainer::StartFrom(const OneFitModel& model) {
       model.curved_faces != options_.drape.patching.curved_faces || model.root_rotation != options_.root_rotation ||
       model.area_units != options_.area_units || model.joint_mask_reach != options_.joint_mask_reach ||
       model.warp_slide_bound != options_.warp_slide_bound ||
+      model.skin_resample_edge_length != options_.skin_resample_edge_length ||
       model.network.body_proximity() != options_.network.body_proximity ||
       (model.network.body_proximity() && model.network.proximity_probes() != options_.network.proximity_probes) ||
       model.network.feedback() != options_.network.feedback ||
       (model.network.feedback() && model.network.feedback_passes() != options_.network.feedback_passes)) {
     throw std::invalid_argument(
-        "OneFitTrainer::StartFrom: the model's jet order, warp order, slide bound, patching, root feature, output "
-        "units, joint mask, body proximity, feedback or rig differs from the training's");
+        "OneFitTrainer::StartFrom: the model's jet order, warp order, slide bound, patching, skinning, root feature, "
+        "output units, joint mask, body proximity, feedback or rig differs from the training's");
   }
   if (model.patch_normalizer.mean.size() != patch_normalizer_.mean.size() ||
       model.body_normalizer.mean.size() != body_normalizer_.mean.size()) {

@@ -801,7 +801,7 @@ TEST_F(OneFitTrainerTest, NineProximityProbesRoundTripAndDrapeAsTraining) {
   EXPECT_THROW(five.StartFrom(loaded), std::invalid_argument);
 
   std::string bytes = FileBytes(path);
-  ASSERT_EQ(bytes[8], 13);
+  ASSERT_EQ(bytes[8], 14);
   ASSERT_EQ(bytes[80], kRimProximityProbes);  // the probes' count
   const std::string damaged = ::testing::TempDir() + "/onefit_rim_probes_damaged.pfonefit";
   for (const char count : {'\x00', '\x05', '\x07'}) {
@@ -814,13 +814,13 @@ TEST_F(OneFitTrainerTest, NineProximityProbesRoundTripAndDrapeAsTraining) {
   // no room.
   std::string v11 = bytes;
   v11[8] = 11;
-  v11.erase(80, 8);  // the count and version 13's feedback flag
+  v11.erase(80, 16);  // the count, version 13's feedback flag and version 14's skinning
   std::ofstream(damaged, std::ios::binary) << v11;
   EXPECT_THROW(LoadOneFitModel(damaged), OneFitModelError);
   SaveOneFitModel(path, five.MakeModel(JiggledWeights(five, 5)));
   v11 = FileBytes(path);
   v11[8] = 11;
-  v11.erase(80, 8);
+  v11.erase(80, 16);
   std::ofstream(damaged, std::ios::binary) << v11;
   EXPECT_EQ(LoadOneFitModel(damaged).network.proximity_probes(), kProximityProbes);
 }
@@ -864,7 +864,7 @@ TEST_F(OneFitTrainerTest, TheFeedbackDecoderHasTheRightGradientRoundTripsAndDrap
                               loaded.network.num_outputs()}));
   ExpectDraperPredictsAsTraining(body_, options_, Sway(body_, 8), loaded, trainer, weights);
   std::string bytes = FileBytes(path);
-  ASSERT_EQ(bytes[8], 13);
+  ASSERT_EQ(bytes[8], 14);
   ASSERT_EQ(bytes[84], 1);  // the feedback flag
   const std::string damaged = ::testing::TempDir() + "/onefit_feedback_damaged.pfonefit";
   for (const char flag : {'\x00', '\x05', '\xff'}) {
@@ -1169,8 +1169,8 @@ TEST_F(OneFitTrainerTest, AModelFileRoundTripsAndTheDraperPredictsAsTraining) {
   wrong_version[8] = kOneFitModelVersion + 1;
   expect_error(wrong_version, "version " + std::to_string(kOneFitModelVersion + 1));
   std::string huge = bytes;
-  huge[88] = '\xff';  // the patch encoder's layer count
-  huge[89] = '\xff';
+  huge[96] = '\xff';  // the patch encoder's layer count
+  huge[97] = '\xff';
   expect_error(huge, "layer sizes");
   EXPECT_THROW(LoadOneFitModel(path + ".absent"), OneFitModelError);
 }
@@ -1234,14 +1234,17 @@ TEST(OneFitModelTest, OlderVersionsStillLoadAndTheFlagsRoundTrip) {
   SaveOneFitModel(path, model);
   EXPECT_TRUE(LoadOneFitModel(path).curved_faces);
   bytes = FileBytes(path);
-  ASSERT_EQ(bytes[8], 13);  // the version
+  ASSERT_EQ(bytes[8], 14);  // the version
   EXPECT_EQ(LoadOneFitModel(path).joint_mask_reach, 0.0);
   EXPECT_EQ(LoadOneFitModel(path).warp_slide_bound, 0.0);
+  EXPECT_EQ(LoadOneFitModel(path).skin_resample_edge_length, 0.0);
   model.joint_mask_reach = 0.05;
   model.warp_slide_bound = 0.5;
+  model.skin_resample_edge_length = 0.02;
   SaveOneFitModel(path, model);
   EXPECT_EQ(LoadOneFitModel(path).joint_mask_reach, 0.05);
   EXPECT_EQ(LoadOneFitModel(path).warp_slide_bound, 0.5);
+  EXPECT_EQ(LoadOneFitModel(path).skin_resample_edge_length, 0.02);
   bytes = FileBytes(path);
   // `bytes` with byte `at` set to `value` is refused.
   const auto expect_refused = [&bytes](size_t at, char value, const std::string& file) {
@@ -1256,6 +1259,12 @@ TEST(OneFitModelTest, OlderVersionsStillLoadAndTheFlagsRoundTrip) {
     bytes.erase(at, size);
     std::ofstream(file, std::ios::binary) << bytes;
   };
+  const std::string path13 = ::testing::TempDir() + "/onefit_v13_old.pfonefit";
+  expect_refused(95, '\x40', path13);  // the length's exponent: 0.02 * 2^16
+  // Version 13: garments skinned on their own meshes.
+  downgrade(13, 88, 8, path13);
+  EXPECT_EQ(LoadOneFitModel(path13).skin_resample_edge_length, 0.0);
+  EXPECT_EQ(LoadOneFitModel(path13).warp_slide_bound, 0.5);
   const std::string path12 = ::testing::TempDir() + "/onefit_v12_old.pfonefit";
   expect_refused(84, 1, path12);  // a feedback decoder without the proximity
   expect_refused(84, 2, path12);

@@ -157,6 +157,12 @@ void AddSimulatePhysicsOptions(CLI::App* simulate, SimulateFlags* f) {
       ->add_option("--skin-loose", options.skin.loose_distance,
                    "smoothing steps scaled by distance to the body over this (m)")
       ->capture_default_str();
+  simulate
+      ->add_option("--skin-resample", options.skin.resample_edge_length,
+                   "transfer and smooth the weights on a copy of the garment with no edge longer than this (m), so "
+                   "that any meshing of it gets the same weights (0: on its own mesh)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
 }
 
 CLI::App* AddSimulateCommand(CLI::App* app, SimulateFlags* f, const char* name = "simulate",
@@ -206,6 +212,12 @@ void AddTrainDataFlags(CLI::App* train, TrainFlags* f) {
   train->add_option("--out", o.model_path, "the model file to write (and MODEL.csv, the progress)")->required();
   train->add_option("--shape", f->shape, "macro shape of the body, e.g. gender=0.2,weight=0.8");
   train->add_option("--bvh-scale", o.bvh_units_to_metres, "metres per BVH unit")->capture_default_str();
+  train
+      ->add_option("--skin-resample", o.skin.resample_edge_length,
+                   "transfer and smooth the garments' skinning weights on copies with no edge longer than this (m; "
+                   "0: on their own meshes); drape with the same")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   train->add_option("--frames-per-clip", o.max_frames_per_clip, "frames used per clip (0: all)")->capture_default_str();
   train
       ->add_option("--speeds", o.speeds,
@@ -468,9 +480,10 @@ std::string ShippedModel() {
 // A network's patches must be laid out and fitted as in its training, so
 // the model sets these; given on the command line they would be ignored.
 int RejectFlagsTheModelSets(const CLI::App& command) {
-  for (const char* flag : {"--patch-area", "--max-fit-error", "--curved-faces", "--jet-order"}) {
+  for (const char* flag : {"--patch-area", "--max-fit-error", "--curved-faces", "--jet-order", "--skin-resample"}) {
     if (command.get_option(flag)->count() > 0) {
-      std::fprintf(stderr, "onefit %s: %s is set by the model (it lays out and fits the patches as in its training)\n",
+      std::fprintf(stderr,
+                   "onefit %s: %s is set by the model (it lays out, fits and skins the garment as in its training)\n",
                    command.get_name().c_str(), flag);
       return polyfit::kExitUsage;
     }
