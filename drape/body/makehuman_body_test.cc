@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include "drape/body/makehuman_test_body.h"
+
 namespace polyfit {
 namespace {
 
@@ -14,19 +16,12 @@ const fs::path kBodyDir = fs::path(POLYFIT_SHARED_DATA_DIR) / "drape/body";
 
 class MakeHumanBodyTest : public ::testing::Test {
  protected:
-  static void SetUpTestSuite() {
-    if (fs::exists(kBodyDir / "makehuman/base.obj")) body_ = new SkinnedBody(LoadMakeHumanBody(kBodyDir.string()));
-  }
-  static void TearDownTestSuite() {
-    delete body_;
-    body_ = nullptr;
-  }
   void SetUp() override {
+    body_ = SharedMakeHumanBody(kBodyDir);
     if (body_ == nullptr) GTEST_SKIP() << "shared data absent: " << kBodyDir;
   }
-  static SkinnedBody* body_;
+  const SkinnedBody* body_ = nullptr;
 };
-SkinnedBody* MakeHumanBodyTest::body_ = nullptr;
 
 TEST_F(MakeHumanBodyTest, MeshRigAndWeights) {
   const SkinnedBody& b = *body_;

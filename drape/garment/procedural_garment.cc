@@ -18,10 +18,9 @@ namespace {
 enum Part { kTorso = 0, kLeftArm, kRightArm, kLeftLeg, kRightLeg, kHeadAndNeck, kNumParts };
 
 int FindJoint(const Skeleton& skeleton, const char* name) {
-  for (int j = 0; j < skeleton.num_joints(); ++j) {
-    if (skeleton.names[j] == name) return j;
-  }
-  throw std::invalid_argument(std::string("MakeProceduralGarment: the rig has no joint '") + name + "'");
+  const int j = skeleton.Find(name);
+  if (j < 0) throw std::invalid_argument(std::string("MakeProceduralGarment: the rig has no joint '") + name + "'");
+  return j;
 }
 
 // Arc length fraction along the chain a -> b -> c of the chain's point

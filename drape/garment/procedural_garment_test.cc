@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include "drape/body/makehuman_test_body.h"
 #include "drape/body/procedural_body.h"
 #include "drape/collision/signed_distance.h"
 #include "polyfit/mesh/mesh_topology.h"
@@ -17,26 +18,13 @@ const fs::path kBodyDir = fs::path(POLYFIT_SHARED_DATA_DIR) / "drape/body";
 
 class ProceduralGarmentTest : public ::testing::Test {
  protected:
-  static void SetUpTestSuite() {
-    if (fs::exists(kBodyDir / "makehuman/base.obj")) body_ = new SkinnedBody(LoadMakeHumanBody(kBodyDir.string()));
-  }
-  static void TearDownTestSuite() {
-    delete body_;
-    body_ = nullptr;
-  }
   void SetUp() override {
+    body_ = SharedMakeHumanBody(kBodyDir);
     if (body_ == nullptr) GTEST_SKIP() << "shared data absent: " << kBodyDir;
   }
-  static double JointY(const char* name) {
-    for (int j = 0; j < body_->skeleton.num_joints(); ++j) {
-      if (body_->skeleton.names[j] == name) return body_->skeleton.rest_heads(1, j);
-    }
-    ADD_FAILURE() << "no joint " << name;
-    return 0.0;
-  }
-  static SkinnedBody* body_;
+  double JointY(const char* name) const { return body_->skeleton.rest_heads(1, body_->skeleton.Find(name)); }
+  const SkinnedBody* body_ = nullptr;
 };
-SkinnedBody* ProceduralGarmentTest::body_ = nullptr;
 
 int ConnectedPieces(const TriangleMesh& mesh) {
   std::vector<int> labels;
