@@ -105,7 +105,8 @@ void BindSolverOptions(py::module_& m) {
       .def_readwrite("smoothing_length", &SkinTransferOptions::smoothing_length)
       .def_readwrite("smoothing_iterations", &SkinTransferOptions::smoothing_iterations)
       .def_readwrite("anchor_distance", &SkinTransferOptions::anchor_distance)
-      .def_readwrite("loose_distance", &SkinTransferOptions::loose_distance);
+      .def_readwrite("loose_distance", &SkinTransferOptions::loose_distance)
+      .def_readwrite("resample_edge_length", &SkinTransferOptions::resample_edge_length);
   AddCopy(skin);
   py::class_<BodyShape> shape(m, "BodyShape", "MakeHuman's macro shape, each in [0, 1] (0.5 neutral).");
   shape.def(py::init<>())
