@@ -80,6 +80,14 @@ struct SkinTransferOptions {
   // suit's at the same places by 0.16 in L1 on average, against 0.02 with
   // no smoothing: docs/drape.md.) 0: the garment's own mesh.
   double resample_edge_length = 0.0;
+
+  bool operator==(const SkinTransferOptions& o) const {
+    return smoothing == o.smoothing && smoothing_length == o.smoothing_length &&
+           smoothing_iterations == o.smoothing_iterations && anchor_distance == o.anchor_distance &&
+           loose_distance == o.loose_distance && min_weight == o.min_weight &&
+           resample_edge_length == o.resample_edge_length;
+  }
+  bool operator!=(const SkinTransferOptions& o) const { return !(*this == o); }
 };
 
 // The diffusion time (m^2) that spreads weights over `length` (m):

@@ -70,6 +70,19 @@ FeatureNormalizer GetNormalizer(Reader* r, int expected, const char* what) {
   return n;
 }
 
+// Empty when the skinning options are in range, else the problem.
+std::string SkinProblem(const SkinTransferOptions& skin) {
+  if (!(skin.smoothing_length >= 0.0 && skin.smoothing_length <= 10.0)) return "skin smoothing length out of [0, 10] m";
+  if (skin.smoothing_iterations < 0 || skin.smoothing_iterations > 100000) return "skin smoothing steps out of range";
+  if (!(skin.anchor_distance >= 0.0 && skin.anchor_distance <= 1.0)) return "skin anchor distance out of [0, 1] m";
+  if (!(skin.loose_distance >= 0.0 && skin.loose_distance <= 1.0)) return "skin loose distance out of [0, 1] m";
+  if (!(skin.min_weight >= 0.0 && skin.min_weight < 1.0)) return "skin minimum weight out of [0, 1)";
+  if (!(skin.resample_edge_length >= 0.0 && skin.resample_edge_length <= 1.0)) {
+    return "skin resample edge length out of [0, 1] m";
+  }
+  return {};
+}
+
 }  // namespace
 
 std::string OneFitModel::Validate() const {
@@ -77,9 +90,7 @@ std::string OneFitModel::Validate() const {
   if (num_joints < 1) return "no joint";
   if (!(joint_mask_reach >= 0.0 && joint_mask_reach <= 1.0)) return "joint_mask_reach out of [0, 1]";
   if (!(warp_slide_bound >= 0.0 && warp_slide_bound <= 1.0)) return "warp_slide_bound out of [0, 1]";
-  if (!(skin_resample_edge_length >= 0.0 && skin_resample_edge_length <= 1.0)) {
-    return "skin_resample_edge_length out of [0, 1] m";
-  }
+  if (std::string problem = SkinProblem(skin); !problem.empty()) return problem;
   if (network.num_coefficients() != NumJetCoefficients(jet_order)) return "the decoder does not fit the jet order";
   if (network.patch_encoder().input_size() != PatchFeatureSize(jet_order, num_joints)) {
     return "the patch encoder does not read this rig's patch features";
@@ -126,7 +137,13 @@ void SaveOneFitModel(const std::string& path, const OneFitModel& model) {
   w.Put<std::int32_t>(model.network.body_proximity() ? 1 : 0);
   w.Put<std::int32_t>(model.network.proximity_probes());
   w.Put<std::int32_t>(model.network.feedback_passes());
-  w.Put<double>(model.skin_resample_edge_length);
+  w.Put<std::int32_t>(model.skin.smoothing == SkinSmoothing::kSurface ? 1 : 0);
+  w.Put<double>(model.skin.smoothing_length);
+  w.Put<std::int32_t>(model.skin.smoothing_iterations);
+  w.Put<double>(model.skin.anchor_distance);
+  w.Put<double>(model.skin.loose_distance);
+  w.Put<double>(model.skin.min_weight);
+  w.Put<double>(model.skin.resample_edge_length);
   PutMlp(model.network.patch_encoder(), &w);
   PutMlp(model.network.body_encoder(), &w);
   PutMlp(model.network.decoder(), &w);
@@ -235,9 +252,17 @@ OneFitModel LoadOneFitModel(const std::string& path) {
   if (feedback < 0 || feedback > kMaxFeedbackPasses || (feedback > 0 && proximity == 0)) {
     r.Fail("feedback passes out of range or without the proximity");
   }
-  model.skin_resample_edge_length = version >= 14 ? r.Get<double>("the header") : 0.0;
-  if (!(model.skin_resample_edge_length >= 0.0 && model.skin_resample_edge_length <= 1.0)) {
-    r.Fail("skin resample edge length out of [0, 1] m");
+  if (version >= 14) {
+    const int surface = r.Get<std::int32_t>("the header");
+    if (surface != 0 && surface != 1) r.Fail("skin smoothing method out of range");
+    model.skin.smoothing = surface == 1 ? SkinSmoothing::kSurface : SkinSmoothing::kEdgeSteps;
+    model.skin.smoothing_length = r.Get<double>("the header");
+    model.skin.smoothing_iterations = r.Get<std::int32_t>("the header");
+    model.skin.anchor_distance = r.Get<double>("the header");
+    model.skin.loose_distance = r.Get<double>("the header");
+    model.skin.min_weight = r.Get<double>("the header");
+    model.skin.resample_edge_length = r.Get<double>("the header");
+    if (std::string problem = SkinProblem(model.skin); !problem.empty()) r.Fail(problem);
   }
   if (aligned != 0 && aligned != 1) r.Fail("frame alignment flag out of range");
   if (local_pose != 0 && local_pose != 1) r.Fail("local pose flag out of range");

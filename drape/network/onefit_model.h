@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "drape/garment/skin_transfer.h"
 #include "drape/network/onefit_features.h"
 #include "drape/network/onefit_network.h"
 #include "polyfit/util/status.h"
@@ -53,10 +54,9 @@ struct OneFitModel {
   // The warp head's bound on each point's slide, in units of its patch's
   // radius (PatchWarpBound; 0, and before version 10: each coefficient's).
   double warp_slide_bound = 0.0;
-  // The garments' skinning transfer it was trained with
-  // (SkinTransferOptions::resample_edge_length; before version 14: 0): a
-  // garment is skinned alike to be draped.
-  double skin_resample_edge_length = 0.0;
+  // The garments' skinning transfer it was trained with (before version
+  // 14: the defaults): a garment is skinned alike to be draped.
+  SkinTransferOptions skin;
   // How its body features hold the root's rotation (before version 6:
   // kAbsolute).
   RootRotation root_rotation = RootRotation::kHeadingFree;

@@ -274,7 +274,7 @@ OneFitModel OneFitTrainer::MakeModel(const std::vector<double>& weights) const {
   model.area_units = options_.area_units;
   model.joint_mask_reach = options_.joint_mask_reach;
   model.warp_slide_bound = options_.warp_slide_bound;
-  model.skin_resample_edge_length = options_.skin_resample_edge_length;
+  model.skin = options_.skin;
   model.network = network_;
   model.patch_normalizer = patch_normalizer_;
   model.body_normalizer = body_normalizer_;
@@ -290,8 +290,7 @@ void OneFitTrainer::StartFrom(const OneFitModel& model) {
       model.max_fit_error != options_.drape.patching.max_fit_error ||
       model.curved_faces != options_.drape.patching.curved_faces || model.root_rotation != options_.root_rotation ||
       model.area_units != options_.area_units || model.joint_mask_reach != options_.joint_mask_reach ||
-      model.warp_slide_bound != options_.warp_slide_bound ||
-      model.skin_resample_edge_length != options_.skin_resample_edge_length ||
+      model.warp_slide_bound != options_.warp_slide_bound || model.skin != options_.skin ||
       model.network.body_proximity() != options_.network.body_proximity ||
       (model.network.body_proximity() && model.network.proximity_probes() != options_.network.proximity_probes) ||
       model.network.feedback() != options_.network.feedback ||

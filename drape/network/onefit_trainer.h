@@ -151,10 +151,9 @@ struct OneFitTrainerOptions {
   // radius (PatchWarpBound; recorded in the model). 0: each coefficient is
   // bounded instead, which trains only up to kMaxTrainedWarpOrder.
   double warp_slide_bound = 0.0;
-  // The garments' skinning transfer (SkinTransferOptions::
-  // resample_edge_length): the trainer takes garments already skinned and
-  // only records it in the model (the training run sets it).
-  double skin_resample_edge_length = 0.0;
+  // The garments' skinning transfer: the trainer takes garments already
+  // skinned and only records it in the model (the training run sets it).
+  SkinTransferOptions skin;
   // A validation drape every this many batches (0: none), over this many
   // frames (see OneFitBatchSummary).
   int validation_every = 25;

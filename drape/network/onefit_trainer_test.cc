@@ -814,13 +814,13 @@ TEST_F(OneFitTrainerTest, NineProximityProbesRoundTripAndDrapeAsTraining) {
   // no room.
   std::string v11 = bytes;
   v11[8] = 11;
-  v11.erase(80, 16);  // the count, version 13's feedback flag and version 14's skinning
+  v11.erase(80, 56);  // the count, version 13's feedback flag and version 14's skinning
   std::ofstream(damaged, std::ios::binary) << v11;
   EXPECT_THROW(LoadOneFitModel(damaged), OneFitModelError);
   SaveOneFitModel(path, five.MakeModel(JiggledWeights(five, 5)));
   v11 = FileBytes(path);
   v11[8] = 11;
-  v11.erase(80, 16);
+  v11.erase(80, 56);
   std::ofstream(damaged, std::ios::binary) << v11;
   EXPECT_EQ(LoadOneFitModel(damaged).network.proximity_probes(), kProximityProbes);
 }
@@ -1169,8 +1169,8 @@ TEST_F(OneFitTrainerTest, AModelFileRoundTripsAndTheDraperPredictsAsTraining) {
   wrong_version[8] = kOneFitModelVersion + 1;
   expect_error(wrong_version, "version " + std::to_string(kOneFitModelVersion + 1));
   std::string huge = bytes;
-  huge[96] = '\xff';  // the patch encoder's layer count
-  huge[97] = '\xff';
+  huge[136] = '\xff';  // the patch encoder's layer count
+  huge[137] = '\xff';
   expect_error(huge, "layer sizes");
   EXPECT_THROW(LoadOneFitModel(path + ".absent"), OneFitModelError);
 }
@@ -1237,14 +1237,20 @@ TEST(OneFitModelTest, OlderVersionsStillLoadAndTheFlagsRoundTrip) {
   ASSERT_EQ(bytes[8], 14);  // the version
   EXPECT_EQ(LoadOneFitModel(path).joint_mask_reach, 0.0);
   EXPECT_EQ(LoadOneFitModel(path).warp_slide_bound, 0.0);
-  EXPECT_EQ(LoadOneFitModel(path).skin_resample_edge_length, 0.0);
+  EXPECT_TRUE(LoadOneFitModel(path).skin == SkinTransferOptions{});
   model.joint_mask_reach = 0.05;
   model.warp_slide_bound = 0.5;
-  model.skin_resample_edge_length = 0.02;
+  model.skin.smoothing = SkinSmoothing::kSurface;
+  model.skin.smoothing_length = 0.2;
+  model.skin.smoothing_iterations = 7;
+  model.skin.anchor_distance = 0.001;
+  model.skin.loose_distance = 0.03;
+  model.skin.min_weight = 0.002;
+  model.skin.resample_edge_length = 0.02;
   SaveOneFitModel(path, model);
   EXPECT_EQ(LoadOneFitModel(path).joint_mask_reach, 0.05);
   EXPECT_EQ(LoadOneFitModel(path).warp_slide_bound, 0.5);
-  EXPECT_EQ(LoadOneFitModel(path).skin_resample_edge_length, 0.02);
+  EXPECT_TRUE(LoadOneFitModel(path).skin == model.skin);
   bytes = FileBytes(path);
   // `bytes` with byte `at` set to `value` is refused.
   const auto expect_refused = [&bytes](size_t at, char value, const std::string& file) {
@@ -1260,10 +1266,11 @@ TEST(OneFitModelTest, OlderVersionsStillLoadAndTheFlagsRoundTrip) {
     std::ofstream(file, std::ios::binary) << bytes;
   };
   const std::string path13 = ::testing::TempDir() + "/onefit_v13_old.pfonefit";
-  expect_refused(95, '\x40', path13);  // the length's exponent: 0.02 * 2^16
-  // Version 13: garments skinned on their own meshes.
-  downgrade(13, 88, 8, path13);
-  EXPECT_EQ(LoadOneFitModel(path13).skin_resample_edge_length, 0.0);
+  expect_refused(88, 2, path13);        // the smoothing method
+  expect_refused(135, '\x40', path13);  // the resample length's exponent: 0.02 * 2^16
+  // Version 13: garments skinned with the defaults.
+  downgrade(13, 88, 48, path13);
+  EXPECT_TRUE(LoadOneFitModel(path13).skin == SkinTransferOptions{});
   EXPECT_EQ(LoadOneFitModel(path13).warp_slide_bound, 0.5);
   const std::string path12 = ::testing::TempDir() + "/onefit_v12_old.pfonefit";
   expect_refused(84, 1, path12);  // a feedback decoder without the proximity

@@ -350,14 +350,14 @@ std::unique_ptr<OneFitTrainer> MakeTrainer(const OneFitTrainingRunOptions& optio
                                            std::vector<double>* weights, std::string* data_report) {
   OneFitModel init;
   OneFitTrainerOptions trainer_options = options.trainer;
-  trainer_options.skin_resample_edge_length = options.skin.resample_edge_length;
+  trainer_options.skin = options.skin;
   if (!options.init_model_path.empty()) {
     init = LoadOneFitModel(options.init_model_path);
-    // The garments are skinned before the model is read: the flag must agree.
-    if (init.skin_resample_edge_length != options.skin.resample_edge_length) {
-      throw Error(ErrorKind::kInvalidArgument, options.init_model_path + ": trained with --skin-resample " +
-                                                   std::to_string(init.skin_resample_edge_length) +
-                                                   "; fine-tune with the same");
+    // The garments are skinned before the model is read: the flags must agree.
+    if (init.skin != options.skin) {
+      throw Error(ErrorKind::kInvalidArgument, options.init_model_path +
+                                                   ": trained with other skinning flags (--skin-*); fine-tune with "
+                                                   "the model's");
     }
     trainer_options.network.warp_order = init.network.warp_order();
     trainer_options.network.local_pose = init.network.local_pose();

@@ -376,7 +376,7 @@ DrapeSimulationSummary RunDrapeSimulation(const DrapeSimulationOptions& options)
     model = LoadOneFitModel(options.model_path);
     // The solver lays out the patch parameters as the network predicts them.
     PatchLikeModel(model, &solver_options.solver);
-    solver_options.skin.resample_edge_length = model.skin_resample_edge_length;
+    solver_options.skin = model.skin;
     if (model.network.warp_order() >= 0 && !options.solver.slide.enabled) {
       throw DrapeInputError("onefit: " + options.model_path + " predicts slides (a warp head); slides cannot be off",
                             ErrorKind::kInvalidArgument);

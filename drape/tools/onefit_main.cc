@@ -119,6 +119,33 @@ void AddSimulateSolveOptions(CLI::App* simulate, SimulateFlags* f) {
       ->capture_default_str();
 }
 
+// How garments get their skinning weights (the simulation's and the
+// training's; a model records the training's).
+void AddSkinFlags(CLI::App* app, polyfit::SkinTransferOptions* skin) {
+  app->add_option("--skin-smoothing", skin->smoothing_length,
+                  "how far the transferred skinning weights diffuse over the garment (m; 0: not at all)")
+      ->capture_default_str();
+  app->add_option("--skin-smoothing-method", skin->smoothing,
+                  "surface: heat diffusion over the garment's surface; edges: Jacobi steps over its edges")
+      ->transform(CLI::CheckedTransformer(
+          std::map<std::string, polyfit::SkinSmoothing>{{"surface", polyfit::SkinSmoothing::kSurface},
+                                                        {"edges", polyfit::SkinSmoothing::kEdgeSteps}},
+          CLI::ignore_case))
+      ->capture_default_str();
+  app->add_option("--skin-smoothing-steps", skin->smoothing_iterations,
+                  "that many Jacobi steps over its edges instead, whatever its meshing (0: by the length)")
+      ->capture_default_str();
+  app->add_option("--skin-anchor", skin->anchor_distance, "garment vertices closer to the body keep its weights (m)")
+      ->capture_default_str();
+  app->add_option("--skin-loose", skin->loose_distance, "smoothing steps scaled by distance to the body over this (m)")
+      ->capture_default_str();
+  app->add_option("--skin-resample", skin->resample_edge_length,
+                  "transfer and smooth the weights on a copy of the garment with no edge longer than this (m), so "
+                  "that any meshing of it gets the same weights (0: on its own mesh)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+}
+
 // The losses' weights, collisions and skinning transfer.
 void AddSimulatePhysicsOptions(CLI::App* simulate, SimulateFlags* f) {
   polyfit::DrapeSimulationOptions& options = f->options;
@@ -133,36 +160,7 @@ void AddSimulatePhysicsOptions(CLI::App* simulate, SimulateFlags* f) {
       ->capture_default_str();
   simulate->add_option("--collision-stiffness", options.solver.physics.collision_stiffness, "kappa (N/m)")
       ->capture_default_str();
-  simulate
-      ->add_option("--skin-smoothing", options.skin.smoothing_length,
-                   "how far the transferred skinning weights diffuse over the garment (m; 0: not at all)")
-      ->capture_default_str();
-  simulate
-      ->add_option("--skin-smoothing-method", options.skin.smoothing,
-                   "surface: heat diffusion over the garment's surface; edges: Jacobi steps over its edges")
-      ->transform(CLI::CheckedTransformer(
-          std::map<std::string, polyfit::SkinSmoothing>{{"surface", polyfit::SkinSmoothing::kSurface},
-                                                        {"edges", polyfit::SkinSmoothing::kEdgeSteps}},
-          CLI::ignore_case))
-      ->capture_default_str();
-  simulate
-      ->add_option("--skin-smoothing-steps", options.skin.smoothing_iterations,
-                   "that many Jacobi steps over its edges instead, whatever its meshing (0: by the length)")
-      ->capture_default_str();
-  simulate
-      ->add_option("--skin-anchor", options.skin.anchor_distance,
-                   "garment vertices closer to the body keep its weights (m)")
-      ->capture_default_str();
-  simulate
-      ->add_option("--skin-loose", options.skin.loose_distance,
-                   "smoothing steps scaled by distance to the body over this (m)")
-      ->capture_default_str();
-  simulate
-      ->add_option("--skin-resample", options.skin.resample_edge_length,
-                   "transfer and smooth the weights on a copy of the garment with no edge longer than this (m), so "
-                   "that any meshing of it gets the same weights (0: on its own mesh)")
-      ->check(CLI::NonNegativeNumber)
-      ->capture_default_str();
+  AddSkinFlags(simulate, &options.skin);
 }
 
 CLI::App* AddSimulateCommand(CLI::App* app, SimulateFlags* f, const char* name = "simulate",
@@ -212,12 +210,7 @@ void AddTrainDataFlags(CLI::App* train, TrainFlags* f) {
   train->add_option("--out", o.model_path, "the model file to write (and MODEL.csv, the progress)")->required();
   train->add_option("--shape", f->shape, "macro shape of the body, e.g. gender=0.2,weight=0.8");
   train->add_option("--bvh-scale", o.bvh_units_to_metres, "metres per BVH unit")->capture_default_str();
-  train
-      ->add_option("--skin-resample", o.skin.resample_edge_length,
-                   "transfer and smooth the garments' skinning weights on copies with no edge longer than this (m; "
-                   "0: on their own meshes); drape with the same")
-      ->check(CLI::NonNegativeNumber)
-      ->capture_default_str();
+  AddSkinFlags(train, &o.skin);
   train->add_option("--frames-per-clip", o.max_frames_per_clip, "frames used per clip (0: all)")->capture_default_str();
   train
       ->add_option("--speeds", o.speeds,
@@ -480,7 +473,9 @@ std::string ShippedModel() {
 // A network's patches must be laid out and fitted as in its training, so
 // the model sets these; given on the command line they would be ignored.
 int RejectFlagsTheModelSets(const CLI::App& command) {
-  for (const char* flag : {"--patch-area", "--max-fit-error", "--curved-faces", "--jet-order", "--skin-resample"}) {
+  for (const char* flag :
+       {"--patch-area", "--max-fit-error", "--curved-faces", "--jet-order", "--skin-smoothing",
+        "--skin-smoothing-method", "--skin-smoothing-steps", "--skin-anchor", "--skin-loose", "--skin-resample"}) {
     if (command.get_option(flag)->count() > 0) {
       std::fprintf(stderr,
                    "onefit %s: %s is set by the model (it lays out, fits and skins the garment as in its training)\n",
