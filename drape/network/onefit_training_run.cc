@@ -350,15 +350,11 @@ std::unique_ptr<OneFitTrainer> MakeTrainer(const OneFitTrainingRunOptions& optio
                                            std::vector<double>* weights, std::string* data_report) {
   OneFitModel init;
   OneFitTrainerOptions trainer_options = options.trainer;
-  trainer_options.skin = options.skin;
+  // A fine-tune skins its garments as the model's training did.
+  OneFitTrainingRunOptions data = options;
   if (!options.init_model_path.empty()) {
     init = LoadOneFitModel(options.init_model_path);
-    // The garments are skinned before the model is read: the flags must agree.
-    if (init.skin != options.skin) {
-      throw Error(ErrorKind::kInvalidArgument, options.init_model_path +
-                                                   ": trained with other skinning flags (--skin-*); fine-tune with "
-                                                   "the model's");
-    }
+    data.skin = init.skin;
     trainer_options.network.warp_order = init.network.warp_order();
     trainer_options.network.local_pose = init.network.local_pose();
     trainer_options.network.body_proximity = init.network.body_proximity();
@@ -371,7 +367,8 @@ std::unique_ptr<OneFitTrainer> MakeTrainer(const OneFitTrainingRunOptions& optio
     trainer_options.warp_slide_bound = init.warp_slide_bound;
     PatchLikeModel(init, &trainer_options.drape);
   }
-  auto trainer = std::make_unique<OneFitTrainer>(LoadTrainingBodies(options, body, data_report), trainer_options);
+  trainer_options.skin = data.skin;
+  auto trainer = std::make_unique<OneFitTrainer>(LoadTrainingBodies(data, body, data_report), trainer_options);
   if (!options.validation_motion_path.empty()) {
     trainer->SetValidationClip(LoadClip(options.validation_motion_path, 1.0, options, body));
   }

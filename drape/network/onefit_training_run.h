@@ -84,8 +84,9 @@ struct OneFitTrainingRunOptions {
   std::string validation_motion_path;
   std::string model_path;
   bool resume = false;
-  // Fine-tuning: start from this model's network, normalisers and weights
-  // (empty: a new network).
+  // Fine-tuning: start from this model's network, normalisers and weights,
+  // its garments skinned as the model's were (`skin` is then not read;
+  // empty: a new network).
   std::string init_model_path;
   SkinTransferOptions skin;
   OneFitTrainerOptions trainer;
