@@ -68,49 +68,10 @@ TriangleMesh LargestPiece(const TriangleMesh& skin, const std::vector<int>& face
   return piece;
 }
 
-}  // namespace
-
-std::string ProceduralGarmentOptions::Validate() const {
-  auto unit = [](double x) { return x >= 0.0 && x <= 1.0; };
-  if (!unit(sleeve) || !unit(leg)) return "sleeve and leg must be in [0, 1]";
-  if (!unit(hem) || !unit(waist)) return "hem and waist must be in [0, 1]";
-  if (!(offset >= 0.0 && offset <= 0.05)) return "offset must be in [0, 0.05] m";
-  if (target_vertices != 0 && target_vertices < 100) return "target_vertices must be 0 or at least 100";
-  return "";
-}
-
-std::string ProceduralGarmentOptions::Describe() const {
-  char text[128];
-  switch (kind) {
-    case ProceduralGarmentKind::kTop:
-      std::snprintf(text, sizeof(text), "top (sleeve %.2f, hem %.2f, %.1f mm)", sleeve, hem, offset * 1e3);
-      break;
-    case ProceduralGarmentKind::kBottom:
-      std::snprintf(text, sizeof(text), "bottom (leg %.2f, waist %.2f, %.1f mm)", leg, waist, offset * 1e3);
-      break;
-    case ProceduralGarmentKind::kSuit:
-      std::snprintf(text, sizeof(text), "suit (sleeve %.2f, leg %.2f, %.1f mm)", sleeve, leg, offset * 1e3);
-      break;
-  }
-  return text;
-}
-
-ProceduralGarmentOptions DrawProceduralGarment(std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(0.0, 1.0);
-  ProceduralGarmentOptions o;
-  o.kind = static_cast<ProceduralGarmentKind>(std::uniform_int_distribution<int>(0, 2)(rng));
-  o.sleeve = u(rng);
-  o.leg = 0.15 + 0.85 * u(rng);
-  o.hem = 0.6 * u(rng);
-  o.waist = 0.2 + 0.4 * u(rng);
-  o.offset = 0.003 + 0.012 * u(rng);
-  return o;
-}
-
-TriangleMesh MakeProceduralGarment(const SkinnedBody& body, const ProceduralGarmentOptions& options) {
-  const std::string problem = options.Validate();
-  if (!problem.empty()) throw std::invalid_argument("MakeProceduralGarment: " + problem);
+// Per skin vertex, whether the cut keeps it: classified by the part its
+// skinning weights mostly lie in, then by its place along the limb's bone
+// chain or by its height against the hem or waist.
+std::vector<char> KeptSkinVertices(const SkinnedBody& body, const ProceduralGarmentOptions& options) {
   const Skeleton& skeleton = body.skeleton;
   const int num_joints = skeleton.num_joints();
   auto head = [&](const char* name) -> Eigen::Vector3d { return skeleton.rest_heads.col(FindJoint(skeleton, name)); };
@@ -182,6 +143,54 @@ TriangleMesh MakeProceduralGarment(const SkinnedBody& body, const ProceduralGarm
       default: keep[v] = (!top || bottom || y >= hem_y) && (!bottom || top || y <= waist_y); break;
     }
   }
+  return keep;
+}
+
+}  // namespace
+
+std::string ProceduralGarmentOptions::Validate() const {
+  auto unit = [](double x) { return x >= 0.0 && x <= 1.0; };
+  if (!unit(sleeve) || !unit(leg)) return "sleeve and leg must be in [0, 1]";
+  if (!unit(hem) || !unit(waist)) return "hem and waist must be in [0, 1]";
+  if (!(offset >= 0.0 && offset <= 0.05)) return "offset must be in [0, 0.05] m";
+  if (target_vertices != 0 && target_vertices < 100) return "target_vertices must be 0 or at least 100";
+  return "";
+}
+
+std::string ProceduralGarmentOptions::Describe() const {
+  char text[128];
+  switch (kind) {
+    case ProceduralGarmentKind::kTop:
+      std::snprintf(text, sizeof(text), "top (sleeve %.2f, hem %.2f, %.1f mm)", sleeve, hem, offset * 1e3);
+      break;
+    case ProceduralGarmentKind::kBottom:
+      std::snprintf(text, sizeof(text), "bottom (leg %.2f, waist %.2f, %.1f mm)", leg, waist, offset * 1e3);
+      break;
+    case ProceduralGarmentKind::kSuit:
+      std::snprintf(text, sizeof(text), "suit (sleeve %.2f, leg %.2f, %.1f mm)", sleeve, leg, offset * 1e3);
+      break;
+  }
+  return text;
+}
+
+ProceduralGarmentOptions DrawProceduralGarment(std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  ProceduralGarmentOptions o;
+  o.kind = static_cast<ProceduralGarmentKind>(std::uniform_int_distribution<int>(0, 2)(rng));
+  o.sleeve = u(rng);
+  o.leg = 0.15 + 0.85 * u(rng);
+  o.hem = 0.6 * u(rng);
+  o.waist = 0.2 + 0.4 * u(rng);
+  o.offset = 0.003 + 0.012 * u(rng);
+  return o;
+}
+
+TriangleMesh MakeProceduralGarment(const SkinnedBody& body, const ProceduralGarmentOptions& options) {
+  const std::string problem = options.Validate();
+  if (!problem.empty()) throw std::invalid_argument("MakeProceduralGarment: " + problem);
+  const std::vector<char> keep = KeptSkinVertices(body, options);
+  const TriangleMesh& skin = body.mesh;
   std::vector<int> faces;
   for (int f = 0; f < skin.num_faces(); ++f) {
     if (keep[skin.faces(0, f)] && keep[skin.faces(1, f)] && keep[skin.faces(2, f)]) faces.push_back(f);

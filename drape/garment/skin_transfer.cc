@@ -68,6 +68,25 @@ void SmoothOverEdges(const TriangleMesh& garment, const std::vector<double>& rat
 
 }  // namespace
 
+namespace {
+
+// The weights transferred on a copy split to resample_edge_length, read at
+// the garment's own vertices (the copy's first).
+SkinWeights TransferOnSplitCopy(const SkinnedBody& body, const TriangleMesh& garment,
+                                const SkinTransferOptions& options) {
+  SkinTransferOptions fine = options;
+  fine.resample_edge_length = 0.0;
+  const SkinWeights all = TransferSkinWeights(body, SplitLongEdges(garment, options.resample_edge_length), fine);
+  const int n = garment.num_vertices();
+  SkinWeights out;
+  out.joint.assign(all.joint.begin(), all.joint.begin() + all.offsets[n]);
+  out.value.assign(all.value.begin(), all.value.begin() + all.offsets[n]);
+  out.offsets.assign(all.offsets.begin(), all.offsets.begin() + n + 1);
+  return out;
+}
+
+}  // namespace
+
 SkinWeights TransferSkinWeights(const SkinnedBody& body, const TriangleMesh& garment,
                                 const SkinTransferOptions& options) {
   const int num_joints = body.skeleton.num_joints();
@@ -77,17 +96,7 @@ SkinWeights TransferSkinWeights(const SkinnedBody& body, const TriangleMesh& gar
     throw std::invalid_argument("TransferSkinWeights: the garment has non-finite vertices");
   if (!(options.resample_edge_length >= 0.0))
     throw std::invalid_argument("TransferSkinWeights: resample_edge_length must be >= 0");
-  if (options.resample_edge_length > 0.0) {
-    SkinTransferOptions fine = options;
-    fine.resample_edge_length = 0.0;
-    const SkinWeights all = TransferSkinWeights(body, SplitLongEdges(garment, options.resample_edge_length), fine);
-    // The garment's vertices come first in the split mesh.
-    SkinWeights out;
-    out.joint.assign(all.joint.begin(), all.joint.begin() + all.offsets[n]);
-    out.value.assign(all.value.begin(), all.value.begin() + all.offsets[n]);
-    out.offsets.assign(all.offsets.begin(), all.offsets.begin() + n + 1);
-    return out;
-  }
+  if (options.resample_edge_length > 0.0) return TransferOnSplitCopy(body, garment, options);
   // Dense #joints by #V: the rigs have tens of joints.
   Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(num_joints, n);
   std::vector<double> rate(n, 1.0);

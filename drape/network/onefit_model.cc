@@ -83,6 +83,33 @@ std::string SkinProblem(const SkinTransferOptions& skin) {
   return {};
 }
 
+// The skinning block (version 14): method, length, steps, anchor, loose
+// distance, minimum weight, resample length.
+void PutSkin(const SkinTransferOptions& skin, Writer* w) {
+  w->Put<std::int32_t>(skin.smoothing == SkinSmoothing::kSurface ? 1 : 0);
+  w->Put<double>(skin.smoothing_length);
+  w->Put<std::int32_t>(skin.smoothing_iterations);
+  w->Put<double>(skin.anchor_distance);
+  w->Put<double>(skin.loose_distance);
+  w->Put<double>(skin.min_weight);
+  w->Put<double>(skin.resample_edge_length);
+}
+
+SkinTransferOptions GetSkin(Reader* r) {
+  SkinTransferOptions skin;
+  const int surface = r->Get<std::int32_t>("the header");
+  if (surface != 0 && surface != 1) r->Fail("skin smoothing method out of range");
+  skin.smoothing = surface == 1 ? SkinSmoothing::kSurface : SkinSmoothing::kEdgeSteps;
+  skin.smoothing_length = r->Get<double>("the header");
+  skin.smoothing_iterations = r->Get<std::int32_t>("the header");
+  skin.anchor_distance = r->Get<double>("the header");
+  skin.loose_distance = r->Get<double>("the header");
+  skin.min_weight = r->Get<double>("the header");
+  skin.resample_edge_length = r->Get<double>("the header");
+  if (std::string problem = SkinProblem(skin); !problem.empty()) r->Fail(problem);
+  return skin;
+}
+
 }  // namespace
 
 std::string OneFitModel::Validate() const {
@@ -137,13 +164,7 @@ void SaveOneFitModel(const std::string& path, const OneFitModel& model) {
   w.Put<std::int32_t>(model.network.body_proximity() ? 1 : 0);
   w.Put<std::int32_t>(model.network.proximity_probes());
   w.Put<std::int32_t>(model.network.feedback_passes());
-  w.Put<std::int32_t>(model.skin.smoothing == SkinSmoothing::kSurface ? 1 : 0);
-  w.Put<double>(model.skin.smoothing_length);
-  w.Put<std::int32_t>(model.skin.smoothing_iterations);
-  w.Put<double>(model.skin.anchor_distance);
-  w.Put<double>(model.skin.loose_distance);
-  w.Put<double>(model.skin.min_weight);
-  w.Put<double>(model.skin.resample_edge_length);
+  PutSkin(model.skin, &w);
   PutMlp(model.network.patch_encoder(), &w);
   PutMlp(model.network.body_encoder(), &w);
   PutMlp(model.network.decoder(), &w);
@@ -252,18 +273,7 @@ OneFitModel LoadOneFitModel(const std::string& path) {
   if (feedback < 0 || feedback > kMaxFeedbackPasses || (feedback > 0 && proximity == 0)) {
     r.Fail("feedback passes out of range or without the proximity");
   }
-  if (version >= 14) {
-    const int surface = r.Get<std::int32_t>("the header");
-    if (surface != 0 && surface != 1) r.Fail("skin smoothing method out of range");
-    model.skin.smoothing = surface == 1 ? SkinSmoothing::kSurface : SkinSmoothing::kEdgeSteps;
-    model.skin.smoothing_length = r.Get<double>("the header");
-    model.skin.smoothing_iterations = r.Get<std::int32_t>("the header");
-    model.skin.anchor_distance = r.Get<double>("the header");
-    model.skin.loose_distance = r.Get<double>("the header");
-    model.skin.min_weight = r.Get<double>("the header");
-    model.skin.resample_edge_length = r.Get<double>("the header");
-    if (std::string problem = SkinProblem(model.skin); !problem.empty()) r.Fail(problem);
-  }
+  if (version >= 14) model.skin = GetSkin(&r);
   if (aligned != 0 && aligned != 1) r.Fail("frame alignment flag out of range");
   if (local_pose != 0 && local_pose != 1) r.Fail("local pose flag out of range");
   model.aligned_frames = aligned == 1;
