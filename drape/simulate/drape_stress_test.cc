@@ -73,8 +73,10 @@ TEST_F(DrapeStressTest, LimbsThroughTheBody) {
   const OneFitModel model = LoadOneFitModel(model_path.string());
   DrapeSolverOptions network_options;
   PatchLikeModel(model, &network_options);
-  DrapeSolver network_solver(walk_.body, walk_.garment, walk_.weights, network_options);
-  const OneFitDraper draper(model, network_solver, walk_.weights, walk_.body.skeleton, &walk_.body);
+  // Skinned as the model was trained (onefit drape does the same).
+  const SkinWeights weights = TransferSkinWeights(walk_.body, walk_.garment, model.skin);
+  DrapeSolver network_solver(walk_.body, walk_.garment, weights, network_options);
+  const OneFitDraper draper(model, network_solver, weights, walk_.body.skeleton, &walk_.body);
   for (size_t f = 2; f < poses.size(); ++f) {
     const std::vector<double> params = draper.Predict(poses[f - 2], poses[f - 1], poses[f], 30.0, BodyShape{});
     for (double p : params) ASSERT_TRUE(std::isfinite(p)) << "frame " << f;
