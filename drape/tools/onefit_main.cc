@@ -21,6 +21,7 @@
 #include <iostream>
 #include <map>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
@@ -470,12 +471,15 @@ std::string ShippedModel() {
       std::string("no --model given and the shipped model is missing (") + POLYFIT_SHIPPED_ONEFIT_MODEL + ")");
 }
 
-// A network's patches must be laid out and fitted as in its training, so
-// the model sets these; given on the command line they would be ignored.
-int RejectFlagsTheModelSets(const CLI::App& command) {
-  for (const char* flag :
-       {"--patch-area", "--max-fit-error", "--curved-faces", "--jet-order", "--skin-smoothing",
-        "--skin-smoothing-method", "--skin-smoothing-steps", "--skin-anchor", "--skin-loose", "--skin-resample"}) {
+const std::vector<const char*> kSkinFlags = {"--skin-smoothing",       "--skin-smoothing-method",
+                                             "--skin-smoothing-steps", "--skin-anchor",
+                                             "--skin-loose",           "--skin-resample"};
+
+// A network's patches must be laid out, fitted and skinned as in its
+// training, so the model sets these; given on the command line they would
+// be ignored.
+int RejectFlagsTheModelSets(const CLI::App& command, const std::vector<const char*>& flags) {
+  for (const char* flag : flags) {
     if (command.get_option(flag)->count() > 0) {
       std::fprintf(stderr,
                    "onefit %s: %s is set by the model (it lays out, fits and skins the garment as in its training)\n",
@@ -517,9 +521,18 @@ int main(int argc, char** argv) {
     return app.exit(e) == 0 ? polyfit::kExitSuccess : polyfit::kExitUsage;
   }
   return polyfit::RunReportingErrors("onefit", [&]() -> int {
-    if (train_command->parsed()) return RunTrain(train);
+    if (train_command->parsed()) {
+      // A fine-tune skins its garments as the model's training did.
+      if (!train.options.init_model_path.empty()) {
+        if (const int rejected = RejectFlagsTheModelSets(*train_command, kSkinFlags); rejected != polyfit::kExitSuccess)
+          return rejected;
+      }
+      return RunTrain(train);
+    }
     if (drape_command->parsed()) {
-      if (const int rejected = RejectFlagsTheModelSets(*drape_command); rejected != polyfit::kExitSuccess)
+      std::vector<const char*> flags = {"--patch-area", "--max-fit-error", "--curved-faces", "--jet-order"};
+      flags.insert(flags.end(), kSkinFlags.begin(), kSkinFlags.end());
+      if (const int rejected = RejectFlagsTheModelSets(*drape_command, flags); rejected != polyfit::kExitSuccess)
         return rejected;
       if (drape.options.model_path.empty()) drape.options.model_path = ShippedModel();
       return RunSimulate(drape);
