@@ -270,6 +270,16 @@ void AddTrainModelFlags(CLI::App* train, polyfit::OneFitTrainerOptions* trainer)
   train->add_option("--patch-hidden", t.network.patch_hidden, "the patch encoder's hidden layer widths")
       ->capture_default_str();
   train
+      ->add_option("--patch-embedding", t.network.patch_embedding,
+                   "the patch embedding's size (computed once per garment: no inference cost per frame)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  train
+      ->add_option("--body-embedding", t.network.body_embedding,
+                   "the body embedding's size (computed once per frame, shared by every patch)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  train
       ->add_option("--warp-order", t.network.warp_order,
                    "order of each patch's predicted in-plane warp (its vertices' slides), at most 2 without "
                    "--warp-slide-bound; -1: none")
@@ -471,6 +481,14 @@ std::string ShippedModel() {
       std::string("no --model given and the shipped model is missing (") + POLYFIT_SHIPPED_ONEFIT_MODEL + ")");
 }
 
+// What a fine-tune (--init) takes from the model besides its skinning: the
+// network's shape and inputs, and the patching.
+const std::vector<const char*> kNetworkFlags = {
+    "--patch-area",    "--decoder-hidden", "--body-hidden",     "--patch-hidden",     "--patch-embedding",
+    "--body-embedding", "--warp-order",    "--warp-slide-bound", "--local-pose",       "--body-proximity",
+    "--proximity-probes", "--feedback",    "--feedback-hidden",  "--feedback-passes",  "--align-frames",
+    "--curved-faces",  "--joint-mask-reach", "--absolute-root",  "--scale-units"};
+
 const std::vector<const char*> kSkinFlags = {"--skin-smoothing",       "--skin-smoothing-method",
                                              "--skin-smoothing-steps", "--skin-anchor",
                                              "--skin-loose",           "--skin-resample"};
@@ -482,7 +500,8 @@ int RejectFlagsTheModelSets(const CLI::App& command, const std::vector<const cha
   for (const char* flag : flags) {
     if (command.get_option(flag)->count() > 0) {
       std::fprintf(stderr,
-                   "onefit %s: %s is set by the model (it lays out, fits and skins the garment as in its training)\n",
+                   "onefit %s: %s is set by the model (its network, and how it lays out, fits and skins a garment, "
+                   "are its training's)\n",
                    command.get_name().c_str(), flag);
       return polyfit::kExitUsage;
     }
@@ -522,9 +541,12 @@ int main(int argc, char** argv) {
   }
   return polyfit::RunReportingErrors("onefit", [&]() -> int {
     if (train_command->parsed()) {
-      // A fine-tune skins its garments as the model's training did.
+      // A fine-tune keeps the model's network and patches and skins its
+      // garments as the model's training did.
       if (!train.options.init_model_path.empty()) {
-        if (const int rejected = RejectFlagsTheModelSets(*train_command, kSkinFlags); rejected != polyfit::kExitSuccess)
+        std::vector<const char*> flags = kNetworkFlags;
+        flags.insert(flags.end(), kSkinFlags.begin(), kSkinFlags.end());
+        if (const int rejected = RejectFlagsTheModelSets(*train_command, flags); rejected != polyfit::kExitSuccess)
           return rejected;
       }
       return RunTrain(train);
