@@ -263,6 +263,11 @@ void AddTrainModelFlags(CLI::App* train, polyfit::OneFitTrainerOptions* trainer)
       ->capture_default_str();
   train->add_option("--eps", t.drape.physics.weights.collision_margin, "the loss's collision margin (m)")
       ->capture_default_str();
+  train
+      ->add_option("--k-mi", t.drape.physics.weights.inextensibility,
+                   "the loss's inextensibility weight (metric tensor and edges; the reference drape's by default)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   train->add_option("--decoder-hidden", t.network.decoder_hidden, "the decoder's hidden layer widths")
       ->capture_default_str();
   train->add_option("--body-hidden", t.network.body_hidden, "the body encoder's hidden layer widths")
