@@ -489,10 +489,10 @@ std::string ShippedModel() {
 // What a fine-tune (--init) takes from the model besides its skinning: the
 // network's shape and inputs, and the patching.
 const std::vector<const char*> kNetworkFlags = {
-    "--patch-area",    "--decoder-hidden", "--body-hidden",     "--patch-hidden",     "--patch-embedding",
-    "--body-embedding", "--warp-order",    "--warp-slide-bound", "--local-pose",       "--body-proximity",
-    "--proximity-probes", "--feedback",    "--feedback-hidden",  "--feedback-passes",  "--align-frames",
-    "--curved-faces",  "--joint-mask-reach", "--absolute-root",  "--scale-units"};
+    "--patch-area",       "--decoder-hidden",   "--body-hidden",      "--patch-hidden",    "--patch-embedding",
+    "--body-embedding",   "--warp-order",       "--warp-slide-bound", "--local-pose",      "--body-proximity",
+    "--proximity-probes", "--feedback",         "--feedback-hidden",  "--feedback-passes", "--align-frames",
+    "--curved-faces",     "--joint-mask-reach", "--absolute-root",    "--scale-units"};
 
 const std::vector<const char*> kSkinFlags = {"--skin-smoothing",       "--skin-smoothing-method",
                                              "--skin-smoothing-steps", "--skin-anchor",
