@@ -18,6 +18,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <initializer_list>
 #include <iostream>
 #include <map>
 #include <string>
@@ -253,8 +254,9 @@ void AddTrainDataFlags(CLI::App* train, TrainFlags* f) {
       ->capture_default_str();
 }
 
-// The network, its patching and its loss.
-void AddTrainModelFlags(CLI::App* train, polyfit::OneFitTrainerOptions* trainer) {
+// The loss's weights (the patching's area is with them: both shape what
+// the network is trained to move).
+void AddTrainLossFlags(CLI::App* train, polyfit::OneFitTrainerOptions* trainer) {
   polyfit::OneFitTrainerOptions& t = *trainer;
   train->add_option("--patch-area", t.drape.patching.patch_area, "garment area per patch (m^2)")->capture_default_str();
   train
@@ -268,6 +270,11 @@ void AddTrainModelFlags(CLI::App* train, polyfit::OneFitTrainerOptions* trainer)
                    "the loss's inextensibility weight (metric tensor and edges; the reference drape's by default)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+}
+
+// The network's layer and embedding sizes.
+void AddTrainNetworkSizeFlags(CLI::App* train, polyfit::OneFitTrainerOptions* trainer) {
+  polyfit::OneFitTrainerOptions& t = *trainer;
   train->add_option("--decoder-hidden", t.network.decoder_hidden, "the decoder's hidden layer widths")
       ->capture_default_str();
   train->add_option("--body-hidden", t.network.body_hidden, "the body encoder's hidden layer widths")
@@ -284,6 +291,12 @@ void AddTrainModelFlags(CLI::App* train, polyfit::OneFitTrainerOptions* trainer)
                    "the body embedding's size (computed once per frame, shared by every patch)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+}
+
+// What the network reads and predicts, and how the garment's patches are
+// framed (all recorded in the model).
+void AddTrainNetworkInputFlags(CLI::App* train, polyfit::OneFitTrainerOptions* trainer) {
+  polyfit::OneFitTrainerOptions& t = *trainer;
   train
       ->add_option("--warp-order", t.network.warp_order,
                    "order of each patch's predicted in-plane warp (its vertices' slides), at most 2 without "
@@ -402,7 +415,9 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
   polyfit::OneFitTrainerOptions& t = o.trainer;
   CLI::App* train = app->add_subcommand("train", "train OneFit's network, self-supervised, on the drape's losses");
   AddTrainDataFlags(train, f);
-  AddTrainModelFlags(train, &t);
+  AddTrainLossFlags(train, &t);
+  AddTrainNetworkSizeFlags(train, &t);
+  AddTrainNetworkInputFlags(train, &t);
   AddTrainRunFlags(train, f);
   return train;
 }
@@ -498,17 +513,23 @@ const std::vector<const char*> kSkinFlags = {"--skin-smoothing",       "--skin-s
                                              "--skin-smoothing-steps", "--skin-anchor",
                                              "--skin-loose",           "--skin-resample"};
 
+// What a drape takes from the model besides its skinning: the patching.
+const std::vector<const char*> kPatchingFlags = {"--patch-area", "--max-fit-error", "--curved-faces", "--jet-order"};
+
 // A network's patches must be laid out, fitted and skinned as in its
 // training, so the model sets these; given on the command line they would
 // be ignored.
-int RejectFlagsTheModelSets(const CLI::App& command, const std::vector<const char*>& flags) {
-  for (const char* flag : flags) {
-    if (command.get_option(flag)->count() > 0) {
-      std::fprintf(stderr,
-                   "onefit %s: %s is set by the model (its network, and how it lays out, fits and skins a garment, "
-                   "are its training's)\n",
-                   command.get_name().c_str(), flag);
-      return polyfit::kExitUsage;
+int RejectFlagsTheModelSets(const CLI::App& command,
+                            std::initializer_list<const std::vector<const char*>*> flag_lists) {
+  for (const std::vector<const char*>* flags : flag_lists) {
+    for (const char* flag : *flags) {
+      if (command.get_option(flag)->count() > 0) {
+        std::fprintf(stderr,
+                     "onefit %s: %s is set by the model (its network, and how it lays out, fits and skins a garment, "
+                     "are its training's)\n",
+                     command.get_name().c_str(), flag);
+        return polyfit::kExitUsage;
+      }
     }
   }
   return polyfit::kExitSuccess;
@@ -549,17 +570,15 @@ int main(int argc, char** argv) {
       // A fine-tune keeps the model's network and patches and skins its
       // garments as the model's training did.
       if (!train.options.init_model_path.empty()) {
-        std::vector<const char*> flags = kNetworkFlags;
-        flags.insert(flags.end(), kSkinFlags.begin(), kSkinFlags.end());
-        if (const int rejected = RejectFlagsTheModelSets(*train_command, flags); rejected != polyfit::kExitSuccess)
+        if (const int rejected = RejectFlagsTheModelSets(*train_command, {&kNetworkFlags, &kSkinFlags});
+            rejected != polyfit::kExitSuccess)
           return rejected;
       }
       return RunTrain(train);
     }
     if (drape_command->parsed()) {
-      std::vector<const char*> flags = {"--patch-area", "--max-fit-error", "--curved-faces", "--jet-order"};
-      flags.insert(flags.end(), kSkinFlags.begin(), kSkinFlags.end());
-      if (const int rejected = RejectFlagsTheModelSets(*drape_command, flags); rejected != polyfit::kExitSuccess)
+      if (const int rejected = RejectFlagsTheModelSets(*drape_command, {&kPatchingFlags, &kSkinFlags});
+          rejected != polyfit::kExitSuccess)
         return rejected;
       if (drape.options.model_path.empty()) drape.options.model_path = ShippedModel();
       return RunSimulate(drape);
