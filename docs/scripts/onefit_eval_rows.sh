@@ -4,20 +4,27 @@
 # suit's walk, hop and dance, the skirt's walk, the held-out sport suit's
 # walk, and the suit's walk on two unseen body shapes; two rows at a time.
 #
-#   bash docs/scripts/onefit_eval_rows.sh MODEL OUT [BUILD_DIR]
+#   bash docs/scripts/onefit_eval_rows.sh MODEL OUT [BUILD_DIR] [-- EVAL_FLAGS...]
 #
+# EVAL_FLAGS go to every row's `onefit eval` (e.g. --strain-limit 3).
 # Writes OUT/ROW/eval.md (and the rest of `onefit eval`'s outputs) per row
 # and prints one line per row: eps_c raw, post-processed, eps_e, eps_a and
 # the mean distance to the reference drape (mm). Run from the repository's
 # root; the data is taken from ../shared/data/drape.
 set -euo pipefail
 if [ $# -lt 2 ]; then
-  echo "usage: $0 MODEL OUT [BUILD_DIR]" >&2
+  echo "usage: $0 MODEL OUT [BUILD_DIR] [-- EVAL_FLAGS...]" >&2
   exit 2
 fi
 model=$1
 out=$2
-onefit=${3:-build}/bin/onefit
+build=build
+if [ $# -ge 3 ] && [ "$3" != "--" ]; then build=$3; fi
+onefit=$build/bin/onefit
+flags=()
+for ((i = 3; i <= $#; ++i)); do
+  if [ "${!i}" = "--" ]; then flags=("${@:i+1}"); break; fi
+done
 data=../shared/data/drape
 garments=$data/garments/makehuman_cc0
 suit=$garments/male_casualsuit02.mhclo
@@ -30,7 +37,7 @@ mkdir -p "$out"
 row() {
   local name=$1
   shift
-  "$onefit" eval --model "$model" --body $data/body --threads 1 --out "$out/$name" "$@" >"$out/$name.log" 2>&1 ||
+  "$onefit" eval --model "$model" "${flags[@]}" --body $data/body --threads 1 --out "$out/$name" "$@" >"$out/$name.log" 2>&1 ||
     echo "$name failed: see $out/$name.log" >&2
 }
 

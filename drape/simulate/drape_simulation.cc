@@ -127,7 +127,8 @@ DrapeFrameSummary MeasureFrame(const DrapeSimulationOptions& options, const Drap
       PercentAreaNegative(raw, VertexAreas(TriangleMesh{solver.positions(), posed->faces, {}}));
   const bool project = options.project_offset >= 0.0;
   const auto project_start = Clock::now();
-  posed->vertices = project ? solver.ProjectedOutOfBody(options.project_offset) : solver.positions();
+  posed->vertices =
+      project ? solver.PostProcessed(options.project_offset, options.strain_limit_passes, rest) : solver.positions();
   record.time_s += Seconds(project_start);
   const Eigen::VectorXd exact = project ? solver.SignedDistances(posed->vertices) : raw;
   record.inside_percent = PercentNegative(exact);
@@ -295,6 +296,7 @@ void WriteOutputs(const DrapeSimulationOptions& options, const DrapeSimulationSu
   j["first_frame"] = options.first_frame;
   j["lead_in_frames"] = options.lead_in_frames;
   j["project_offset_m"] = options.project_offset;
+  j["strain_limit_passes"] = options.project_offset >= 0.0 ? options.strain_limit_passes : 0;
   j["garment_vertices"] = summary.garment_vertices;
   j["garment_faces"] = summary.garment_faces;
   j["patches"] = summary.patches;
@@ -338,6 +340,7 @@ std::string DrapeSimulationOptions::Validate() const {
   if (first_frame < 0) return "first_frame must be >= 0";
   if (num_frames == 0 || num_frames < -1) return "num_frames must be positive (or -1 for all)";
   if (refine_iterations < 0) return "refine_iterations must be >= 0";
+  if (strain_limit_passes < 0) return "strain_limit_passes must be >= 0";
   if (lead_in_frames < 0 || render_every < 0) return "lead_in_frames and render_every must be >= 0";
   if (render_height < 32) return "render_height must be >= 32";
   const std::string shape_problem = shape.Validate();

@@ -34,6 +34,12 @@ class DrapeInputError : public Error {
   explicit DrapeInputError(const std::string& message, ErrorKind kind = ErrorKind::kInput) : Error(kind, message) {}
 };
 
+// The network's post-process (`onefit eval` applies it by default, `onefit
+// drape --project`): vertices left inside the body projected out, then
+// strain-limiting passes (DrapeSolver::PostProcessed).
+inline constexpr double kNetworkProjectOffset = 2e-3;  // m
+inline constexpr int kNetworkStrainLimitPasses = 10;
+
 struct DrapeSimulationOptions {
   // The MakeHuman body folder (../shared/data/drape/body); empty for the
   // procedural capsule body.
@@ -67,6 +73,9 @@ struct DrapeSimulationOptions {
   // surface (plus this offset, m) in the written meshes and renders, and
   // measure those; the solver's own state is untouched. < 0: off.
   double project_offset = -1.0;
+  // With project_offset: then this many strain-limiting passes
+  // (drape/simulate/strain_limit.h) over the garment's edges.
+  int strain_limit_passes = kNetworkStrainLimitPasses;
   // Keep every frame's garment (what is written) in the summary.
   bool keep_positions = false;
 

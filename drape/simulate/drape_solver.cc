@@ -16,6 +16,7 @@
 #include "cost_functions/patch_boundary_residual.h"
 #include "drape/collision/signed_distance.h"
 #include "drape/losses/skinned_patch_costs.h"
+#include "drape/simulate/strain_limit.h"
 #include "polyfit/jet/jet_surface.h"
 #include "polyfit/mesh/unique_edges.h"
 #include "polyfit/model/orient_patches.h"
@@ -1075,6 +1076,30 @@ Eigen::Matrix3Xd DrapeSolver::ProjectedOutOfBody(double offset) const {
   Eigen::Matrix3Xd out = positions_;
   ParallelFor(static_cast<int>(out.cols()), impl_->options.num_threads, [&](int, int v) {
     const SignedDistanceResult r = impl_->distance.Query(positions_.col(v));
+    if (r.distance < 0.0) out.col(v) = r.closest + offset * r.normal;
+  });
+  return out;
+}
+
+Eigen::Matrix3Xd DrapeSolver::PostProcessed(double offset, int strain_passes, const ClothRest& rest) const {
+  if (strain_passes <= 0) return ProjectedOutOfBody(offset);
+  Eigen::Matrix3Xd out = positions_;
+  std::vector<SignedDistanceResult> closest(out.cols());
+  ParallelFor(static_cast<int>(out.cols()), impl_->options.num_threads, [&](int, int v) {
+    closest[v] = impl_->distance.Query(positions_.col(v));
+    if (closest[v].distance < 0.0) out.col(v) = closest[v].closest + offset * closest[v].normal;
+  });
+  std::vector<BodyContact> contacts;
+  for (int v = 0; v < out.cols(); ++v) {
+    if (closest[v].distance < kStrainLimitContactReach) contacts.push_back({v, closest[v].closest, closest[v].normal});
+  }
+  LimitStrain(rest, contacts, strain_passes, offset, &out);
+  // The planes are the body linearised where the passes started: what the
+  // passes moved inside it is projected out exactly, as with no passes.
+  // Every vertex is queried again: the body's pieces overlap (arms against
+  // the torso), so the sign is not 1-Lipschitz and a short move can cross it.
+  ParallelFor(static_cast<int>(out.cols()), impl_->options.num_threads, [&](int, int v) {
+    const SignedDistanceResult r = impl_->distance.Query(out.col(v), closest[v].face);
     if (r.distance < 0.0) out.col(v) = r.closest + offset * r.normal;
   });
   return out;

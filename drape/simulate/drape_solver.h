@@ -263,6 +263,11 @@ class DrapeSolver {
   // closest body point plus `offset` along the pseudonormal: a post-process
   // for display, off the patches' surfaces. 3 by #V.
   Eigen::Matrix3Xd ProjectedOutOfBody(double offset) const;
+  // ProjectedOutOfBody, then `strain_passes` of LimitStrain over `rest`'s
+  // edges, every vertex within kStrainLimitContactReach of the body kept
+  // above its tangent plane there. 0 passes: ProjectedOutOfBody.
+  Eigen::Matrix3Xd PostProcessed(double offset, int strain_passes, const ClothRest& rest) const;
+  static constexpr double kStrainLimitContactReach = 0.02;  // m
 
  private:
   struct Impl;

@@ -24,6 +24,7 @@ DrapeSimulationSummary RunDrape(const OneFitEvaluationOptions& options, bool net
   o.keep_positions = true;
   if (network) {
     o.project_offset = options.project_offset;
+    o.strain_limit_passes = options.strain_limit_passes;
   } else {
     o.model_path.clear();
     o.project_offset = -1.0;
@@ -113,6 +114,7 @@ std::string OneFitEvaluationOptions::Validate() const {
   if (simulation.model_path.empty()) return "a model is needed";
   if (simulation.out_dir.empty()) return "an output folder is needed";
   if (!(project_offset >= 0.0) || !std::isfinite(project_offset)) return "project_offset must be >= 0";
+  if (strain_limit_passes < 0) return "strain_limit_passes must be >= 0";
   return simulation.Validate();
 }
 

@@ -27,7 +27,9 @@ struct OneFitEvaluationOptions {
   DrapeSimulationOptions simulation;
   // The network's post-process: inside vertices moved onto the body plus
   // this offset (m).
-  double project_offset = 2e-3;
+  double project_offset = kNetworkProjectOffset;
+  // ... then this many strain-limiting passes (0: the projection alone).
+  int strain_limit_passes = kNetworkStrainLimitPasses;
 
   std::string Validate() const;
 };

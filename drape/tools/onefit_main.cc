@@ -70,6 +70,10 @@ void AddSimulateClipOptions(CLI::App* simulate, SimulateFlags* f) {
       ->add_option("--project", options.project_offset,
                    "move vertices left inside the body onto it plus this offset (m) in the outputs; < 0: off")
       ->capture_default_str();
+  simulate
+      ->add_option("--strain-limit", options.strain_limit_passes,
+                   "with --project: then this many strain-limiting passes over the edges")
+      ->capture_default_str();
   simulate->add_flag("!--no-meshes", options.write_meshes, "do not write a PLY per frame");
 }
 
@@ -480,7 +484,8 @@ int RunEval(SimulateFlags& f) {
   if (!f.shape.empty()) options.simulation.shape = polyfit::BodyShape::Parse(f.shape);
   options.simulation.solver.slide.enabled = !f.no_slide;
   if (f.cholesky) options.simulation.solver.solve.linear_solver = polyfit::DrapeLinearSolver::kSparseCholesky;
-  if (f.options.project_offset >= 0.0) options.project_offset = f.options.project_offset;
+  options.project_offset = f.options.project_offset;
+  options.strain_limit_passes = f.options.strain_limit_passes;
   options.simulation.project_offset = -1.0;
   SayWhatAnEarlierRunLeft(options.simulation.out_dir, "eval.md");
   const polyfit::OneFitEvaluationSummary summary = polyfit::EvaluateOneFitModel(options);
@@ -551,6 +556,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   SimulateFlags eval;
   eval.options.render_every = 0;
+  eval.options.project_offset = polyfit::kNetworkProjectOffset;
+  eval.options.strain_limit_passes = polyfit::kNetworkStrainLimitPasses;
   CLI::App* eval_command =
       AddSimulateCommand(&app, &eval, "eval", "compare a trained network with the reference drape on a clip");
   eval_command->add_option("--model", eval.options.model_path, "a model from onefit train (default: the shipped one)");
