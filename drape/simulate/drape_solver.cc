@@ -1096,8 +1096,9 @@ Eigen::Matrix3Xd DrapeSolver::PostProcessed(double offset, int strain_passes, co
   LimitStrain(rest, contacts, strain_passes, offset, &out);
   // The planes are the body linearised where the passes started: what the
   // passes moved inside it is projected out exactly, as with no passes.
-  // Every vertex is queried again: the body's pieces overlap (arms against
-  // the torso), so the sign is not 1-Lipschitz and a short move can cross it.
+  // Every vertex is queried again: skipping those that moved less than
+  // their distance to the body left more inside (the posed body intersects
+  // itself, so its signed distance is likely not 1-Lipschitz there).
   ParallelFor(static_cast<int>(out.cols()), impl_->options.num_threads, [&](int, int v) {
     const SignedDistanceResult r = impl_->distance.Query(out.col(v), closest[v].face);
     if (r.distance < 0.0) out.col(v) = r.closest + offset * r.normal;
