@@ -8,8 +8,9 @@
 #
 # EVAL_FLAGS go to every row's `onefit eval` (e.g. --strain-limit 3).
 # Writes OUT/ROW/eval.md (and the rest of `onefit eval`'s outputs) per row
-# and prints one line per row: eps_c raw, post-processed, eps_e, eps_a and
-# the mean distance to the reference drape (mm). Run from the repository's
+# and prints one line per row: eps_c raw, post-processed and by area,
+# eps_e and eps_a post-processed, the mean distance to the reference drape
+# (mm) and eps_e raw. Run from the repository's
 # root; the data is taken from ../shared/data/drape.
 set -euo pipefail
 if [ $# -lt 2 ]; then
@@ -52,8 +53,8 @@ row shapeA --garment $suit --motion $walk --shape gender=0.2,weight=0.9 &
 wait
 row shapeB --garment $suit --motion $walk --shape gender=0.8,weight=0.15,height=0.9,muscle=0.8
 
-echo "row: eps_c % | eps_c % post | eps_c % area | eps_e % | eps_a % | to reference mm (max frame)"
+echo "row: eps_c % | eps_c % post | eps_c % area | eps_e % | eps_a % | to reference mm (max frame) | eps_e % raw"
 for name in walk hop skirt dance sport shapeA shapeB; do
-  line=$(grep -E '^\| network' "$out/$name/eval.md" 2>/dev/null | cut -d'|' -f3-8 || true)
+  line=$(grep -E '^\| network' "$out/$name/eval.md" 2>/dev/null | cut -d'|' -f3-8,11 || true)
   echo "$name:${line:- (no result)}"
 done

@@ -98,10 +98,11 @@ struct DrapeFrameSummary {
   // area (lumped at its vertices) inside the body. Unlike the vertex count
   // it does not change with how densely a region is meshed.
   double inside_area_percent = 0.0;
-  double inside_nearest_percent = 0.0;  // epsilon_c, nearest body vertex
-  double min_distance = 0.0;            // m, negative inside
-  double edge_strain_percent = 0.0;     // epsilon_e
-  double area_change_percent = 0.0;     // epsilon_a
+  double inside_nearest_percent = 0.0;           // epsilon_c, nearest body vertex
+  double min_distance = 0.0;                     // m, negative inside
+  double edge_strain_percent = 0.0;              // epsilon_e
+  double edge_strain_unprojected_percent = 0.0;  // before the post-process (= edge_strain_percent without it)
+  double area_change_percent = 0.0;              // epsilon_a
   double max_edge_strain_percent = 0.0;
   double stretch_energy = 0.0;
   double bending_energy = 0.0;

@@ -40,7 +40,8 @@ struct OneFitEvaluationRow {
   double inside_percent = 0.0;            // epsilon_c, raw
   double inside_projected_percent = 0.0;  // after the post-process (network only; raw for the reference)
   double inside_area_percent = 0.0;       // epsilon_c by area, raw (resolution-agnostic)
-  double edge_strain_percent = 0.0;       // epsilon_e
+  double edge_strain_percent = 0.0;       // epsilon_e (after the post-process, network only)
+  double edge_strain_raw_percent = 0.0;   // epsilon_e before it
   double area_change_percent = 0.0;       // epsilon_a
   double distance_to_reference_mm = 0.0;  // mean over frames of the mean over vertices
   double max_distance_to_reference_mm = 0.0;
