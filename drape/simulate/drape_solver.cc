@@ -1072,23 +1072,36 @@ Eigen::VectorXd DrapeSolver::SignedDistances(const Eigen::Matrix3Xd& points) con
   return impl_->distance.SignedDistances(points, impl_->options.num_threads);
 }
 
-Eigen::Matrix3Xd DrapeSolver::ProjectedOutOfBody(double offset) const {
-  Eigen::Matrix3Xd out = positions_;
-  ParallelFor(static_cast<int>(out.cols()), impl_->options.num_threads, [&](int, int v) {
-    const SignedDistanceResult r = impl_->distance.Query(positions_.col(v));
+namespace {
+
+// `points` (3 by N) with every one inside the body moved to its closest
+// body point plus `offset` along the pseudonormal. hints (or null): each
+// point's earlier query, whose face starts this one; closest (or null):
+// each point's query, kept.
+Eigen::Matrix3Xd ProjectOutOfBody(const BodySignedDistance& distance, int num_threads, const Eigen::Matrix3Xd& points,
+                                  double offset, const std::vector<SignedDistanceResult>* hints,
+                                  std::vector<SignedDistanceResult>* closest) {
+  Eigen::Matrix3Xd out = points;
+  if (closest) closest->resize(points.cols());
+  ParallelFor(static_cast<int>(points.cols()), num_threads, [&](int, int v) {
+    const SignedDistanceResult r = distance.Query(points.col(v), hints ? (*hints)[v].face : -1);
     if (r.distance < 0.0) out.col(v) = r.closest + offset * r.normal;
+    if (closest) (*closest)[v] = r;
   });
   return out;
 }
 
+}  // namespace
+
+Eigen::Matrix3Xd DrapeSolver::ProjectedOutOfBody(double offset) const {
+  return ProjectOutOfBody(impl_->distance, impl_->options.num_threads, positions_, offset, nullptr, nullptr);
+}
+
 Eigen::Matrix3Xd DrapeSolver::PostProcessed(double offset, int strain_passes, const ClothRest& rest) const {
   if (strain_passes <= 0) return ProjectedOutOfBody(offset);
-  Eigen::Matrix3Xd out = positions_;
-  std::vector<SignedDistanceResult> closest(out.cols());
-  ParallelFor(static_cast<int>(out.cols()), impl_->options.num_threads, [&](int, int v) {
-    closest[v] = impl_->distance.Query(positions_.col(v));
-    if (closest[v].distance < 0.0) out.col(v) = closest[v].closest + offset * closest[v].normal;
-  });
+  std::vector<SignedDistanceResult> closest;
+  Eigen::Matrix3Xd out =
+      ProjectOutOfBody(impl_->distance, impl_->options.num_threads, positions_, offset, nullptr, &closest);
   std::vector<BodyContact> contacts;
   for (int v = 0; v < out.cols(); ++v) {
     if (closest[v].distance < kStrainLimitContactReach) contacts.push_back({v, closest[v].closest, closest[v].normal});
@@ -1099,11 +1112,7 @@ Eigen::Matrix3Xd DrapeSolver::PostProcessed(double offset, int strain_passes, co
   // Every vertex is queried again: skipping those that moved less than
   // their distance to the body left more inside (the posed body intersects
   // itself, so its signed distance is likely not 1-Lipschitz there).
-  ParallelFor(static_cast<int>(out.cols()), impl_->options.num_threads, [&](int, int v) {
-    const SignedDistanceResult r = impl_->distance.Query(out.col(v), closest[v].face);
-    if (r.distance < 0.0) out.col(v) = r.closest + offset * r.normal;
-  });
-  return out;
+  return ProjectOutOfBody(impl_->distance, impl_->options.num_threads, out, offset, &closest, nullptr);
 }
 
 Eigen::VectorXd DrapeSolver::NearestVertexDistances(const Eigen::Matrix3Xd& points) const {
