@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "drape/garment/procedural_garment.h"
+#include "drape/motion/limb_excursion.h"
 #include "drape/motion/mirror_pose.h"
 #include "drape/motion/mix_pose.h"
 #include "drape/motion/perturb_pose.h"
@@ -128,6 +129,7 @@ OneFitTrainingClip LoadClip(const std::string& path, double speed, const OneFitT
 
 // What LoadClips appends to the names of the clips it makes.
 constexpr char kMixedTag[] = "~mixed";
+constexpr char kExcursionTag[] = "~excursion";
 constexpr char kPerturbedTag[] = "~perturbed";
 
 // How many of `items` have `first` in their name, and how many of the rest
@@ -145,12 +147,18 @@ std::pair<long, long> CountTagged(const std::vector<T>& items, const char* first
   return {a, b};
 }
 
-// "N clips per body (R recorded, M mixed[, each also perturbed])".
+// "N clips per body (R recorded, M mixed[, E with excursions][, each also perturbed])".
 std::string ClipReport(const std::vector<OneFitTrainingClip>& clips) {
-  const auto [perturbed, mixed] = CountTagged(clips, kPerturbedTag, kMixedTag);
-  const long recorded = static_cast<long>(clips.size()) - perturbed - mixed;
+  const auto [perturbed, excursions] = CountTagged(clips, kPerturbedTag, kExcursionTag);
+  const long mixed = std::count_if(clips.begin(), clips.end(), [](const OneFitTrainingClip& c) {
+    return c.name.find(kMixedTag) != std::string::npos && c.name.find(kPerturbedTag) == std::string::npos &&
+           c.name.find(kExcursionTag) == std::string::npos;
+  });
+  const long recorded = static_cast<long>(clips.size()) - perturbed - excursions - mixed;
   return std::to_string(clips.size()) + " clips per body (" + std::to_string(recorded) + " recorded, " +
-         std::to_string(mixed) + " mixed" + (perturbed > 0 ? ", each also perturbed)" : ")");
+         std::to_string(mixed) + " mixed" +
+         (excursions > 0 ? ", " + std::to_string(excursions) + " with excursions" : "") +
+         (perturbed > 0 ? ", each also perturbed)" : ")");
 }
 
 // "N garments per body (G given, D decimated[, O offset], R re-patched[, P procedural])".
@@ -215,6 +223,30 @@ void AppendMixedClips(const OneFitTrainingRunOptions& options, const Skeleton& s
   }
 }
 
+// `count` clips, each a recorded or mixed one (seeded picks) whose limbs
+// also make the excursions of DefaultLimbExcursions, seeded per clip.
+void AppendExcursionClips(const OneFitTrainingRunOptions& options, const Skeleton& skeleton,
+                          std::vector<OneFitTrainingClip>* clips) {
+  const int sources = static_cast<int>(clips->size());
+  std::mt19937_64 rng(options.trainer.seed * 104729 + 17);
+  std::uniform_int_distribution<int> pick(0, sources - 1);
+  for (int e = 0; e < options.excursion_clips; ++e) {
+    OneFitTrainingClip clip = (*clips)[pick(rng)];
+    const double duration = static_cast<double>(clip.poses.size()) / clip.fps;
+    std::unique_ptr<LimbExcursion> excursion;
+    try {
+      excursion = std::make_unique<LimbExcursion>(skeleton, DefaultLimbExcursions(), duration, rng());
+    } catch (const std::invalid_argument& error) {
+      throw Error(ErrorKind::kInput, std::string("--limb-excursions: ") + error.what());
+    }
+    clip.name += kExcursionTag + std::to_string(e);
+    for (size_t f = 0; f < clip.poses.size(); ++f) {
+      clip.poses[f] = excursion->Apply(clip.poses[f], static_cast<double>(f) / clip.fps);
+    }
+    clips->push_back(std::move(clip));
+  }
+}
+
 std::vector<OneFitTrainingClip> LoadClips(const OneFitTrainingRunOptions& options, const SkinnedBody& body) {
   std::vector<OneFitTrainingClip> clips;
   std::vector<int> mirror_map;
@@ -239,6 +271,7 @@ std::vector<OneFitTrainingClip> LoadClips(const OneFitTrainingRunOptions& option
     }
   }
   if (options.mix_clips > 0) AppendMixedClips(options, body.skeleton, &clips);
+  if (options.excursion_clips > 0) AppendExcursionClips(options, body.skeleton, &clips);
   if (options.perturb_degrees > 0.0) {
     const size_t recorded = clips.size();
     for (size_t c = 0; c < recorded; ++c) {
@@ -295,6 +328,7 @@ std::string OneFitTrainingRunOptions::Validate() const {
   if (!(perturb_degrees >= 0.0 && perturb_degrees <= 45.0)) return "perturb_degrees must be in [0, 45]";
   if (shape_samples < 0 || shape_samples > 64) return "shape_samples must be in [0, 64]";
   if (mix_clips < 0 || mix_clips > 1000) return "mix_clips must be in [0, 1000]";
+  if (excursion_clips < 0 || excursion_clips > 1000) return "excursion_clips must be in [0, 1000]";
   if (!(decimate >= 0.0 && decimate < 1.0)) return "decimate must be in [0, 1)";
   if (repatch < 0 || repatch > 16) return "repatch must be in [0, 16]";
   for (double d : garment_offsets) {

@@ -50,6 +50,12 @@ struct OneFitTrainingRunOptions {
   // move as other recorded clips' do, from seeded starts
   // (drape/motion/mix_pose.h; seeded by trainer.seed); 0: none.
   int mix_clips = 0;
+  // Augmentation: this many more clips (after the mixed ones, before the
+  // perturbation, which then covers them too), each a recorded or mixed
+  // clip whose arms, legs and spine also swing between seeded key angles
+  // far from any recording's: raised overhead, lunging, bent
+  // (drape/motion/limb_excursion.h; seeded by trainer.seed); 0: none.
+  int excursion_clips = 0;
   // Augmentation: each garment also trained decimated by edge collapse to
   // this fraction of its edges (polyfit/mesh/decimation.h; its skinning
   // transferred as a mesh file's is), so that the network sees more than

@@ -234,6 +234,12 @@ void AddTrainDataFlags(CLI::App* train, TrainFlags* f) {
                    "recorded clips' do (seeded; before --perturb, which covers them too)")
       ->capture_default_str();
   train
+      ->add_option("--limb-excursions", o.excursion_clips,
+                   "augmentation: this many more clips, each a recorded or mixed one whose arms, legs and spine also "
+                   "swing between seeded key angles far from the recordings' (arms overhead, lunges, bends; before "
+                   "--perturb, which covers them too)")
+      ->capture_default_str();
+  train
       ->add_option("--decimate", o.decimate,
                    "augmentation: each garment also decimated to this fraction of its edges (0: none)")
       ->capture_default_str();
