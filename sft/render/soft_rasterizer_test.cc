@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -328,6 +329,59 @@ TEST(SoftRasterizerTest, WithoutTheDepthGradientAHiddenLayerGetsNoDepthPull) {
   EXPECT_LT(frozen.hidden_depth_derivative, 1e-3 * exact.hidden_depth_derivative);
   EXPECT_EQ(frozen.hidden_share, exact.hidden_share);
   EXPECT_GT(frozen.front_derivative, 0.5 * exact.front_derivative);
+}
+
+// A sheet of n by n quads, `cell` pixels each, from (x0, y0), at depth 1.
+ScreenMesh GridSheet(int n, double cell, double x0, double y0) {
+  ScreenMesh mesh;
+  const int side = n + 1;
+  mesh.pixels.resize(2, side * side);
+  mesh.depths = Eigen::VectorXd::Ones(side * side);
+  for (int i = 0; i < side; ++i) {
+    for (int j = 0; j < side; ++j) mesh.pixels.col(i * side + j) = Eigen::Vector2d(x0 + cell * j, y0 + cell * i);
+  }
+  mesh.faces.resize(3, 2 * n * n);
+  for (int i = 0, f = 0; i < n; ++i) {
+    for (int j = 0; j < n; ++j) {
+      const int a = i * side + j, b = a + 1, c = a + side + 1, d = a + side;
+      mesh.faces.col(f++) = Eigen::Vector3i(a, b, c);
+      mesh.faces.col(f++) = Eigen::Vector3i(a, c, d);
+    }
+  }
+  mesh.corner_texcoords = Eigen::Matrix2Xd::Constant(2, 3 * mesh.faces.cols(), 0.5);
+  mesh.depth_near = 0.5;
+  mesh.depth_far = 2.0;
+  mesh.boundary_edges = MeshBoundaryEdgeFlags(mesh.faces);
+  return mesh;
+}
+
+// Beyond a boundary vertex, each of the triangles that meet there covers a
+// pixel by sigmoid(-d^2 / sigma), and the silhouette unites them
+// (1 - prod(1 - D_j)): outside a mesh's rim the soft silhouette adds more
+// than it takes away inside, so it reads larger than the mesh. The excess
+// shrinks with sigma (what PolySftOptions::finest_sigma relies on); a
+// camera's box-filtered pixels add none.
+TEST(SoftRasterizerTest, TheSoftSilhouetteReadsLargerThanTheMeshByLessAtASmallerSigma) {
+  const cv::Mat texture = SmoothTexture(8);
+  // 40 by 40 pixels in quads of 2.5 pixels, off the pixel grid.
+  const ScreenMesh sheet = GridSheet(16, 2.5, 10.3, 10.6);
+  const double area = 40.0 * 40.0;
+  double excess[3];
+  const double sigmas[3] = {0.5, 0.25, 0.06};
+  for (int k = 0; k < 3; ++k) {
+    SoftRasterizerOptions options;
+    options.sigma = sigmas[k];
+    options.num_threads = 1;
+    SoftRenderOutput out;
+    SoftRasterizer(options, texture).Render(sheet, 64, 64, cv::Mat(), false, &out);
+    excess[k] = (cv::sum(out.silhouette)[0] - area) / area;
+  }
+  EXPECT_GT(excess[0], excess[1]);
+  EXPECT_GT(excess[1], excess[2]);
+  EXPECT_GT(excess[0], 0.0);
+  EXPECT_LT(std::abs(excess[2]), 0.25 * excess[0]);
+  std::printf("silhouette area over the mesh's: sigma 0.5 %+.3f%%, 0.25 %+.3f%%, 0.06 %+.3f%%\n", 100 * excess[0],
+              100 * excess[1], 100 * excess[2]);
 }
 
 }  // namespace

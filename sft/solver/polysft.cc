@@ -166,6 +166,9 @@ std::string PolySftOptions::Validate() const {
   if (!(depth_softness >= 0.0) || !std::isfinite(depth_softness)) {
     return "depth_softness must be finite and >= 0 (m; 0: rasterizer.gamma as given)";
   }
+  if (!(finest_sigma >= 0.0) || !std::isfinite(finest_sigma)) {
+    return "finest_sigma must be finite and >= 0 (pixels squared; 0: rasterizer.sigma)";
+  }
   if (temporal_order != 1 && temporal_order != 2) return "temporal_order must be 1 or 2";
   if (!(robust_scale > 0.0)) return "robust_scale must be > 0";
   if (!(silhouette_band <= 100.0)) return "silhouette_band must be <= 100 px (negative: measured)";
@@ -370,8 +373,10 @@ class PolySftController {
                             std::max(2, static_cast<int>(std::lround(full.rows * factor)))),
                    0, 0, cv::INTER_AREA);
       }
-      level.rasterizer = std::make_unique<SoftRasterizer>(rasterizer_options_, texture);
-      SoftRasterizerOptions serial = rasterizer_options_;
+      SoftRasterizerOptions options = rasterizer_options_;
+      if (&level == &levels_.back() && options_.finest_sigma > 0.0) options.sigma = options_.finest_sigma;
+      level.rasterizer = std::make_unique<SoftRasterizer>(options, texture);
+      SoftRasterizerOptions serial = options;
       serial.num_threads = 1;
       level.serial_rasterizer = std::make_unique<SoftRasterizer>(serial, texture);
     }

@@ -54,6 +54,19 @@ struct PolySftOptions {
   // with gamma 0.01; at 1-2 cm a sheet turning edge-on, or leaving the
   // image, was lost (polysft_stress_test; docs/benchmarks.md).
   double depth_softness = 0.03;
+  // The coverage sigmoid's width at the finest pyramid level (pixels
+  // squared; 0: rasterizer.sigma there too). Coarser levels keep
+  // rasterizer.sigma (0.5), whose soft edges widen the basin a frame's
+  // motion must fall in. But a soft silhouette reads larger than its mesh
+  // (beyond a rim vertex several triangles' halos unite; +1.7% of a 40 px
+  // sheet's area at 0.5, +0.14% at 0.06: soft_rasterizer_test), and the
+  // silhouette term then holds the surface too far from the camera; a
+  // camera's box-filtered pixel ramps over one pixel, where sigmoid(d^2 /
+  // 0.09) reaches 0.94 half a pixel in. 0.09 against 0.5 on every
+  // generated scene: RMSE lower on all nine that are tracked (the wave
+  // packet 3.14 -> 2.70 mm, the rigid sheet 1.09 -> 0.46) and on the HD
+  // sheet solved at 640 px (0.33 -> 0.29 mm; docs/benchmarks.md).
+  double finest_sigma = 0.09;
   // Frames solved together; the oldest leaves the window (and is written)
   // when a new one enters. Two cost a quarter to a third less than three
   // at the same error on the sheets (within 0.06 mm) and 0.7-3.5 mm more

@@ -85,6 +85,7 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("sigma", rasterizer.sigma),
         POLYFIT_SETTING("gamma", rasterizer.gamma),
         POLYFIT_SETTING("depth_softness", depth_softness),
+        POLYFIT_SETTING("finest_sigma", finest_sigma),
         POLYFIT_SETTING("depth_gradient", rasterizer.depth_gradient),
         POLYFIT_SETTING("analytic_derivatives", rasterizer.analytic_derivatives),
         POLYFIT_SETTING("robust_scale", robust_scale),

@@ -36,6 +36,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.rasterizer.sigma = 2.5;
   changed.rasterizer.gamma = 0.2;
   changed.depth_softness = 2e-3;
+  changed.finest_sigma = 0.1;
   changed.rasterizer.depth_gradient = true;
   changed.rasterizer.analytic_derivatives = false;
   changed.robust_loss = RobustLoss::kCauchy;
