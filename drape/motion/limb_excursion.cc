@@ -5,6 +5,8 @@
 #include <random>
 #include <stdexcept>
 
+#include "drape/motion/perturb_pose.h"
+
 namespace polyfit {
 namespace {
 
@@ -86,19 +88,7 @@ std::vector<Eigen::Isometry3d> LimbExcursion::Apply(const std::vector<Eigen::Iso
     const Track& track = tracks_[i];
     turn[track.joint] = turn[track.joint] * Eigen::AngleAxisd(Angle(static_cast<int>(i), time_s), track.axis);
   }
-  std::vector<Eigen::Isometry3d> out(rest_to_posed.size());
-  for (size_t j = 0; j < out.size(); ++j) {
-    const int p = parents_[j];
-    if (p < 0) {
-      out[j] = rest_to_posed[j];
-      continue;
-    }
-    Eigen::Isometry3d about_head = Eigen::Isometry3d::Identity();
-    about_head.linear() = turn[j];
-    about_head.translation() = heads_.col(j) - turn[j] * heads_.col(j);
-    out[j] = out[p] * (rest_to_posed[p].inverse() * rest_to_posed[j]) * about_head;
-  }
-  return out;
+  return TurnJointsInRest(parents_, heads_, rest_to_posed, turn);
 }
 
 }  // namespace polyfit

@@ -36,30 +36,41 @@ Eigen::Vector3d PosePerturbation::Angles(int joint, double time_s) const {
   return delta;
 }
 
+std::vector<Eigen::Isometry3d> TurnJointsInRest(const std::vector<int>& parents, const Eigen::Matrix3Xd& heads,
+                                                const std::vector<Eigen::Isometry3d>& rest_to_posed,
+                                                const std::vector<Eigen::Matrix3d>& turns) {
+  if (rest_to_posed.size() != parents.size() || turns.size() != parents.size() ||
+      static_cast<size_t>(heads.cols()) != parents.size()) {
+    throw std::invalid_argument("TurnJointsInRest: one transform, turn and head per joint is needed");
+  }
+  std::vector<Eigen::Isometry3d> out(rest_to_posed.size());
+  for (size_t j = 0; j < out.size(); ++j) {
+    const int p = parents[j];
+    if (p < 0) {
+      out[j] = rest_to_posed[j];
+      continue;
+    }
+    Eigen::Isometry3d about_head = Eigen::Isometry3d::Identity();
+    about_head.linear() = turns[j];
+    about_head.translation() = heads.col(j) - turns[j] * heads.col(j);
+    out[j] = out[p] * (rest_to_posed[p].inverse() * rest_to_posed[j]) * about_head;
+  }
+  return out;
+}
+
 std::vector<Eigen::Isometry3d> PosePerturbation::Apply(const std::vector<Eigen::Isometry3d>& rest_to_posed,
                                                        double time_s) const {
   if (rest_to_posed.size() != parents_.size()) {
     throw std::invalid_argument("PosePerturbation: one transform per joint is needed");
   }
-  std::vector<Eigen::Isometry3d> out(rest_to_posed.size());
-  for (size_t j = 0; j < out.size(); ++j) {
-    const int p = parents_[j];
-    if (p < 0) {
-      out[j] = rest_to_posed[j];
-      continue;
-    }
+  std::vector<Eigen::Matrix3d> turns(parents_.size(), Eigen::Matrix3d::Identity());
+  for (size_t j = 0; j < turns.size(); ++j) {
+    if (parents_[j] < 0) continue;
     const Eigen::Vector3d delta = Angles(static_cast<int>(j), time_s);
     const double angle = delta.norm();
-    Eigen::Isometry3d turn = Eigen::Isometry3d::Identity();
-    if (angle > 0.0) {
-      const Eigen::Vector3d h = heads_.col(j);
-      turn.linear() = Eigen::AngleAxisd(angle, delta / angle).toRotationMatrix();
-      turn.translation() = h - turn.linear() * h;
-    }
-    const Eigen::Isometry3d local = rest_to_posed[p].inverse() * rest_to_posed[j];
-    out[j] = out[p] * local * turn;
+    if (angle > 0.0) turns[j] = Eigen::AngleAxisd(angle, delta / angle).toRotationMatrix();
   }
-  return out;
+  return TurnJointsInRest(parents_, heads_, rest_to_posed, turns);
 }
 
 }  // namespace polyfit

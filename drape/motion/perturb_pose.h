@@ -22,6 +22,17 @@
 
 namespace polyfit {
 
+// Each joint's rotation relative to its parent turned further in the rest
+// frame: T'_j = T'_p(j) L_j R_j with L_j = T_p(j)^-1 T_j and R_j the
+// rotation turns[j] about the joint's rest head h_j (bones stay connected;
+// the root keeps its transform). parents: #joints, parents first; heads:
+// 3 by #joints; rest_to_posed and turns: #joints each. Throws
+// std::invalid_argument on sizes that disagree. Shared by
+// PosePerturbation and LimbExcursion.
+std::vector<Eigen::Isometry3d> TurnJointsInRest(const std::vector<int>& parents, const Eigen::Matrix3Xd& heads,
+                                                const std::vector<Eigen::Isometry3d>& rest_to_posed,
+                                                const std::vector<Eigen::Matrix3d>& turns);
+
 class PosePerturbation {
  public:
   // amplitude: A (radians, >= 0); throws std::invalid_argument otherwise.
