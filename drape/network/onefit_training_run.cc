@@ -19,12 +19,14 @@
 #include "drape/simulate/drape_inputs.h"
 #include "polyfit/eval/mesh_metrics.h"
 #include "polyfit/mesh/decimation.h"
+#include "polyfit/mesh/subdivision.h"
 #include "polyfit/util/atomic_file.h"
 
 namespace polyfit {
 namespace {
 
 constexpr char kDecimatedTag[] = "~decimated";
+constexpr char kSubdividedTag[] = "~subdivided";
 constexpr char kRepatchedTag[] = "~patched";
 constexpr char kOffsetTag[] = "~offset";
 constexpr char kProceduralTag[] = "~procedural";
@@ -51,19 +53,26 @@ std::vector<OneFitTrainingGarment> LoadGarments(const OneFitTrainingRunOptions& 
   }
   // After every original, so that garment 0 (the validation drape's) stays
   // the first one given.
-  if (options.decimate > 0.0) {
-    const size_t given = garments.size();
-    for (size_t i = 0; i < given; ++i) {
-      OneFitTrainingGarment d;
-      d.name = garments[i].name + kDecimatedTag;
+  const size_t originals = garments.size();
+  auto add_remeshed = [&](const char* tag, const char* flag, const auto& remesh) {
+    for (size_t i = 0; i < originals; ++i) {
+      OneFitTrainingGarment copy;
+      copy.name = garments[i].name + tag;
       try {
-        d.mesh = DecimateMesh(garments[i].mesh, options.decimate);
-        d.weights = TransferSkinWeights(body, d.mesh, options.skin);
+        copy.mesh = remesh(garments[i].mesh);
+        copy.weights = TransferSkinWeights(body, copy.mesh, options.skin);
       } catch (const std::invalid_argument& e) {
-        throw Error(ErrorKind::kInput, options.garment_paths[i] + ": --decimate: " + e.what());
+        throw Error(ErrorKind::kInput, options.garment_paths[i] + ": " + flag + ": " + e.what());
       }
-      garments.push_back(std::move(d));
+      garments.push_back(std::move(copy));
     }
+  };
+  if (options.decimate > 0.0) {
+    add_remeshed(kDecimatedTag, "--decimate",
+                 [&](const TriangleMesh& mesh) { return DecimateMesh(mesh, options.decimate); });
+  }
+  if (options.subdivide) {
+    add_remeshed(kSubdividedTag, "--subdivide", [](const TriangleMesh& mesh) { return SubdivideMidpoint(mesh); });
   }
   const size_t given = options.garment_paths.size();
   for (size_t i = 0; i < given; ++i) {
@@ -170,10 +179,14 @@ std::string GarmentReport(const std::vector<OneFitTrainingGarment>& garments) {
   const long procedural = std::count_if(garments.begin(), garments.end(), [](const OneFitTrainingGarment& g) {
     return g.name.find(kProceduralTag) != std::string::npos;
   });
-  const long given = static_cast<long>(garments.size()) - decimated - repatched - offset - procedural;
+  const long subdivided = std::count_if(garments.begin(), garments.end(), [](const OneFitTrainingGarment& g) {
+    return g.name.find(kSubdividedTag) != std::string::npos && g.name.find(kRepatchedTag) == std::string::npos;
+  });
+  const long given = static_cast<long>(garments.size()) - decimated - subdivided - repatched - offset - procedural;
   return std::to_string(garments.size()) + " garments per body (" + std::to_string(given) + " given, " +
-         std::to_string(decimated) + " decimated, " + (offset > 0 ? std::to_string(offset) + " offset, " : "") +
-         std::to_string(repatched) + " re-patched" +
+         std::to_string(decimated) + " decimated, " +
+         (subdivided > 0 ? std::to_string(subdivided) + " subdivided, " : "") +
+         (offset > 0 ? std::to_string(offset) + " offset, " : "") + std::to_string(repatched) + " re-patched" +
          (procedural > 0 ? ", " + std::to_string(procedural) + " procedural)" : ")");
 }
 

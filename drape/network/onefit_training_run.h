@@ -61,6 +61,11 @@ struct OneFitTrainingRunOptions {
   // transferred as a mesh file's is), so that the network sees more than
   // one meshing of it; 0: none.
   double decimate = 0.0;
+  // Augmentation: each given garment also trained subdivided once at its
+  // edges' midpoints (polyfit/mesh/subdivision.h: the same surface, four
+  // times the faces), so that the loss's collision and strain terms also
+  // see points between the given vertices, as a finer meshing has them.
+  bool subdivide = false;
   // Augmentation: each given garment also moved along its vertex normals
   // by each of these distances (m; |d| <= 0.03): a looser (d > 0) or a
   // tighter (d < 0) garment of the same cut, its rest shape the moved one

@@ -239,6 +239,9 @@ void AddTrainDataFlags(CLI::App* train, TrainFlags* f) {
                    "swing between seeded key angles far from the recordings' (arms overhead, lunges, bends; before "
                    "--perturb, which covers them too)")
       ->capture_default_str();
+  train->add_flag("--subdivide", o.subdivide,
+                  "augmentation: each garment also subdivided once at its edges' midpoints (the loss then sees points "
+                  "between its vertices)");
   train
       ->add_option("--decimate", o.decimate,
                    "augmentation: each garment also decimated to this fraction of its edges (0: none)")
