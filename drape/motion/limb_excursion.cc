@@ -34,9 +34,9 @@ std::vector<JointExcursion> DefaultLimbExcursions() {
   };
 }
 
-LimbExcursion::LimbExcursion(const Skeleton& skeleton, std::vector<JointExcursion> excursions, double duration_s,
+LimbExcursion::LimbExcursion(const Skeleton& skeleton, const std::vector<JointExcursion>& excursions, double duration_s,
                              std::uint64_t seed, double hold_min_s, double hold_max_s)
-    : parents_(skeleton.parents), heads_(skeleton.rest_heads), excursions_(std::move(excursions)) {
+    : parents_(skeleton.parents), heads_(skeleton.rest_heads) {
   if (!(duration_s >= 0.0) || !std::isfinite(duration_s)) {
     throw std::invalid_argument("LimbExcursion: the duration must be finite and >= 0");
   }
@@ -45,7 +45,7 @@ LimbExcursion::LimbExcursion(const Skeleton& skeleton, std::vector<JointExcursio
   }
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
-  for (const JointExcursion& e : excursions_) {
+  for (const JointExcursion& e : excursions) {
     const int joint = skeleton.Find(e.joint);
     if (joint < 0) throw std::invalid_argument("LimbExcursion: the rig has no joint '" + e.joint + "'");
     if (parents_[joint] < 0) throw std::invalid_argument("LimbExcursion: '" + e.joint + "' is the root");

@@ -46,10 +46,10 @@ class LimbExcursion {
   // Keys cover [0, duration_s] (the angles hold their last key after it).
   // Throws std::invalid_argument naming a joint the rig lacks, a zero
   // axis, min > max, a non-finite value, or a bad hold range or duration.
-  LimbExcursion(const Skeleton& skeleton, std::vector<JointExcursion> excursions, double duration_s, std::uint64_t seed,
-                double hold_min_s = 0.6, double hold_max_s = 1.6);
+  LimbExcursion(const Skeleton& skeleton, const std::vector<JointExcursion>& excursions, double duration_s,
+                std::uint64_t seed, double hold_min_s = 0.6, double hold_max_s = 1.6);
 
-  int num_excursions() const { return static_cast<int>(excursions_.size()); }
+  int num_excursions() const { return static_cast<int>(tracks_.size()); }
   // theta_i(t) (radians).
   double Angle(int excursion, double time_s) const;
 
@@ -64,7 +64,6 @@ class LimbExcursion {
   };
   std::vector<int> parents_;
   Eigen::Matrix3Xd heads_;
-  std::vector<JointExcursion> excursions_;
   std::vector<Track> tracks_;
 };
 

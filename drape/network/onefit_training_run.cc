@@ -170,7 +170,7 @@ std::string ClipReport(const std::vector<OneFitTrainingClip>& clips) {
          (perturbed > 0 ? ", each also perturbed)" : ")");
 }
 
-// "N garments per body (G given, D decimated[, O offset], R re-patched[, P procedural])".
+// "N garments per body (G given, D decimated[, S subdivided][, O offset], R re-patched[, P procedural])".
 std::string GarmentReport(const std::vector<OneFitTrainingGarment>& garments) {
   const auto [repatched, decimated] = CountTagged(garments, kRepatchedTag, kDecimatedTag);
   const long offset = std::count_if(garments.begin(), garments.end(), [](const OneFitTrainingGarment& g) {
@@ -240,21 +240,23 @@ void AppendMixedClips(const OneFitTrainingRunOptions& options, const Skeleton& s
 // also make the excursions of DefaultLimbExcursions, seeded per clip.
 void AppendExcursionClips(const OneFitTrainingRunOptions& options, const Skeleton& skeleton,
                           std::vector<OneFitTrainingClip>* clips) {
+  const std::vector<JointExcursion> ranges = DefaultLimbExcursions();
   const int sources = static_cast<int>(clips->size());
   std::mt19937_64 rng(options.trainer.seed * 104729 + 17);
   std::uniform_int_distribution<int> pick(0, sources - 1);
   for (int e = 0; e < options.excursion_clips; ++e) {
     OneFitTrainingClip clip = (*clips)[pick(rng)];
     const double duration = static_cast<double>(clip.poses.size()) / clip.fps;
-    std::unique_ptr<LimbExcursion> excursion;
-    try {
-      excursion = std::make_unique<LimbExcursion>(skeleton, DefaultLimbExcursions(), duration, rng());
-    } catch (const std::invalid_argument& error) {
-      throw Error(ErrorKind::kInput, std::string("--limb-excursions: ") + error.what());
-    }
+    const LimbExcursion excursion = [&] {
+      try {
+        return LimbExcursion(skeleton, ranges, duration, rng());
+      } catch (const std::invalid_argument& error) {
+        throw Error(ErrorKind::kInput, std::string("--limb-excursions: ") + error.what());
+      }
+    }();
     clip.name += kExcursionTag + std::to_string(e);
     for (size_t f = 0; f < clip.poses.size(); ++f) {
-      clip.poses[f] = excursion->Apply(clip.poses[f], static_cast<double>(f) / clip.fps);
+      clip.poses[f] = excursion.Apply(clip.poses[f], static_cast<double>(f) / clip.fps);
     }
     clips->push_back(std::move(clip));
   }
