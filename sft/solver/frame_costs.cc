@@ -719,4 +719,68 @@ bool SilhouetteReachCost::Evaluate(double const* const* parameters, double* resi
   return true;
 }
 
+FeatureCost::FeatureCost(const JetDeformationModel* model, const Eigen::Vector3i& corners,
+                         const Eigen::Vector3d& barycentric, const PinholeCamera& camera, const Eigen::Vector2d& pixel,
+                         double weight, double dead_zone)
+    : model_(model),
+      corners_(corners),
+      barycentric_(barycentric),
+      camera_(camera),
+      pixel_(pixel),
+      weight_(weight),
+      dead_zone_(dead_zone) {
+  for (int k = 0; k < 3; ++k) patches_.push_back(model->patch_of_vertex(corners[k]));
+  std::sort(patches_.begin(), patches_.end());
+  patches_.erase(std::unique(patches_.begin(), patches_.end()), patches_.end());
+  for (int k = 0; k < 3; ++k) {
+    corner_block_[k] = static_cast<int>(std::lower_bound(patches_.begin(), patches_.end(),
+                                                         model->patch_of_vertex(corners[k])) -
+                                        patches_.begin());
+  }
+  set_num_residuals(2);
+  for (size_t p = 0; p < patches_.size(); ++p) mutable_parameter_block_sizes()->push_back(model->block_size());
+}
+
+bool FeatureCost::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+  const int b = model_->block_size();
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::RowMajor> d_corner[3];
+  for (int k = 0; k < 3; ++k) {
+    Eigen::Vector3d x;
+    const bool want = jacobians != nullptr && jacobians[corner_block_[k]] != nullptr;
+    if (want) d_corner[k].resize(3, b);
+    model_->EvaluateVertex(corners_[k], model_->patch_of_vertex(corners_[k]), parameters[corner_block_[k]], x.data(),
+                           want ? d_corner[k].data() : nullptr);
+    point += barycentric_[k] * x;
+  }
+  Eigen::Vector2d projected;
+  Eigen::Matrix3d d_pixel;
+  if (!camera_.ProjectWithJacobian(point, &projected, &d_pixel)) return false;
+  const Eigen::Vector2d e = projected - pixel_;
+  const double length = e.norm();
+  const bool inside = length <= dead_zone_;
+  const double shrink = inside ? 0.0 : 1.0 - dead_zone_ / length;
+  residuals[0] = weight_ * shrink * e.x();
+  residuals[1] = weight_ * shrink * e.y();
+  if (jacobians == nullptr) return true;
+  for (size_t p = 0; p < patches_.size(); ++p) {
+    if (jacobians[p] != nullptr) std::fill(jacobians[p], jacobians[p] + 2 * b, 0.0);
+  }
+  if (inside) return true;
+  // d(shrink e)/de = I - (d / |e|) (I - u u'), u = e / |e|.
+  Eigen::Matrix2d d_e = Eigen::Matrix2d::Identity();
+  if (dead_zone_ > 0.0) {
+    const Eigen::Vector2d u = e / length;
+    d_e -= (dead_zone_ / length) * (Eigen::Matrix2d::Identity() - u * u.transpose());
+  }
+  const Eigen::Matrix<double, 2, 3> d_residual = weight_ * d_e * d_pixel.topRows<2>();
+  for (int k = 0; k < 3; ++k) {
+    double* jacobian = jacobians[corner_block_[k]];
+    if (jacobian == nullptr) continue;
+    Eigen::Map<Eigen::Matrix<double, 2, Eigen::Dynamic, Eigen::RowMajor>>(jacobian, 2, b).noalias() +=
+        barycentric_[k] * d_residual * d_corner[k];
+  }
+  return true;
+}
+
 }  // namespace polyfit

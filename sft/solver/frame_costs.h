@@ -262,6 +262,32 @@ class SilhouetteReachCost : public ceres::CostFunction {
   double tolerance_, weight_;
 };
 
+// A keypoint correspondence (texture_features.h): the surface point at
+// barycentric b of face f projects where the frame shows it, up to a
+// dead zone of radius d (pixels) that a keypoint's own error lives in,
+//   e = pi(sum_k b_k X_{f_k}) - m,
+//   r = w max(0, 1 - d / |e|) e                                  2 residuals
+// (zero within d, then growing as |e| - d: continuous with its gradient),
+// each corner X_{f_k} from its own patch's block. Parameter blocks: the
+// distinct patches of the face's corners, in increasing order (patches()).
+class FeatureCost : public ceres::CostFunction {
+ public:
+  FeatureCost(const JetDeformationModel* model, const Eigen::Vector3i& corners, const Eigen::Vector3d& barycentric,
+              const PinholeCamera& camera, const Eigen::Vector2d& pixel, double weight, double dead_zone = 0.0);
+  const std::vector<int>& patches() const { return patches_; }
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+
+ private:
+  const JetDeformationModel* model_;
+  Eigen::Vector3i corners_;
+  Eigen::Vector3d barycentric_;
+  PinholeCamera camera_;
+  Eigen::Vector2d pixel_;
+  double weight_, dead_zone_;
+  std::vector<int> patches_;
+  int corner_block_[3];  // index into patches_ of each corner's patch
+};
+
 // D at pixel (x, y) of `distance` (pixel centres at integers), bilinear,
 // and its gradient; beyond it, the border's value plus the distance to it.
 double SampleOutsideDistance(const cv::Mat& distance, double x, double y, Eigen::Vector2d* gradient);

@@ -451,6 +451,51 @@ TEST_F(AtlasCostsTest, CostsOverPatchBlocksAreExact) {
   EXPECT_LT(RelativeJacobianError(*shared_uv, pair_theta, 1e-7), 1e-8);
 }
 
+// A keypoint on a face whose corners span two or more patches: the
+// residual is the projection's offset, and its Jacobian over each patch's
+// block is exact.
+TEST_F(AtlasCostsTest, FeatureCostProjectsItsSurfacePointAndIsExact) {
+  for (size_t k = 0; k < theta_.size(); ++k) theta_[k] += 0.002 * std::cos(0.3 + 7.0 * k);
+  const int b = model_->block_size();
+  const Eigen::Matrix3Xi& faces = scene_.template_mesh.faces;
+  int face = -1;
+  for (int f = 0; f < faces.cols() && face < 0; ++f) {
+    if (model_->patch_of_vertex(faces(0, f)) != model_->patch_of_vertex(faces(1, f)) ||
+        model_->patch_of_vertex(faces(0, f)) != model_->patch_of_vertex(faces(2, f))) {
+      face = f;
+    }
+  }
+  ASSERT_GE(face, 0);
+  const Eigen::Vector3d barycentric(0.2, 0.5, 0.3);
+  Eigen::Matrix3Xd v;
+  model_->Evaluate(theta_.data(), &v);
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  for (int k = 0; k < 3; ++k) point += barycentric[k] * v.col(faces(k, face));
+  const Eigen::Vector2d observed = scene_.camera.Project(point) + Eigen::Vector2d(3.0, -4.0);
+  const FeatureCost cost(model_.get(), faces.col(face), barycentric, scene_.camera, observed, 0.5);
+  ASSERT_GE(cost.patches().size(), 2u);
+  std::vector<double> blocks_theta;
+  std::vector<const double*> blocks;
+  for (int p : cost.patches()) blocks_theta.insert(blocks_theta.end(), theta_.begin() + b * p, theta_.begin() + b * (p + 1));
+  for (size_t p = 0; p < cost.patches().size(); ++p) blocks.push_back(blocks_theta.data() + b * p);
+  double r[2];
+  ASSERT_TRUE(cost.Evaluate(blocks.data(), r, nullptr));
+  EXPECT_NEAR(r[0], -1.5, 1e-9);  // 0.5 (projected - observed)
+  EXPECT_NEAR(r[1], 2.0, 1e-9);
+  EXPECT_LT(RelativeJacobianError(cost, blocks_theta, 1e-7), 1e-6);
+  // A dead zone of 2 px shortens the 5 px offset to 3 px, and costs
+  // nothing within it.
+  const FeatureCost zoned(model_.get(), faces.col(face), barycentric, scene_.camera, observed, 0.5, 2.0);
+  ASSERT_TRUE(zoned.Evaluate(blocks.data(), r, nullptr));
+  EXPECT_NEAR(r[0], -1.5 * 3.0 / 5.0, 1e-9);
+  EXPECT_NEAR(r[1], 2.0 * 3.0 / 5.0, 1e-9);
+  EXPECT_LT(RelativeJacobianError(zoned, blocks_theta, 1e-7), 1e-6);
+  const FeatureCost within(model_.get(), faces.col(face), barycentric, scene_.camera, observed, 0.5, 6.0);
+  ASSERT_TRUE(within.Evaluate(blocks.data(), r, nullptr));
+  EXPECT_EQ(r[0], 0.0);
+  EXPECT_EQ(r[1], 0.0);
+}
+
 TEST(PatchGroupsTest, FindsTheSmallestGroupHoldingAPixelsPatches) {
   PatchGroups groups;
   groups.groups = {{0, 1, 2}, {1, 3}, {4}};

@@ -51,6 +51,12 @@ struct FrameData {
   // estimate barely moves) at a third of the renders.
   Brightness brightness;
   std::vector<cv::Mat> compensated;
+  // Keypoint correspondences with the template (the finest level's
+  // pixels; with PolySftOptions::feature_weight only), and the median
+  // distance (full-size pixels) of the surface from them after the last
+  // solve (NaN without them).
+  std::vector<FeatureMatch> features;
+  double feature_error = std::numeric_limits<double>::quiet_NaN();
   // The parameters (JetDeformationModel layout).
   std::vector<double> theta;
   // The atlas's patches when the frame was last solved, and the patch of
@@ -160,7 +166,8 @@ std::string PolySftOptions::Validate() const {
   if (max_iterations_per_level < 1) return "max_iterations_per_level must be >= 1";
   if (patience < 1) return "patience must be >= 1";
   for (double w :
-       {photometric_weight, silhouette_weight, silhouette_reach_weight, inextensibility_weight, temporal_weight}) {
+       {photometric_weight, silhouette_weight, silhouette_reach_weight, feature_weight, inextensibility_weight,
+        temporal_weight}) {
     if (!(w >= 0.0) || !std::isfinite(w)) return "term weights must be finite and >= 0";
   }
   if (!(depth_softness >= 0.0) || !std::isfinite(depth_softness)) {
@@ -170,6 +177,9 @@ std::string PolySftOptions::Validate() const {
     return "finest_sigma must be finite and >= 0 (pixels squared; 0: rasterizer.sigma)";
   }
   if (temporal_order != 1 && temporal_order != 2) return "temporal_order must be 1 or 2";
+  if (!(feature_huber_px > 0.0)) return "feature_huber_px must be > 0";
+  if (!(feature_dead_zone_px >= 0.0)) return "feature_dead_zone_px must be >= 0";
+  if (std::string p = features.Validate(); !p.empty()) return "features: " + p;
   if (!(robust_scale > 0.0)) return "robust_scale must be > 0";
   if (!(silhouette_band <= 100.0)) return "silhouette_band must be <= 100 px (negative: measured)";
   if (max_frames < 0) return "max_frames must be >= 0";
@@ -248,6 +258,8 @@ class PolySftController {
     if (use_masks_) summary_.terms.emplace_back("silhouette", o.silhouette_weight);
     if (use_masks_ && o.silhouette_reach_weight > 0.0)
       summary_.terms.emplace_back("silhouette_reach", o.silhouette_reach_weight);
+    use_features_ = use_photometric_ && o.feature_weight > 0.0;
+    if (use_features_) summary_.terms.emplace_back("features", o.feature_weight);
     if (use_inextensibility_) summary_.terms.emplace_back("inextensibility", o.inextensibility_weight);
     if (use_temporal_) summary_.terms.emplace_back("temporal", o.temporal_weight);
     // Data terms are normalised to about 1 per unit weight: the regularisers
@@ -375,6 +387,7 @@ class PolySftController {
       }
       SoftRasterizerOptions options = rasterizer_options_;
       if (&level == &levels_.back() && options_.finest_sigma > 0.0) options.sigma = options_.finest_sigma;
+      if (&level == &levels_.back()) finest_texture_ = texture;
       level.rasterizer = std::make_unique<SoftRasterizer>(options, texture);
       SoftRasterizerOptions serial = options;
       serial.num_threads = 1;
@@ -442,10 +455,43 @@ class PolySftController {
   static constexpr double kLostCostRatio = 4.0;
   double CostRatio(double cost) const { return cost / std::max(frame_cost_[0], 1e-12); }
 
-  // A solved frame whose motion may be carried on: seen, fitting about as
-  // well as the first, in the texture's colours.
+  // A solved frame whose motion may be carried on (and whose misfit a
+  // split may take): seen, in the texture's colours, and where it is. With
+  // keypoint matches, where they put it (the surface within a few pixels
+  // of them: a surface one jet cannot bend to the frame fits far worse
+  // than the first in colour, yet is found); without, fitting about as
+  // well as the first.
   bool Tracked(const FrameData& data) const {
-    return !data.mask_empty && !Lost(data) && data.brightness.correlation >= 0.2;
+    if (data.mask_empty || data.brightness.correlation < 0.2) return false;
+    if (std::isfinite(data.feature_error)) return data.feature_error <= FoundFeatureError();
+    return !Lost(data);
+  }
+
+  // The median keypoint distance (full-size pixels) under which a frame is
+  // found: a few pixels, or 5% of the template's size in the image.
+  double FoundFeatureError() const { return std::max(3.0, 0.05 * std::sqrt(template_pixels_)); }
+
+  // FrameData::feature_error of every frame in the window.
+  void MeasureFeatureErrors() {
+    if (!use_features_) return;
+    const double to_full = 1.0 / levels_.back().scale;
+    Eigen::Matrix3Xd vertices;
+    std::vector<double> errors;
+    for (const auto& frame : window_) {
+      frame->feature_error = std::numeric_limits<double>::quiet_NaN();
+      if (frame->features.empty()) continue;
+      model_.Evaluate(frame->theta.data(), &vertices);
+      errors.clear();
+      for (const FeatureMatch& m : frame->features) {
+        Eigen::Vector3d x = Eigen::Vector3d::Zero();
+        for (int k = 0; k < 3; ++k) x += m.barycentric[k] * vertices.col(scene_.template_mesh.faces(k, m.face));
+        if (!(x.z() > 0.0)) continue;
+        errors.push_back(to_full * (levels_.back().camera.Project(x) - m.pixel).norm());
+      }
+      if (errors.empty()) continue;
+      std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+      frame->feature_error = errors[errors.size() / 2];
+    }
   }
 
   // Loads frame t with its pyramid, warm-started from the newest frame.
@@ -483,8 +529,37 @@ class PolySftController {
       summary_.warnings.emplace_back("frame " + std::to_string(data->frame.index) +
                                      ": the mask is empty (object not visible?): its image terms are skipped");
     }
+    if (use_features_ && !data->mask_empty) {
+      if (!features_) FindTemplateKeypoints(*data);
+      data->features = features_->Match(data->images.back(), data->masks.back());
+    }
     data->theta = WarmStart(*data);
     window_.push_back(std::move(data));
+  }
+
+  // The template's keypoints (TextureFeatures), from the template rendered
+  // at the finest level over the first frame (its background), where the
+  // first frame sees it.
+  void FindTemplateKeypoints(const FrameData& first) {
+    const LevelData& level = levels_.back();
+    const Eigen::Matrix3Xd& vertices = scene_.template_mesh.vertices;
+    ScreenMesh screen = mesh_template_;
+    Eigen::Matrix2Xd corners(2, 3 * screen.faces.cols());
+    Eigen::VectorXd depths(3 * screen.faces.cols());
+    if (ProjectVertices(level.camera, vertices, &screen, nullptr)) {
+      for (int f = 0; f < screen.faces.cols(); ++f) {
+        for (int k = 0; k < 3; ++k) {
+          corners.col(3 * f + k) = screen.pixels.col(screen.faces(k, f));
+          depths[3 * f + k] = vertices(2, screen.faces(k, f));
+        }
+      }
+    }
+    SoftRasterizerOptions sharp = rasterizer_options_;
+    sharp.sigma = options_.finest_sigma > 0.0 ? options_.finest_sigma : sharp.sigma;
+    SoftRenderOutput render;
+    SoftRasterizer(sharp, finest_texture_)
+        .Render(screen, level.camera.width, level.camera.height, first.images.back(), false, &render);
+    features_ = std::make_unique<TextureFeatures>(options_.features, render.color, render.silhouette, corners, depths);
   }
 
   // The split render terms of one problem, kept beside it, and the
@@ -520,7 +595,32 @@ class PolySftController {
       }
     }
     AddSilhouetteReach(l, frame, problem);
+    AddFeatureTerm(l, frame, problem);
     return true;
+  }
+
+  // The keypoint correspondences of a frame at level l (FeatureCost), on
+  // the coarse levels (and with features_on_finest the finest too):
+  //   r = sqrt(w / N) (pi_l(X) - m_l) / (s_l D),
+  // D the template's linear size in full-size pixels, s_l the level's
+  // scale, so that the cost is w / 2 times the mean squared distance over
+  // D^2 at any level; Huber beyond feature_huber_px (full size).
+  void AddFeatureTerm(int l, FrameData& frame, ceres::Problem* problem) {
+    const bool finest = l + 1 == static_cast<int>(levels_.size());
+    if (!use_features_ || frame.features.empty() || (finest && !options_.features_on_finest)) return;
+    const LevelData& level = levels_[l];
+    const double size_px = std::sqrt(template_pixels_);
+    const double w = std::sqrt(options_.feature_weight / frame.features.size()) / size_px;
+    const std::vector<double*> blocks = Blocks(frame.theta);
+    const double to_level = level.scale / levels_.back().scale;  // the matches are in the finest level's pixels
+    for (const FeatureMatch& m : frame.features) {
+      const Eigen::Vector2d pixel = to_level * (m.pixel.array() + 0.5) - 0.5;
+      auto* cost = new FeatureCost(&model_, scene_.template_mesh.faces.col(m.face), m.barycentric, level.camera, pixel,
+                                   w / level.scale, options_.feature_dead_zone_px * level.scale);
+      std::vector<double*> cost_blocks;
+      for (int p : cost->patches()) cost_blocks.push_back(blocks[p]);
+      problem->AddResidualBlock(cost, new ceres::HuberLoss(w * options_.feature_huber_px), cost_blocks);
+    }
   }
 
   // How far the reach's distance map continues the mask past the image
@@ -782,6 +882,7 @@ class PolySftController {
         }
       }
     }
+    MeasureFeatureErrors();
     return true;
   }
 
@@ -1083,6 +1184,11 @@ class PolySftController {
   std::vector<double> failed_ratio_;
   PolySftSummary summary_;
   bool use_masks_ = false, use_temporal_ = false, use_photometric_ = false, use_inextensibility_ = false;
+  bool use_features_ = false;
+  // The template's keypoints on the surface (with use_features_), and the
+  // finest level's texture they are rendered with.
+  std::unique_ptr<TextureFeatures> features_;
+  cv::Mat finest_texture_;
   ScreenMesh mesh_template_;
   double size_ = 0.0;                         // the template's bounding-box diagonal
   SoftRasterizerOptions rasterizer_options_;  // options_.rasterizer, gamma from depth_softness

@@ -25,6 +25,7 @@
 #include "sft/scene/scene.h"
 #include "sft/solver/patch_atlas.h"
 #include "sft/solver/robust_loss.h"
+#include "sft/solver/texture_features.h"
 
 namespace polyfit {
 
@@ -127,6 +128,22 @@ struct PolySftOptions {
   // little, but it pulled a sheet leaving the image and coming back to a
   // wrong place (polysft_stress_test; docs/benchmarks.md).
   double silhouette_reach_weight = 0.0;
+  // Keypoint correspondences between the texture and each frame
+  // (sft/solver/texture_features.h): each pulls its surface point to where
+  // the frame shows it, w^2 / 2 times the mean squared distance over the
+  // template's size in the image (both in pixels), Huber beyond
+  // feature_huber_px. They reach as far as the surface moved, where the
+  // image terms reach only the coarsest level's blur. On the pyramid's
+  // coarse levels only, so that the finest is the image's (with
+  // features_on_finest, every level). 0: off. Needs the photometric term.
+  double feature_weight = 0.0;
+  double feature_huber_px = 3.0;
+  // Within this many pixels (full size) of its match a keypoint costs
+  // nothing (FeatureCost's dead zone): a keypoint's own error, about a
+  // pixel, is the photometric term's to settle, not a pull to bias it.
+  double feature_dead_zone_px = 0.0;
+  bool features_on_finest = false;
+  TextureFeatureOptions features;
   // Map each frame to the texture's lighting (per-channel gain and bias,
   // sft/solver/brightness.h) before the photometric term compares them.
   bool match_brightness = true;

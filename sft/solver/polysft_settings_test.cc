@@ -18,6 +18,10 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.deformation.keep_detail = false;
   changed.silhouette_reach_weight = 2.0;
   changed.recover_lost_frames = true;
+  changed.feature_weight = 7.0;
+  changed.feature_huber_px = 4.5;
+  changed.feature_dead_zone_px = 1.5;
+  changed.features_on_finest = true;
   changed.window_size = 5;
   changed.coarse_levels_newest_only = false;
   changed.pyramid_levels = 2;

@@ -1,0 +1,113 @@
+#include "sft/solver/texture_features.h"
+
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+namespace polyfit {
+namespace {
+
+// Matches under one affine map, a tenth of them moved far off: the check
+// drops those and keeps the rest.
+TEST(ConsistentMatchesTest, DropsMatchesTheirNeighboursDisagreeWith) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> coordinate(0.0, 200.0), offset(30.0, 80.0);
+  Eigen::Matrix2d a;
+  a << 0.9, -0.3, 0.2, 0.6;
+  const Eigen::Vector2d t(40.0, -10.0);
+  std::vector<Eigen::Vector2d> from, to;
+  std::vector<bool> outlier;
+  for (int k = 0; k < 200; ++k) {
+    from.emplace_back(coordinate(rng), coordinate(rng));
+    to.push_back(a * from.back() + t);
+    outlier.push_back(k % 10 == 0);
+    if (outlier.back()) to.back() += Eigen::Vector2d(offset(rng), -offset(rng));
+  }
+  const std::vector<bool> keep = ConsistentMatches(from, to, 8, 3.0, 0.15);
+  int kept_inliers = 0, kept_outliers = 0;
+  for (size_t k = 0; k < keep.size(); ++k) (outlier[k] ? kept_outliers : kept_inliers) += keep[k];
+  EXPECT_EQ(kept_outliers, 0);
+  EXPECT_GE(kept_inliers, 175);  // of 180
+  // Too few to judge: nothing kept.
+  EXPECT_EQ(ConsistentMatches({from.begin(), from.begin() + 5}, {to.begin(), to.begin() + 5}, 8, 3.0, 0.15),
+            std::vector<bool>(5, false));
+}
+
+// Blobs of random colours, blurred: texture with corners at every scale.
+cv::Mat RandomTexture(int size, unsigned seed) {
+  cv::Mat image(size, size, CV_32FC3, cv::Scalar(0.5, 0.5, 0.5));
+  cv::RNG rng(seed);
+  for (int k = 0; k < 400; ++k) {
+    const cv::Point centre(rng.uniform(0, size), rng.uniform(0, size));
+    const cv::Scalar colour(rng.uniform(0.0, 1.0), rng.uniform(0.0, 1.0), rng.uniform(0.0, 1.0));
+    if (k % 2 == 0) {
+      cv::circle(image, centre, rng.uniform(3, 14), colour, cv::FILLED, cv::LINE_AA);
+    } else {
+      cv::rectangle(image, centre, centre + cv::Point(rng.uniform(4, 20), rng.uniform(3, 9)), colour, cv::FILLED);
+    }
+  }
+  cv::GaussianBlur(image, image, cv::Size(0, 0), 0.7);
+  return image;
+}
+
+// A square seen as two triangles fills the view; the frame is the view
+// turned, scaled and shifted. Every match lands where the map puts its
+// surface point, within a pixel or so.
+TEST(TextureFeaturesTest, MatchesAWarpedViewWhereTheWarpPutsTheSurface) {
+  const int size = 240;
+  const cv::Mat view = RandomTexture(size, 7);
+  // Faces (0, 1, 2) and (0, 2, 3) over the corners of the view.
+  const double e = size - 1.0;
+  Eigen::Matrix2Xd square(2, 4);
+  square << 0.0, e, e, 0.0, 0.0, 0.0, e, e;
+  const int faces[2][3] = {{0, 1, 2}, {0, 2, 3}};
+  Eigen::Matrix2Xd corners(2, 6);
+  for (int f = 0; f < 2; ++f)
+    for (int k = 0; k < 3; ++k) corners.col(3 * f + k) = square.col(faces[f][k]);
+  const TextureFeatures features(TextureFeatureOptions(), view, cv::Mat(), corners, Eigen::VectorXd());
+  ASSERT_GT(features.size(), 100);
+
+  const cv::Mat warp = cv::getRotationMatrix2D(cv::Point2f(120.0f, 120.0f), 25.0, 0.8);
+  cv::Mat affine = warp.clone();
+  affine.at<double>(0, 2) += 30.0;
+  affine.at<double>(1, 2) += 15.0;
+  cv::Mat frame;
+  cv::warpAffine(view, frame, affine, cv::Size(320, 300), cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+                 cv::Scalar(0.2, 0.2, 0.2));
+  const std::vector<FeatureMatch> matches = features.Match(frame, cv::Mat());
+  ASSERT_GT(matches.size(), 60u);
+  Eigen::Matrix<double, 2, 3> m;
+  for (int r = 0; r < 2; ++r)
+    for (int c = 0; c < 3; ++c) m(r, c) = affine.at<double>(r, c);
+  int within = 0;
+  for (const FeatureMatch& match : matches) {
+    ASSERT_GE(match.face, 0);
+    ASSERT_LT(match.face, 2);
+    EXPECT_NEAR(match.barycentric.sum(), 1.0, 1e-9);
+    Eigen::Vector2d point = Eigen::Vector2d::Zero();
+    for (int k = 0; k < 3; ++k) point += match.barycentric[k] * corners.col(3 * match.face + k);
+    const Eigen::Vector2d expected = m.leftCols<2>() * point + m.col(2);
+    within += (match.pixel - expected).norm() < 1.5;
+  }
+  EXPECT_GE(within, static_cast<int>(0.95 * matches.size()));
+
+  // An empty mask: no keypoints, no matches.
+  EXPECT_TRUE(features.Match(frame, cv::Mat::zeros(frame.size(), CV_32F)).empty());
+}
+
+TEST(TextureFeaturesTest, RejectsBadInput) {
+  TextureFeatureOptions options;
+  options.ratio = 1.5;
+  EXPECT_FALSE(options.Validate().empty());
+  const cv::Mat grey(10, 10, CV_8U, cv::Scalar(0));
+  EXPECT_THROW(TextureFeatures(TextureFeatureOptions(), grey, cv::Mat(), Eigen::Matrix2Xd(2, 3), Eigen::VectorXd()),
+               std::invalid_argument);
+  const cv::Mat view(10, 10, CV_32FC3, cv::Scalar(0, 0, 0));
+  EXPECT_THROW(TextureFeatures(TextureFeatureOptions(), view, cv::Mat(), Eigen::Matrix2Xd(2, 4), Eigen::VectorXd()),
+               std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace polyfit
