@@ -305,27 +305,36 @@ bool RenderCost::Compute(const double* theta, double* residuals, double** jacobi
   // covered pixels are gathered in blocks and added with one symmetric
   // rank-k update each.
   const int threads = std::max(1, std::min(ResolveNumThreads(data_.rasterizer->options().num_threads), roi.height));
-  ResetThreads(threads, jacobians);
+  // The rows in a fixed number of contiguous parts, each summed into its
+  // own state and the states reduced in order: the sums, and so the
+  // solver's path, are the same however the threads share the parts (a
+  // row handed to whichever thread is free changed them in the last bits,
+  // which a frame that is nearly lost magnifies).
+  const int parts = threads == 1 ? 1 : std::min(roi.height, 4 * threads);
+  ResetThreads(parts, jacobians);
   std::atomic<bool> ok(true);
   ParallelFor(
-      roi.height, threads,
-      [&](int thread, int row) {
-        const int y = roi.y + row;
-        ThreadState& state = threads_[thread];
-        double r[4];
-        for (int col = 0; col < roi.width; ++col) {
-          const int x = roi.x + col;
-          const int r0 = (row * roi.width + col) * channels_;
-          double jacobian_scale;
-          bool in_band;
-          PixelResiduals(y, x, r, &jacobian_scale, &in_band);
-          if (residuals != nullptr) {
-            for (int ch = 0; ch < channels_; ++ch) residuals[r0 + ch] = r[ch];
+      parts, threads,
+      [&](int, int part) {
+        ThreadState& state = threads_[part];
+        const int row_end = static_cast<int>(static_cast<int64_t>(roi.height) * (part + 1) / parts);
+        for (int row = static_cast<int>(static_cast<int64_t>(roi.height) * part / parts); row < row_end; ++row) {
+          const int y = roi.y + row;
+          double r[4];
+          for (int col = 0; col < roi.width; ++col) {
+            const int x = roi.x + col;
+            const int r0 = (row * roi.width + col) * channels_;
+            double jacobian_scale;
+            bool in_band;
+            PixelResiduals(y, x, r, &jacobian_scale, &in_band);
+            if (residuals != nullptr) {
+              for (int ch = 0; ch < channels_; ++ch) residuals[r0 + ch] = r[ch];
+            }
+            for (int ch = 0; ch < channels_; ++ch) state.squared_norm += r[ch] * r[ch];
+            const int pixel = y * data_.camera.width + x;
+            if (!want_jacobian || render_->end[pixel] == render_->begin[pixel]) continue;  // a zero row
+            if (!AddPixelJacobian(&state, pixel, r0, r, jacobian_scale, in_band, jacobians, normal)) ok = false;
           }
-          for (int ch = 0; ch < channels_; ++ch) state.squared_norm += r[ch] * r[ch];
-          const int pixel = y * data_.camera.width + x;
-          if (!want_jacobian || render_->end[pixel] == render_->begin[pixel]) continue;  // a zero row
-          if (!AddPixelJacobian(&state, pixel, r0, r, jacobian_scale, in_band, jacobians, normal)) ok = false;
         }
       },
       1);
@@ -719,66 +728,85 @@ bool SilhouetteReachCost::Evaluate(double const* const* parameters, double* resi
   return true;
 }
 
-FeatureCost::FeatureCost(const JetDeformationModel* model, const Eigen::Vector3i& corners,
-                         const Eigen::Vector3d& barycentric, const PinholeCamera& camera, const Eigen::Vector2d& pixel,
-                         double weight, double dead_zone)
+FeatureCost::FeatureCost(const JetDeformationModel* model, std::vector<Point> points, const PinholeCamera& camera,
+                         double weight, double dead_zone, double huber)
     : model_(model),
-      corners_(corners),
-      barycentric_(barycentric),
+      points_(std::move(points)),
       camera_(camera),
-      pixel_(pixel),
       weight_(weight),
-      dead_zone_(dead_zone) {
-  for (int k = 0; k < 3; ++k) patches_.push_back(model->patch_of_vertex(corners[k]));
+      dead_zone_(dead_zone),
+      huber_(huber) {
+  for (const Point& p : points_) {
+    for (int k = 0; k < 3; ++k) patches_.push_back(model->patch_of_vertex(p.corners[k]));
+  }
   std::sort(patches_.begin(), patches_.end());
   patches_.erase(std::unique(patches_.begin(), patches_.end()), patches_.end());
-  for (int k = 0; k < 3; ++k) {
-    corner_block_[k] = static_cast<int>(std::lower_bound(patches_.begin(), patches_.end(),
-                                                         model->patch_of_vertex(corners[k])) -
-                                        patches_.begin());
+  for (const Point& p : points_) {
+    Eigen::Vector3i blocks;
+    for (int k = 0; k < 3; ++k) {
+      blocks[k] = static_cast<int>(
+          std::lower_bound(patches_.begin(), patches_.end(), model->patch_of_vertex(p.corners[k])) - patches_.begin());
+    }
+    corner_blocks_.push_back(blocks);
   }
-  set_num_residuals(2);
+  set_num_residuals(2 * static_cast<int>(points_.size()));
   for (size_t p = 0; p < patches_.size(); ++p) mutable_parameter_block_sizes()->push_back(model->block_size());
 }
 
 bool FeatureCost::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
   const int b = model_->block_size();
-  Eigen::Vector3d point = Eigen::Vector3d::Zero();
-  Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::RowMajor> d_corner[3];
-  for (int k = 0; k < 3; ++k) {
-    Eigen::Vector3d x;
-    const bool want = jacobians != nullptr && jacobians[corner_block_[k]] != nullptr;
-    if (want) d_corner[k].resize(3, b);
-    model_->EvaluateVertex(corners_[k], model_->patch_of_vertex(corners_[k]), parameters[corner_block_[k]], x.data(),
-                           want ? d_corner[k].data() : nullptr);
-    point += barycentric_[k] * x;
+  using RowMajor3 = Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::RowMajor>;
+  RowMajor3 d_corner[3];
+  if (jacobians != nullptr) {
+    for (RowMajor3& d : d_corner) d.resize(3, b);
+    for (size_t p = 0; p < patches_.size(); ++p) {
+      if (jacobians[p] != nullptr)
+        std::fill(jacobians[p], jacobians[p] + static_cast<size_t>(num_residuals()) * b, 0.0);
+    }
   }
-  Eigen::Vector2d projected;
-  Eigen::Matrix3d d_pixel;
-  if (!camera_.ProjectWithJacobian(point, &projected, &d_pixel)) return false;
-  const Eigen::Vector2d e = projected - pixel_;
-  const double length = e.norm();
-  const bool inside = length <= dead_zone_;
-  const double shrink = inside ? 0.0 : 1.0 - dead_zone_ / length;
-  residuals[0] = weight_ * shrink * e.x();
-  residuals[1] = weight_ * shrink * e.y();
-  if (jacobians == nullptr) return true;
-  for (size_t p = 0; p < patches_.size(); ++p) {
-    if (jacobians[p] != nullptr) std::fill(jacobians[p], jacobians[p] + 2 * b, 0.0);
-  }
-  if (inside) return true;
-  // d(shrink e)/de = I - (d / |e|) (I - u u'), u = e / |e|.
-  Eigen::Matrix2d d_e = Eigen::Matrix2d::Identity();
-  if (dead_zone_ > 0.0) {
-    const Eigen::Vector2d u = e / length;
-    d_e -= (dead_zone_ / length) * (Eigen::Matrix2d::Identity() - u * u.transpose());
-  }
-  const Eigen::Matrix<double, 2, 3> d_residual = weight_ * d_e * d_pixel.topRows<2>();
-  for (int k = 0; k < 3; ++k) {
-    double* jacobian = jacobians[corner_block_[k]];
-    if (jacobian == nullptr) continue;
-    Eigen::Map<Eigen::Matrix<double, 2, Eigen::Dynamic, Eigen::RowMajor>>(jacobian, 2, b).noalias() +=
-        barycentric_[k] * d_residual * d_corner[k];
+  for (size_t j = 0; j < points_.size(); ++j) {
+    const Point& point = points_[j];
+    const Eigen::Vector3i& blocks = corner_blocks_[j];
+    Eigen::Vector3d x = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 3; ++k) {
+      Eigen::Vector3d corner;
+      const bool want = jacobians != nullptr && jacobians[blocks[k]] != nullptr;
+      model_->EvaluateVertex(point.corners[k], model_->patch_of_vertex(point.corners[k]), parameters[blocks[k]],
+                             corner.data(), want ? d_corner[k].data() : nullptr);
+      x += point.barycentric[k] * corner;
+    }
+    Eigen::Vector2d projected;
+    Eigen::Matrix3d d_pixel;
+    if (!camera_.ProjectWithJacobian(x, &projected, &d_pixel)) return false;
+    const Eigen::Vector2d e = projected - point.pixel;
+    const double l = e.norm();
+    // L(l) and L'(l) (see the header).
+    double length = 0.0, slope = 0.0;
+    if (l > dead_zone_) {
+      const double m = weight_ * (l - dead_zone_);
+      if (m <= huber_) {
+        length = m;
+        slope = weight_;
+      } else {
+        length = std::sqrt(2.0 * huber_ * m - huber_ * huber_);
+        slope = huber_ * weight_ / length;
+      }
+    }
+    const Eigen::Vector2d u = l > 0.0 ? Eigen::Vector2d(e / l) : Eigen::Vector2d::Zero();
+    residuals[2 * j] = length * u.x();
+    residuals[2 * j + 1] = length * u.y();
+    if (jacobians == nullptr || length == 0.0) continue;
+    // dr/de = (L / l) (I - u u') + L' u u'.
+    const Eigen::Matrix2d uu = u * u.transpose();
+    const Eigen::Matrix2d d_e = (length / l) * (Eigen::Matrix2d::Identity() - uu) + slope * uu;
+    const Eigen::Matrix<double, 2, 3> d_residual = d_e * d_pixel.topRows<2>();
+    for (int k = 0; k < 3; ++k) {
+      double* jacobian = jacobians[blocks[k]];
+      if (jacobian == nullptr) continue;
+      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> rows(jacobian, num_residuals(),
+                                                                                              b);
+      rows.middleRows(2 * static_cast<int>(j), 2).noalias() += point.barycentric[k] * d_residual * d_corner[k];
+    }
   }
   return true;
 }

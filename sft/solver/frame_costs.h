@@ -262,30 +262,37 @@ class SilhouetteReachCost : public ceres::CostFunction {
   double tolerance_, weight_;
 };
 
-// A keypoint correspondence (texture_features.h): the surface point at
-// barycentric b of face f projects where the frame shows it, up to a
-// dead zone of radius d (pixels) that a keypoint's own error lives in,
-//   e = pi(sum_k b_k X_{f_k}) - m,
-//   r = w max(0, 1 - d / |e|) e                                  2 residuals
-// (zero within d, then growing as |e| - d: continuous with its gradient),
-// each corner X_{f_k} from its own patch's block. Parameter blocks: the
-// distinct patches of the face's corners, in increasing order (patches()).
+// A frame's keypoint correspondences (texture_features.h): each surface
+// point, at barycentric b of face f, projects where the frame shows it,
+//   e_j = pi(sum_k b_k X_{f_k}) - m_j                   (pixels)
+//   r_j = L(|e_j|) e_j / |e_j|                          2 residuals each
+// with L(l) = 0 within a dead zone d (a keypoint's own error), then
+// m = w (l - d), Huber beyond a: L = m for m <= a, sqrt(2 a m - a^2) past it
+// (so that |r_j|^2 is the Huber cost of m: a mismatch pulls with a bounded
+// force). Continuous with its gradient. Each corner X_{f_k} comes from its
+// own patch's block. One cost for the frame's keypoints, summed in a fixed
+// order whatever the threads. Parameter blocks: the distinct patches of
+// every keypoint's corners, in increasing order (patches()).
 class FeatureCost : public ceres::CostFunction {
  public:
-  FeatureCost(const JetDeformationModel* model, const Eigen::Vector3i& corners, const Eigen::Vector3d& barycentric,
-              const PinholeCamera& camera, const Eigen::Vector2d& pixel, double weight, double dead_zone = 0.0);
+  struct Point {
+    Eigen::Vector3i corners;      // vertices of the face
+    Eigen::Vector3d barycentric;  // over them
+    Eigen::Vector2d pixel;        // where the frame shows it
+  };
+  FeatureCost(const JetDeformationModel* model, std::vector<Point> points, const PinholeCamera& camera, double weight,
+              double dead_zone, double huber);
   const std::vector<int>& patches() const { return patches_; }
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
  private:
   const JetDeformationModel* model_;
-  Eigen::Vector3i corners_;
-  Eigen::Vector3d barycentric_;
+  std::vector<Point> points_;
   PinholeCamera camera_;
-  Eigen::Vector2d pixel_;
-  double weight_, dead_zone_;
+  double weight_, dead_zone_, huber_;
   std::vector<int> patches_;
-  int corner_block_[3];  // index into patches_ of each corner's patch
+  // Per point and corner: the index into patches_ of the corner's patch.
+  std::vector<Eigen::Vector3i> corner_blocks_;
 };
 
 // D at pixel (x, y) of `distance` (pixel centres at integers), bilinear,

@@ -451,49 +451,60 @@ TEST_F(AtlasCostsTest, CostsOverPatchBlocksAreExact) {
   EXPECT_LT(RelativeJacobianError(*shared_uv, pair_theta, 1e-7), 1e-8);
 }
 
-// A keypoint on a face whose corners span two or more patches: the
-// residual is the projection's offset, and its Jacobian over each patch's
-// block is exact.
-TEST_F(AtlasCostsTest, FeatureCostProjectsItsSurfacePointAndIsExact) {
+// Keypoints on faces whose corners span two or more patches: residuals
+// are the projection's offset (less the dead zone, Huber beyond its
+// threshold), and the Jacobian over each patch's block is exact.
+TEST_F(AtlasCostsTest, FeatureCostProjectsItsSurfacePointsAndIsExact) {
   for (size_t k = 0; k < theta_.size(); ++k) theta_[k] += 0.002 * std::cos(0.3 + 7.0 * k);
   const int b = model_->block_size();
   const Eigen::Matrix3Xi& faces = scene_.template_mesh.faces;
-  int face = -1;
-  for (int f = 0; f < faces.cols() && face < 0; ++f) {
+  std::vector<int> seam_faces;
+  for (int f = 0; f < faces.cols() && seam_faces.size() < 3; ++f) {
     if (model_->patch_of_vertex(faces(0, f)) != model_->patch_of_vertex(faces(1, f)) ||
         model_->patch_of_vertex(faces(0, f)) != model_->patch_of_vertex(faces(2, f))) {
-      face = f;
+      seam_faces.push_back(f);
     }
   }
-  ASSERT_GE(face, 0);
-  const Eigen::Vector3d barycentric(0.2, 0.5, 0.3);
+  ASSERT_EQ(seam_faces.size(), 3u);
   Eigen::Matrix3Xd v;
   model_->Evaluate(theta_.data(), &v);
-  Eigen::Vector3d point = Eigen::Vector3d::Zero();
-  for (int k = 0; k < 3; ++k) point += barycentric[k] * v.col(faces(k, face));
-  const Eigen::Vector2d observed = scene_.camera.Project(point) + Eigen::Vector2d(3.0, -4.0);
-  const FeatureCost cost(model_.get(), faces.col(face), barycentric, scene_.camera, observed, 0.5);
-  ASSERT_GE(cost.patches().size(), 2u);
-  std::vector<double> blocks_theta;
+  // Offsets of 5 px, 0.5 px (within a 2 px dead zone) and 40 px (past a
+  // Huber threshold).
+  const Eigen::Vector2d offsets[] = {{3.0, -4.0}, {0.3, 0.4}, {24.0, 32.0}};
+  std::vector<FeatureCost::Point> points;
+  for (int j = 0; j < 3; ++j) {
+    const Eigen::Vector3d barycentric(0.2, 0.5, 0.3);
+    Eigen::Vector3d x = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 3; ++k) x += barycentric[k] * v.col(faces(k, seam_faces[j]));
+    points.push_back({faces.col(seam_faces[j]), barycentric, scene_.camera.Project(x) + offsets[j]});
+  }
+  auto blocks_of = [&](const FeatureCost& cost, std::vector<double>* flat, std::vector<const double*>* blocks) {
+    for (int p : cost.patches()) flat->insert(flat->end(), theta_.begin() + b * p, theta_.begin() + b * (p + 1));
+    for (size_t p = 0; p < cost.patches().size(); ++p) blocks->push_back(flat->data() + b * p);
+  };
+  // Plain: r = w (projected - observed).
+  const FeatureCost plain(model_.get(), points, scene_.camera, 0.5, 0.0, 1e9);
+  ASSERT_GE(plain.patches().size(), 2u);
+  std::vector<double> flat;
   std::vector<const double*> blocks;
-  for (int p : cost.patches()) blocks_theta.insert(blocks_theta.end(), theta_.begin() + b * p, theta_.begin() + b * (p + 1));
-  for (size_t p = 0; p < cost.patches().size(); ++p) blocks.push_back(blocks_theta.data() + b * p);
-  double r[2];
-  ASSERT_TRUE(cost.Evaluate(blocks.data(), r, nullptr));
-  EXPECT_NEAR(r[0], -1.5, 1e-9);  // 0.5 (projected - observed)
+  blocks_of(plain, &flat, &blocks);
+  double r[6];
+  ASSERT_TRUE(plain.Evaluate(blocks.data(), r, nullptr));
+  EXPECT_NEAR(r[0], -1.5, 1e-9);
   EXPECT_NEAR(r[1], 2.0, 1e-9);
-  EXPECT_LT(RelativeJacobianError(cost, blocks_theta, 1e-7), 1e-6);
-  // A dead zone of 2 px shortens the 5 px offset to 3 px, and costs
-  // nothing within it.
-  const FeatureCost zoned(model_.get(), faces.col(face), barycentric, scene_.camera, observed, 0.5, 2.0);
-  ASSERT_TRUE(zoned.Evaluate(blocks.data(), r, nullptr));
-  EXPECT_NEAR(r[0], -1.5 * 3.0 / 5.0, 1e-9);
-  EXPECT_NEAR(r[1], 2.0 * 3.0 / 5.0, 1e-9);
-  EXPECT_LT(RelativeJacobianError(zoned, blocks_theta, 1e-7), 1e-6);
-  const FeatureCost within(model_.get(), faces.col(face), barycentric, scene_.camera, observed, 0.5, 6.0);
-  ASSERT_TRUE(within.Evaluate(blocks.data(), r, nullptr));
-  EXPECT_EQ(r[0], 0.0);
-  EXPECT_EQ(r[1], 0.0);
+  EXPECT_NEAR(r[5], -16.0, 1e-9);
+  EXPECT_LT(RelativeJacobianError(plain, flat, 1e-7), 1e-6);
+  // A 2 px dead zone and Huber at 5 (residual units): the 5 px offset
+  // shortens to 3 px (1.5 after w), the 0.5 px one vanishes, the 40 px one
+  // (19 after w, past 5) has |r|^2 = 2 a m - a^2.
+  const FeatureCost robust(model_.get(), points, scene_.camera, 0.5, 2.0, 5.0);
+  ASSERT_TRUE(robust.Evaluate(blocks.data(), r, nullptr));
+  EXPECT_NEAR(r[0], -1.5 * 0.6, 1e-9);
+  EXPECT_NEAR(r[1], 2.0 * 0.6, 1e-9);
+  EXPECT_EQ(r[2], 0.0);
+  EXPECT_EQ(r[3], 0.0);
+  EXPECT_NEAR(r[4] * r[4] + r[5] * r[5], 2.0 * 5.0 * 19.0 - 25.0, 1e-9);
+  EXPECT_LT(RelativeJacobianError(robust, flat, 1e-7), 1e-6);
 }
 
 TEST(PatchGroupsTest, FindsTheSmallestGroupHoldingAPixelsPatches) {

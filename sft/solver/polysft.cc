@@ -7,6 +7,7 @@
 #include <deque>
 #include <filesystem>
 #include <limits>
+#include <map>
 #include <memory>
 
 #include <ceres/ceres.h>
@@ -165,9 +166,8 @@ std::string PolySftOptions::Validate() const {
   if (max_image_width < 0) return "max_image_width must be >= 0";
   if (max_iterations_per_level < 1) return "max_iterations_per_level must be >= 1";
   if (patience < 1) return "patience must be >= 1";
-  for (double w :
-       {photometric_weight, silhouette_weight, silhouette_reach_weight, feature_weight, inextensibility_weight,
-        temporal_weight}) {
+  for (double w : {photometric_weight, silhouette_weight, silhouette_reach_weight, feature_weight,
+                   inextensibility_weight, temporal_weight}) {
     if (!(w >= 0.0) || !std::isfinite(w)) return "term weights must be finite and >= 0";
   }
   if (!(depth_softness >= 0.0) || !std::isfinite(depth_softness)) {
@@ -600,26 +600,36 @@ class PolySftController {
   }
 
   // The keypoint correspondences of a frame at level l (FeatureCost), on
-  // the coarse levels (and with features_on_finest the finest too):
-  //   r = sqrt(w / N) (pi_l(X) - m_l) / (s_l D),
-  // D the template's linear size in full-size pixels, s_l the level's
-  // scale, so that the cost is w / 2 times the mean squared distance over
-  // D^2 at any level; Huber beyond feature_huber_px (full size).
+  // the coarse levels (and with features_on_finest the finest too), with
+  // w = sqrt(feature_weight / N) / (s_l D): D the template's linear size
+  // in full-size pixels, s_l the level's scale, so that the cost is
+  // feature_weight / 2 times the mean squared distance over D^2 at any
+  // level; the dead zone and Huber's threshold in full-size pixels. One
+  // cost per set of patches the keypoints' faces span (in a fixed order),
+  // so that an atlas's normal equations stay sparse by patch.
   void AddFeatureTerm(int l, FrameData& frame, ceres::Problem* problem) {
     const bool finest = l + 1 == static_cast<int>(levels_.size());
     if (!use_features_ || frame.features.empty() || (finest && !options_.features_on_finest)) return;
     const LevelData& level = levels_[l];
-    const double size_px = std::sqrt(template_pixels_);
-    const double w = std::sqrt(options_.feature_weight / frame.features.size()) / size_px;
-    const std::vector<double*> blocks = Blocks(frame.theta);
+    const double w = std::sqrt(options_.feature_weight / frame.features.size()) / std::sqrt(template_pixels_);
     const double to_level = level.scale / levels_.back().scale;  // the matches are in the finest level's pixels
+    std::map<std::vector<int>, std::vector<FeatureCost::Point>> by_patches;
     for (const FeatureMatch& m : frame.features) {
-      const Eigen::Vector2d pixel = to_level * (m.pixel.array() + 0.5) - 0.5;
-      auto* cost = new FeatureCost(&model_, scene_.template_mesh.faces.col(m.face), m.barycentric, level.camera, pixel,
-                                   w / level.scale, options_.feature_dead_zone_px * level.scale);
+      const Eigen::Vector3i corners = scene_.template_mesh.faces.col(m.face);
+      std::vector<int> patches = {model_.patch_of_vertex(corners[0]), model_.patch_of_vertex(corners[1]),
+                                  model_.patch_of_vertex(corners[2])};
+      std::sort(patches.begin(), patches.end());
+      patches.erase(std::unique(patches.begin(), patches.end()), patches.end());
+      by_patches[patches].push_back({corners, m.barycentric, to_level * (m.pixel.array() + 0.5) - 0.5});
+    }
+    const std::vector<double*> blocks = Blocks(frame.theta);
+    for (auto& [patches, points] : by_patches) {
       std::vector<double*> cost_blocks;
-      for (int p : cost->patches()) cost_blocks.push_back(blocks[p]);
-      problem->AddResidualBlock(cost, new ceres::HuberLoss(w * options_.feature_huber_px), cost_blocks);
+      for (int p : patches) cost_blocks.push_back(blocks[p]);
+      problem->AddResidualBlock(new CompressedCost(new FeatureCost(
+                                    &model_, std::move(points), level.camera, w / level.scale,
+                                    options_.feature_dead_zone_px * level.scale, w * options_.feature_huber_px)),
+                                nullptr, cost_blocks);
     }
   }
 
@@ -897,7 +907,13 @@ class PolySftController {
     // A frame that is not tracked (lost, or its colours not the texture's)
     // or did not settle fits badly for want of tracking, not of patches: a
     // split there only frees the sheet to fit what it cannot find.
-    if (t > 0 && !(Tracked(newest) && newest.settled)) return false;
+    // With keypoints, a frame they find that still fits far worse than the
+    // first (a cloth in continuous motion, falling or flapping, that never
+    // settles) may split unsettled: its misfit is the model's, and the
+    // score test below still asks that the split pay. One that fits about
+    // as well as the first waits until it settles, as without keypoints.
+    const bool found_misfit = std::isfinite(newest.feature_error) && Lost(newest);
+    if (t > 0 && !(Tracked(newest) && (newest.settled || found_misfit))) return false;
     // A full atlas: nothing to measure.
     if (t > 0 && model_.num_patches() + options_.atlas.children - 1 > options_.atlas.max_patches) return false;
     RenderCost::Data d;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <tuple>
 #include <utility>
 
 #include <Eigen/Dense>
@@ -85,6 +86,20 @@ class FaceLocator {
   std::vector<std::vector<int>> cell_faces_;
 };
 
+// Keypoints and their descriptors, in an order that depends on the image
+// only: OpenCV's detection runs in parallel and may list them in any order,
+// which would change the solver's sums, and a lost frame's outcome, from
+// run to run.
+void DetectKeypoints(cv::SIFT& sift, const cv::Mat& grey, const cv::Mat& mask, std::vector<cv::KeyPoint>* keypoints,
+                     cv::Mat* descriptors) {
+  sift.detect(grey, *keypoints, mask.empty() ? cv::noArray() : cv::InputArray(mask));
+  std::sort(keypoints->begin(), keypoints->end(), [](const cv::KeyPoint& a, const cv::KeyPoint& b) {
+    return std::make_tuple(a.pt.y, a.pt.x, a.size, a.angle, a.response, a.octave) <
+           std::make_tuple(b.pt.y, b.pt.x, b.size, b.angle, b.response, b.octave);
+  });
+  sift.compute(grey, *keypoints, *descriptors);
+}
+
 }  // namespace
 
 std::string TextureFeatureOptions::Validate() const {
@@ -116,7 +131,7 @@ TextureFeatures::TextureFeatures(const TextureFeatureOptions& options, const cv:
   cv::Ptr<cv::SIFT> sift = cv::SIFT::create(options.max_texture_keypoints);
   std::vector<cv::KeyPoint> keypoints;
   cv::Mat descriptors;
-  sift->detectAndCompute(Grey8(view), mask.empty() ? cv::noArray() : cv::InputArray(mask), keypoints, descriptors);
+  DetectKeypoints(*sift, Grey8(view), mask, &keypoints, &descriptors);
   const FaceLocator locator(corner_pixels, corner_depths);
   std::vector<int> kept;
   for (size_t k = 0; k < keypoints.size(); ++k) {
@@ -141,13 +156,22 @@ std::vector<FeatureMatch> TextureFeatures::Match(const cv::Mat& frame, const cv:
     // A keypoint's support reaches past the outline it sits on.
     cv::dilate(inside, detect_mask, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(9, 9)));
   }
+  // Only the mask's surroundings are searched (the pyramid of the whole
+  // frame costs as much again for nothing), with a margin for the
+  // detector's own border.
+  cv::Rect region(0, 0, frame.cols, frame.rows);
+  if (!detect_mask.empty()) {
+    constexpr int kMargin = 16;
+    const cv::Rect box = cv::boundingRect(detect_mask);
+    region = cv::Rect(box.x - kMargin, box.y - kMargin, box.width + 2 * kMargin, box.height + 2 * kMargin) & region;
+  }
   cv::Ptr<cv::SIFT> sift = cv::SIFT::create(options_.max_frame_keypoints);
   std::vector<cv::KeyPoint> keypoints;
   cv::Mat descriptors;
-  sift->detectAndCompute(Grey8(frame), detect_mask.empty() ? cv::noArray() : cv::InputArray(detect_mask), keypoints,
-                         descriptors);
-  if (getenv("PF_DEBUG_FEATURES")) fprintf(stderr, "  %zu frame keypoints\n", keypoints.size());
+  DetectKeypoints(*sift, Grey8(frame(region)), detect_mask.empty() ? cv::Mat() : cv::Mat(detect_mask(region)),
+                  &keypoints, &descriptors);
   if (keypoints.empty()) return {};
+  for (cv::KeyPoint& k : keypoints) k.pt += cv::Point2f(static_cast<float>(region.x), static_cast<float>(region.y));
   std::vector<std::vector<cv::DMatch>> knn;
   cv::BFMatcher(cv::NORM_L2).knnMatch(descriptors, descriptors_, knn, 2);
   // The best frame keypoint per texture keypoint, among those passing the
@@ -174,9 +198,6 @@ std::vector<FeatureMatch> TextureFeatures::Match(const cv::Mat& frame, const cv:
   if (static_cast<int>(from.size()) <= options_.neighbours) return {};
   const std::vector<bool> keep =
       ConsistentMatches(from, to, options_.neighbours, options_.tolerance_px, options_.relative_tolerance);
-  if (getenv("PF_DEBUG_FEATURES"))
-    fprintf(stderr, "  %zu keypoints, %zu ratio, %ld consistent\n", keypoints.size(), from.size(),
-            std::count(keep.begin(), keep.end(), true));
   std::vector<FeatureMatch> matches;
   for (size_t k = 0; k < keep.size(); ++k) {
     if (!keep[k]) continue;

@@ -93,6 +93,18 @@ TEST(TextureFeaturesTest, MatchesAWarpedViewWhereTheWarpPutsTheSurface) {
   }
   EXPECT_GE(within, static_cast<int>(0.95 * matches.size()));
 
+  // The same matches, in the same order, every time (detection runs in
+  // parallel).
+  for (int repeat = 0; repeat < 3; ++repeat) {
+    const std::vector<FeatureMatch> again = features.Match(frame, cv::Mat());
+    ASSERT_EQ(again.size(), matches.size());
+    for (size_t k = 0; k < again.size(); ++k) {
+      EXPECT_EQ(again[k].face, matches[k].face);
+      EXPECT_EQ(again[k].pixel, matches[k].pixel);
+      EXPECT_EQ(again[k].barycentric, matches[k].barycentric);
+    }
+  }
+
   // An empty mask: no keypoints, no matches.
   EXPECT_TRUE(features.Match(frame, cv::Mat::zeros(frame.size(), CV_32F)).empty());
 }
