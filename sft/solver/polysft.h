@@ -137,8 +137,8 @@ struct PolySftOptions {
   // features_on_finest, every level). They reach as far as the surface
   // moved, where the image terms reach only the coarsest level's blur, and
   // they say whether a frame is found (Tracked). 0: off, the default: at
-  // 100 the simulated fall's e3D drops 0.048 -> 0.037 and the table's
-  // 0.079 -> 0.068, but the flag's rises 0.042 -> 0.047, and on a 160 px
+  // 100 the simulated fall's e3D drops 0.048 -> 0.021 and the table's
+  // 0.079 -> 0.066, but the flag's rises 0.042 -> 0.044, and on a 160 px
   // sheet turning 60 degrees between frames they pulled it into its
   // mirror image, which fits the image better and the keypoints exactly
   // (docs/benchmarks.md). Needs the photometric term.
