@@ -3,7 +3,8 @@
 // leaves the image entirely and comes back, a black frame (a dropped
 // frame: no picture, an empty mask), and simulated cloth that falls faster
 // than the pyramid reaches or folds over itself. Each must give finite vertices in
-// every frame and say what happened in its warnings. How well it tracks
+// every frame and say what happened in its warnings, with and without
+// keypoint correspondences (an option). How well it tracks
 // again is measured, not required: today it finds the sheet again where
 // it returns near where it was lost (the recovery of large motion is the
 // issue "PolySfT on cloth that moves under gravity and wind").
@@ -28,8 +29,9 @@ SheetSceneOptions Rigid(int frames) {
   return o;
 }
 
-PolySftSummary Solve(const std::string& dir) {
+PolySftSummary Solve(const std::string& dir, double feature_weight = 0.0) {
   PolySftOptions options;
+  options.feature_weight = feature_weight;
   options.num_threads = 2;
   options.rasterizer.num_threads = 2;
   return SolvePolySft(options, LoadScene(dir));
@@ -146,6 +148,37 @@ TEST(PolySftStressTest, ClothFallingFasterThanThePyramidReachesAndFoldingOverIts
     Report(motion == SheetMotion::kFall ? "fall" : "table", summary);
     ExpectFiniteEverywhere(summary, 40);
     EXPECT_FALSE(summary.warnings.empty());
+  }
+}
+
+// The same extremes with keypoint correspondences on (feature_weight):
+// frames with no mask or no matches, a sheet seen edge-on, leaving the
+// image, and cloth that folds over itself all give a defined outcome.
+TEST(PolySftStressTest, KeypointsAtTheExtremes) {
+  ScopedTempDir dir("polyfit_sft_keypoint_extremes");
+  SheetSceneOptions leaving = Rigid(17);
+  leaving.sideways_amplitude = 0.3;
+  leaving.yaw_amplitude = 0.0;
+  SheetSceneOptions edge_on = Rigid(13);
+  edge_on.yaw_amplitude = M_PI / 2;
+  SheetSceneOptions table = SheetSceneOptions::Small(160, 12, 40);
+  table.motion = SheetMotion::kTable;
+  const std::pair<const char*, SheetSceneOptions> scenes[] = {
+      {"leaving the image, keypoints", leaving}, {"edge-on, keypoints", edge_on}, {"table, keypoints", table}};
+  for (const auto& [name, o] : scenes) {
+    const std::string path = (dir.path() / name).string();
+    GenerateSheetScene(o, path);
+    if (std::string(name).rfind("leaving", 0) == 0) {  // and a black frame with an empty mask
+      cv::imwrite((dir.path() / name / "frames" / "000003.png").string(),
+                  cv::Mat(o.height, o.width, CV_8UC3, cv::Scalar(0, 0, 0)));
+      cv::imwrite((dir.path() / name / "masks" / "000003.png").string(),
+                  cv::Mat(o.height, o.width, CV_8U, cv::Scalar(0)));
+    }
+    const PolySftSummary summary = Solve(path, 100.0);
+    Report(name, summary);
+    ExpectFiniteEverywhere(summary, o.frame_count);
+    EXPECT_FALSE(summary.warnings.empty());
+    EXPECT_EQ(summary.terms[2].first, "features");
   }
 }
 
