@@ -560,6 +560,11 @@ class PolySftController {
     SoftRasterizer(sharp, finest_texture_)
         .Render(screen, level.camera.width, level.camera.height, first.images.back(), false, &render);
     features_ = std::make_unique<TextureFeatures>(options_.features, render.color, render.silhouette, corners, depths);
+    if (features_->size() < std::max(options_.features.min_matches, 1)) {
+      summary_.warnings.emplace_back("the template shows " + std::to_string(features_->size()) +
+                                     " keypoints where the first frame sees it: keypoint correspondences "
+                                     "(feature_weight) have nothing to match");
+    }
   }
 
   // The split render terms of one problem, kept beside it, and the

@@ -343,6 +343,17 @@ TEST(PolySftTest, TexturelessTemplateIsWarnedAbout) {
   bool warned = false;
   for (const std::string& w : summary.warnings) warned |= w.find("little detail") != std::string::npos;
   EXPECT_TRUE(warned);
+  // With keypoints asked for: none to match, said so, and solved as
+  // without them.
+  PolySftOptions keypoints;
+  keypoints.feature_weight = 100.0;
+  const PolySftSummary with = SolvePolySft(keypoints, LoadScene(dir.path().string()));
+  ExpectFinite(with);
+  warned = false;
+  for (const std::string& w : with.warnings) warned |= w.find("nothing to match") != std::string::npos;
+  EXPECT_TRUE(warned);
+  ASSERT_EQ(with.frames.size(), summary.frames.size());
+  for (size_t t = 0; t < with.frames.size(); ++t) EXPECT_NEAR(with.frames[t].rmse_mm, summary.frames[t].rmse_mm, 1e-9);
 }
 
 TEST(PolySftTest, InvalidOptionsThrow) {
