@@ -544,9 +544,12 @@ class PolySftController {
     const LevelData& level = levels_.back();
     const Eigen::Matrix3Xd& vertices = scene_.template_mesh.vertices;
     ScreenMesh screen = mesh_template_;
-    Eigen::Matrix2Xd corners(2, 3 * screen.faces.cols());
-    Eigen::VectorXd depths(3 * screen.faces.cols());
+    // A template behind the camera has no view: no faces, no keypoints.
+    Eigen::Matrix2Xd corners(2, 0);
+    Eigen::VectorXd depths(0);
     if (ProjectVertices(level.camera, vertices, &screen, nullptr)) {
+      corners.resize(2, 3 * screen.faces.cols());
+      depths.resize(3 * screen.faces.cols());
       for (int f = 0; f < screen.faces.cols(); ++f) {
         for (int k = 0; k < 3; ++k) {
           corners.col(3 * f + k) = screen.pixels.col(screen.faces(k, f));
@@ -557,8 +560,12 @@ class PolySftController {
     SoftRasterizerOptions sharp = rasterizer_options_;
     sharp.sigma = options_.finest_sigma > 0.0 ? options_.finest_sigma : sharp.sigma;
     SoftRenderOutput render;
-    SoftRasterizer(sharp, finest_texture_)
-        .Render(screen, level.camera.width, level.camera.height, first.images.back(), false, &render);
+    if (corners.cols() > 0) {
+      SoftRasterizer(sharp, finest_texture_)
+          .Render(screen, level.camera.width, level.camera.height, first.images.back(), false, &render);
+    } else {
+      render.color = first.images.back();
+    }
     features_ = std::make_unique<TextureFeatures>(options_.features, render.color, render.silhouette, corners, depths);
     if (features_->size() < std::max(options_.features.min_matches, 1)) {
       summary_.warnings.emplace_back("the template shows " + std::to_string(features_->size()) +

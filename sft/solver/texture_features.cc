@@ -28,9 +28,10 @@ class FaceLocator {
   FaceLocator(const Eigen::Matrix2Xd& corners, const Eigen::VectorXd& depths) : corners_(corners), depths_(depths) {
     const int num_faces = static_cast<int>(corners.cols() / 3);
     cells_ = std::max(1, static_cast<int>(std::sqrt(static_cast<double>(num_faces))));
+    cell_faces_.resize(static_cast<size_t>(cells_) * cells_);
+    if (num_faces == 0) return;  // nothing is located
     lo_ = corners.rowwise().minCoeff();
     hi_ = corners.rowwise().maxCoeff();
-    cell_faces_.resize(static_cast<size_t>(cells_) * cells_);
     for (int f = 0; f < num_faces; ++f) {
       Eigen::Vector2d a = corners.col(3 * f), b = a;
       for (int k = 1; k < 3; ++k) {
@@ -82,7 +83,7 @@ class FaceLocator {
   const Eigen::Matrix2Xd& corners_;
   const Eigen::VectorXd& depths_;
   int cells_ = 1;
-  Eigen::Vector2d lo_, hi_;
+  Eigen::Vector2d lo_ = Eigen::Vector2d::Zero(), hi_ = Eigen::Vector2d::Zero();
   std::vector<std::vector<int>> cell_faces_;
 };
 

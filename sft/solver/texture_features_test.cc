@@ -109,6 +109,15 @@ TEST(TextureFeaturesTest, MatchesAWarpedViewWhereTheWarpPutsTheSurface) {
   EXPECT_TRUE(features.Match(frame, cv::Mat::zeros(frame.size(), CV_32F)).empty());
 }
 
+// No faces (a template the camera does not see): keypoints are found
+// but none lies on the surface, and nothing matches.
+TEST(TextureFeaturesTest, NoFacesLocateNothing) {
+  const cv::Mat view = RandomTexture(120, 3);
+  const TextureFeatures features(TextureFeatureOptions(), view, cv::Mat(), Eigen::Matrix2Xd(2, 0), Eigen::VectorXd());
+  EXPECT_EQ(features.size(), 0);
+  EXPECT_TRUE(features.Match(view, cv::Mat()).empty());
+}
+
 TEST(TextureFeaturesTest, RejectsBadInput) {
   TextureFeatureOptions options;
   options.ratio = 1.5;
