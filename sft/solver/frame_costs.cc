@@ -751,14 +751,13 @@ FeatureCost::FeatureCost(const JetDeformationModel* model, std::vector<Point> po
   }
   set_num_residuals(2 * static_cast<int>(points_.size()));
   for (size_t p = 0; p < patches_.size(); ++p) mutable_parameter_block_sizes()->push_back(model->block_size());
+  for (auto& d : corner_jacobians_) d.resize(3, model->block_size());
 }
 
 bool FeatureCost::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
   const int b = model_->block_size();
-  using RowMajor3 = Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::RowMajor>;
-  RowMajor3 d_corner[3];
+  auto& d_corner = corner_jacobians_;  // sized once: Ceres evaluates a cost on one thread at a time
   if (jacobians != nullptr) {
-    for (RowMajor3& d : d_corner) d.resize(3, b);
     for (size_t p = 0; p < patches_.size(); ++p) {
       if (jacobians[p] != nullptr)
         std::fill(jacobians[p], jacobians[p] + static_cast<size_t>(num_residuals()) * b, 0.0);

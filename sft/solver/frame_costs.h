@@ -293,6 +293,8 @@ class FeatureCost : public ceres::CostFunction {
   std::vector<int> patches_;
   // Per point and corner: the index into patches_ of the corner's patch.
   std::vector<Eigen::Vector3i> corner_blocks_;
+  // Each corner's d X / d theta (3 by block size, row-major), reused.
+  mutable Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::RowMajor> corner_jacobians_[3];
 };
 
 // D at pixel (x, y) of `distance` (pixel centres at integers), bilinear,
