@@ -316,6 +316,7 @@ void WriteOutputs(const DrapeSimulationOptions& options, const DrapeSimulationSu
                   {"k_c", w.collision},
                   {"k_i", w.inertia},
                   {"eps_m", w.collision_margin},
+                  {"margin_floor_m", physics.margin_floor},
                   {"kappa_N_per_m", physics.collision_stiffness},
                   {"boundary_base", physics.boundary_base},
                   {"stretch_base", physics.stretch_base},

@@ -137,6 +137,9 @@ std::string DrapeSolverOptions::Validate() const {
     if (!std::isfinite(w) || w < 0.0) return "weights, stiffnesses and material constants must be finite and >= 0";
   }
   if (!(p.material.area_density > 0.0)) return "physics.material.area_density must be positive";
+  if (std::isnan(p.margin_floor) || p.margin_floor > p.weights.collision_margin) {
+    return "physics.margin_floor must be at most the collision margin (< 0: off)";
+  }
   return {};
 }
 
@@ -204,6 +207,7 @@ struct DrapeSolver::Impl {
   std::unique_ptr<ceres::Problem> problem;
   std::vector<VertexTermsData> vertex_data;  // per membership
   std::vector<double> k_ext;                 // per vertex, set with the collisions
+  std::vector<double> margin;                // per vertex: the collision margin (DrapePhysicsOptions::margin_floor)
   double epoch = 0.0;                        // k_ext's epoch
   // Levenberg-Marquardt's trust region carried from solve to solve.
   double trust_region_radius = 0.0;
@@ -595,7 +599,7 @@ int DrapeSolver::Impl::LinearizeCollisions(const PolyFitModel& model) {
     for (int k : model.memberships(v)) {
       VertexTermsData& data = vertex_data[k];
       if (near) {
-        data.collision.emplace(contact[v].closest, contact[v].normal, o.weights.collision_margin, weight, 2);
+        data.collision.emplace(contact[v].closest, contact[v].normal, margin[v], weight, 2);
       } else {
         data.collision.reset();
       }
@@ -753,6 +757,13 @@ DrapeSolver::DrapeSolver(const SkinnedBody& body, const TriangleMesh& garment, c
   m.CollectBoundary(model_);
   m.CollectFaceMetrics(model_);
   m.k_ext.assign(n, 1.0);
+  m.margin.assign(n, options.physics.weights.collision_margin);
+  if (options.physics.margin_floor >= 0.0) {
+    const Eigen::VectorXd clearance = m.distance.SignedDistances(positions_, options.num_threads);
+    for (int v = 0; v < n; ++v) {
+      m.margin[v] = std::clamp(clearance[v], options.physics.margin_floor, options.physics.weights.collision_margin);
+    }
+  }
 
   m.mass.resize(n);
   for (int v = 0; v < n; ++v) m.mass[v] = options.physics.material.area_density * m.rest.vertex_area[v];

@@ -63,6 +63,13 @@ struct DrapePhysicsOptions {
   double stretch_base = 5.0;
   // Collision terms for vertices closer to the body than this (m).
   double collision_band = 0.03;
+  // >= 0 (m): each vertex's margin is its rest clearance (its signed
+  // distance to the body at rest) clamped to [margin_floor,
+  // weights.collision_margin]. Where a garment is cut closer to the body
+  // than the margin, holding it the margin off must stretch it (a cuff of
+  // radius r by eps / r); the floor keeps a margin where it was cut into
+  // the body. < 0: every vertex has weights.collision_margin.
+  double margin_floor = -1.0;
   double gravity = 9.81;  // m/s^2
   double fps = 30.0;
 };

@@ -131,6 +131,36 @@ TEST(DrapeSolverTest, PushesAShirtStartingInsideTheBodyOut) {
   EXPECT_GT(d.minCoeff(), -0.005);
 }
 
+// A shirt cut 5 mm off the torso, under a 10 mm margin: held 10 mm off
+// (stretched) with one margin for all, left at its cut with the margin
+// floor (each vertex's margin its rest clearance, clamped).
+TEST(DrapeSolverTest, TheMarginFloorLeavesATightShirtAtItsRestClearance) {
+  const SkinnedBody body = MakeProceduralBody();
+  const TriangleMesh shirt = MakeTube(0.145, 0.1, 0.4, 32, 10);
+  const std::vector<Eigen::Isometry3d> rest(body.skeleton.num_joints(), Eigen::Isometry3d::Identity());
+  double mean_distance[2] = {0.0, 0.0}, rest_clearance = 0.0;
+  for (const bool floor : {false, true}) {
+    DrapeSolverOptions options;
+    options.patching.patch_area = 0.04;
+    options.physics.weights.collision_margin = 0.010;
+    options.physics.margin_floor = floor ? 0.002 : -1.0;
+    DrapeSolver solver(body, shirt, SingleJointWeights(shirt.num_vertices(), 1), options);
+    rest_clearance = solver.SignedDistances().mean();  // 6 mm: the body is a polygon
+    EXPECT_GT(rest_clearance, 0.004);
+    EXPECT_LT(rest_clearance, 0.007);
+    for (int step = 0; step < 3; ++step) ASSERT_TRUE(solver.Step(rest).IsSolutionUsable());
+    mean_distance[floor] = solver.SignedDistances().mean();
+  }
+  EXPECT_GT(mean_distance[0], 0.008);
+  EXPECT_NEAR(mean_distance[1], rest_clearance, 1e-4);
+  // A floor above the margin is refused.
+  DrapeSolverOptions bad;
+  bad.physics.margin_floor = bad.physics.weights.collision_margin + 1e-3;
+  EXPECT_NE(bad.Validate().find("margin_floor"), std::string::npos);
+  bad.physics.margin_floor = std::nan("");
+  EXPECT_NE(bad.Validate().find("margin_floor"), std::string::npos);
+}
+
 // Without warps (slides zero) and with each patch's warp of order 0..2
 // setting the slides.
 // A shirt of radius 0.138 m, 2 mm inside the torso (collisions are on),

@@ -164,6 +164,10 @@ void AddSimulatePhysicsOptions(CLI::App* simulate, SimulateFlags* f) {
   simulate->add_option("--k-i", options.solver.physics.weights.inertia, "inertia weight")->capture_default_str();
   simulate->add_option("--eps", options.solver.physics.weights.collision_margin, "collision margin (m)")
       ->capture_default_str();
+  simulate
+      ->add_option("--margin-floor", options.solver.physics.margin_floor,
+                   "per vertex, the margin is its rest clearance clamped to [this, --eps] (m; < 0: off)")
+      ->capture_default_str();
   simulate->add_option("--collision-stiffness", options.solver.physics.collision_stiffness, "kappa (N/m)")
       ->capture_default_str();
   AddSkinFlags(simulate, &options.skin);
@@ -277,6 +281,10 @@ void AddTrainLossFlags(CLI::App* train, polyfit::OneFitTrainerOptions* trainer) 
                    "the loss's collision weight (the reference drape's by default; refinement keeps its own)")
       ->capture_default_str();
   train->add_option("--eps", t.drape.physics.weights.collision_margin, "the loss's collision margin (m)")
+      ->capture_default_str();
+  train
+      ->add_option("--margin-floor", t.drape.physics.margin_floor,
+                   "per vertex, the loss's margin is its rest clearance clamped to [this, --eps] (m; < 0: off)")
       ->capture_default_str();
   train
       ->add_option("--k-mi", t.drape.physics.weights.inextensibility,
