@@ -635,13 +635,12 @@ class PolySftController {
       by_patches[patches].push_back({corners, m.barycentric, to_level * (m.pixel.array() + 0.5) - 0.5});
     }
     const std::vector<double*> blocks = Blocks(frame.theta);
-    for (auto& [patches, points] : by_patches) {
+    for (auto& group : by_patches) {
+      auto* cost = new FeatureCost(&model_, std::move(group.second), level.camera, w / level.scale,
+                                   options_.feature_dead_zone_px * level.scale, w * options_.feature_huber_px);
       std::vector<double*> cost_blocks;
-      for (int p : patches) cost_blocks.push_back(blocks[p]);
-      problem->AddResidualBlock(new CompressedCost(new FeatureCost(
-                                    &model_, std::move(points), level.camera, w / level.scale,
-                                    options_.feature_dead_zone_px * level.scale, w * options_.feature_huber_px)),
-                                nullptr, cost_blocks);
+      for (int p : cost->patches()) cost_blocks.push_back(blocks[p]);
+      problem->AddResidualBlock(new CompressedCost(cost), nullptr, cost_blocks);
     }
   }
 
