@@ -8,11 +8,11 @@
 // reference drape (per-vertex slides, LM) is the output space's, and the gap
 // between this and a trained network is the training's.
 //
-//   output_space_benchmark [DATA_DIR [GARMENT [FRAMES [AREA:WARP:ITERATIONS[:KC[:EPS[:FLOOR]]],...
+//   output_space_benchmark [DATA_DIR [GARMENT [FRAMES [AREA:WARP:ITERATIONS[:KC[:EPS[:FLOOR[:KB]]]],...
 //                          [MODEL]]]]]
-//   (DATA_DIR: ../shared/data/drape; WARP -1: no warp head; KC, EPS, FLOOR:
-//   the collision weight, margin and margin floor, the drape's defaults if
-//   not given; the default configurations are the table of
+//   (DATA_DIR: ../shared/data/drape; WARP -1: no warp head; KC, EPS, FLOOR,
+//   KB: the collision weight, margin and margin floor and the patch
+//   boundary weight, the drape's defaults if not given; the default configurations are the table of
 //   docs/benchmarks.md. MODEL: a .pfonefit whose skinning and patching
 //   (frames, fit error, curved faces, jet order) the garment takes, as
 //   `onefit drape` gives it; AREA and WARP still come from the list.)
@@ -115,28 +115,28 @@ int main(int argc, char** argv) {
   std::printf("%s, walk frames 0-%d, the drape solved in the network's output space (L-BFGS per frame)\n\n",
               garment.c_str(), frames - 1);
   std::printf(
-      "| patch area m^2 | patches | warp order | k_c | eps mm | floor mm | L-BFGS iterations (mean taken) | energy J | "
-      "eps_c %% | eps_e %% |\n");
-  std::printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+      "| patch area m^2 | patches | warp order | k_c | eps mm | floor mm | k_b | L-BFGS iterations (mean taken) | "
+      "energy J | eps_c %% | eps_e %% |\n");
+  std::printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
   const DrapingWeights defaults;
   struct Config {
     double area;
     int warp, iterations;
-    double collision, margin, floor;
+    double collision, margin, floor, boundary;
   };
-  const double kc = defaults.collision, eps = defaults.collision_margin;
+  const double kc = defaults.collision, eps = defaults.collision_margin, kb = defaults.boundary;
   const double floor = DrapePhysicsOptions{}.margin_floor;
-  std::vector<Config> configs = {Config{0.04, -1, 200, kc, eps, floor}, Config{0.04, 2, 200, kc, eps, floor},
-                                 Config{0.04, 2, 1000, kc, eps, floor}, Config{0.04, 4, 200, kc, eps, floor},
-                                 Config{0.02, 2, 200, kc, eps, floor}};
+  std::vector<Config> configs = {Config{0.04, -1, 200, kc, eps, floor, kb}, Config{0.04, 2, 200, kc, eps, floor, kb},
+                                 Config{0.04, 2, 1000, kc, eps, floor, kb}, Config{0.04, 4, 200, kc, eps, floor, kb},
+                                 Config{0.02, 2, 200, kc, eps, floor, kb}};
   if (argc > 4) {
     configs.clear();
     std::istringstream list(argv[4]);
     for (std::string item; std::getline(list, item, ',');) {
-      Config c{0.0, 0, 0, kc, eps, floor};
-      if (std::sscanf(item.c_str(), "%lf:%d:%d:%lf:%lf:%lf", &c.area, &c.warp, &c.iterations, &c.collision, &c.margin,
-                      &c.floor) < 3) {
-        std::fprintf(stderr, "output_space_benchmark: '%s' is not AREA:WARP:ITERATIONS[:KC[:EPS[:FLOOR]]]\n",
+      Config c{0.0, 0, 0, kc, eps, floor, kb};
+      if (std::sscanf(item.c_str(), "%lf:%d:%d:%lf:%lf:%lf:%lf", &c.area, &c.warp, &c.iterations, &c.collision,
+                      &c.margin, &c.floor, &c.boundary) < 3) {
+        std::fprintf(stderr, "output_space_benchmark: '%s' is not AREA:WARP:ITERATIONS[:KC[:EPS[:FLOOR[:KB]]]]\n",
                      item.c_str());
         return 2;
       }
@@ -152,14 +152,15 @@ int main(int argc, char** argv) {
     options.physics.weights.collision = c.collision;
     options.physics.weights.collision_margin = c.margin;
     options.physics.margin_floor = c.floor;
+    options.physics.weights.boundary = c.boundary;
     options.num_threads = 2;
     DrapeSolver solver(body, mesh, weights, options);
     const Row row = DrapeInOutputSpace(&solver, *clip, frames, c.iterations);
     char floor_mm[32] = "none";
     if (c.floor >= 0.0) std::snprintf(floor_mm, sizeof(floor_mm), "%g", 1e3 * c.floor);
-    std::printf("| %g | %d | %d | %g | %g | %s | %d (%.0f) | %.0f | %.2f | %.2f |\n", c.area, solver.num_patches(),
-                c.warp, c.collision, 1e3 * c.margin, floor_mm, c.iterations, row.iterations, row.energy, row.inside,
-                row.strain);
+    std::printf("| %g | %d | %d | %g | %g | %s | %g | %d (%.0f) | %.0f | %.2f | %.2f |\n", c.area, solver.num_patches(),
+                c.warp, c.collision, 1e3 * c.margin, floor_mm, c.boundary, c.iterations, row.iterations, row.energy,
+                row.inside, row.strain);
     std::fflush(stdout);
   }
   return 0;

@@ -291,6 +291,11 @@ void AddTrainLossFlags(CLI::App* train, polyfit::OneFitTrainerOptions* trainer) 
                    "the loss's inextensibility weight (metric tensor and edges; the reference drape's by default)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  train
+      ->add_option("--k-b", t.drape.physics.weights.boundary,
+                   "the loss's patch boundary weight (positions and normals; the reference drape's by default)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
 }
 
 // The network's layer and embedding sizes.
