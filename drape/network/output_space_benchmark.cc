@@ -12,11 +12,13 @@
 //                          [MODEL]]]]]
 //   (DATA_DIR: ../shared/data/drape; WARP -1: no warp head; KC, EPS, FLOOR,
 //   KB: the collision weight, margin and margin floor and the patch
-//   boundary weight, the drape's defaults if not given; the default configurations are the table of
-//   docs/benchmarks.md. MODEL: a .pfonefit whose skinning and patching
-//   (frames, fit error, curved faces, jet order) the garment takes, as
-//   `onefit drape` gives it; AREA and WARP still come from the list.)
+//   boundary weight, the drape's defaults if not given; the default
+//   configurations are the table of docs/benchmarks.md. MODEL: a .pfonefit
+//   whose skinning and patching (frames, fit error, curved faces, jet
+//   order) the garment takes, as `onefit drape` gives it; AREA and WARP
+//   still come from the list.)
 #include <cstdio>
+#include <exception>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -108,7 +110,12 @@ int main(int argc, char** argv) {
   SkinWeights weights = loaded->walk.weights;
   std::optional<OneFitModel> model;
   if (argc > 5) {
-    model = LoadOneFitModel(argv[5]);
+    try {
+      model = LoadOneFitModel(argv[5]);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "output_space_benchmark: %s\n", e.what());
+      return 1;
+    }
     weights = TransferSkinWeights(body, mesh, model->skin);
   }
   const auto& clip = loaded->walk.clip;
