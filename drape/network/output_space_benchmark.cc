@@ -9,7 +9,7 @@
 // between this and a trained network is the training's.
 //
 //   output_space_benchmark [DATA_DIR [GARMENT [FRAMES [AREA:WARP:ITERATIONS[:KC[:EPS[:FLOOR[:KB]]]],...
-//                          [MODEL]]]]]
+//                          [MODEL [reference]]]]]]
 //   (DATA_DIR: ../shared/data/drape; WARP -1: no warp head; KC, EPS, FLOOR,
 //   KB: the collision weight, margin and margin floor and the patch
 //   boundary weight, the drape's defaults if not given; the default
@@ -17,6 +17,12 @@
 //   whose skinning and patching (frames, fit error, curved faces, jet
 //   order) the garment takes, as `onefit drape` gives it; AREA and WARP
 //   still come from the list.)
+//   With `reference` after MODEL, per configuration: the reference drape on
+//   that loss, its slides replaced by each patch's warp fitted to them (a
+//   point of the network's output space), and ITERATIONS of L-BFGS from
+//   there each frame: whether the output space holds a better drape than
+//   the frame-to-frame solve finds.
+#include <array>
 #include <cstdio>
 #include <exception>
 #include <filesystem>
@@ -63,22 +69,40 @@ struct Row {
 
 double PercentNegative(const Eigen::VectorXd& d) { return 100.0 * (d.array() < 0.0).count() / d.size(); }
 
-// Lead-in from rest to the first pose, then `frames` frames, each solved
-// from the one before with `iterations` L-BFGS iterations.
-Row DrapeInOutputSpace(DrapeSolver* solver, const polyfit::MotionRetargeter& clip, int frames, int iterations) {
-  const int lead_in = 10;
-  std::vector<double> params = solver->RestPatchParameters();
-  Eigen::Matrix3Xd previous = solver->PositionsOf(params), before_previous = previous;
-  const polyfit::ClothRest rest = polyfit::PrepareClothRest(solver->rest_garment());
+constexpr int kLeadIn = 10;
+
+std::vector<Eigen::Isometry3d> LeadInOrFrame(const polyfit::MotionRetargeter& clip, int k) {
+  return k < kLeadIn ? clip.Pose(0, (k + 1.0) / (kLeadIn + 1.0)) : clip.Pose(k - kLeadIn);
+}
+
+ceres::GradientProblemSolver::Options LbfgsOptions(int iterations) {
   ceres::GradientProblemSolver::Options options;
   options.max_num_iterations = iterations;
   options.line_search_direction_type = ceres::LBFGS;
   options.max_num_line_search_step_size_iterations = 40;
   options.function_tolerance = 1e-10;
   options.gradient_tolerance = 1e-12;
+  return options;
+}
+
+// Adds a frame's measures (inside %, strain %) of positions x to row.
+void Measure(const DrapeSolver& solver, const polyfit::ClothRest& rest, const Eigen::Matrix3Xd& x, int frames,
+             Row* row) {
+  row->inside += PercentNegative(solver.SignedDistances(x)) / frames;
+  row->strain += polyfit::MeasureCloth(rest, x).edge_strain_percent / frames;
+}
+
+// Lead-in from rest to the first pose, then `frames` frames, each solved
+// from the one before with `iterations` L-BFGS iterations.
+Row DrapeInOutputSpace(DrapeSolver* solver, const polyfit::MotionRetargeter& clip, int frames, int iterations) {
+  std::vector<double> params = solver->RestPatchParameters();
+  Eigen::Matrix3Xd previous = solver->PositionsOf(params), before_previous = previous;
+  const polyfit::ClothRest rest = polyfit::PrepareClothRest(solver->rest_garment());
+  const ceres::GradientProblemSolver::Options options = LbfgsOptions(iterations);
   Row row;
+  const int lead_in = kLeadIn;
   for (int k = 0; k < lead_in + frames; ++k) {
-    const auto pose = k < lead_in ? clip.Pose(0, (k + 1.0) / (lead_in + 1.0)) : clip.Pose(k - lead_in);
+    const auto pose = LeadInOrFrame(clip, k);
     solver->SetHistory(previous, before_previous);
     solver->Pose(pose, k);
     ceres::GradientProblem problem(new FrameLoss(solver));
@@ -89,10 +113,48 @@ Row DrapeInOutputSpace(DrapeSolver* solver, const polyfit::MotionRetargeter& cli
     previous = solver->PositionsOf(params);
     if (k < lead_in) continue;
     row.energy += summary.final_cost / frames;
-    row.inside += PercentNegative(solver->SignedDistances(previous)) / frames;
-    row.strain += polyfit::MeasureCloth(rest, previous).edge_strain_percent / frames;
+    Measure(*solver, rest, previous, frames, &row);
   }
   return row;
+}
+
+// The reference drape (Step: LM over the patch parameters and each vertex's
+// slide) on the same loss; per frame, its slides replaced by each patch's
+// warp fitted to them (PatchParameters: a point of the network's output
+// space) and, from there, `iterations` L-BFGS iterations on the loss with
+// the reference drape's frames as the history. Rows: the reference drape,
+// the fitted warps (energy: the loss there), L-BFGS from them.
+std::array<Row, 3> ReferenceAndFittedWarps(DrapeSolver* solver, const polyfit::MotionRetargeter& clip, int frames,
+                                           int iterations) {
+  const polyfit::ClothRest rest = polyfit::PrepareClothRest(solver->rest_garment());
+  const ceres::GradientProblemSolver::Options options = LbfgsOptions(iterations);
+  std::array<Row, 3> rows;
+  Eigen::Matrix3Xd previous, before_previous;
+  for (int k = 0; k < kLeadIn + frames; ++k) {
+    const auto pose = LeadInOrFrame(clip, k);
+    solver->Step(pose, k);
+    const Eigen::Matrix3Xd x = solver->positions();
+    if (k >= kLeadIn) {
+      std::vector<double> params = solver->PatchParameters();
+      // The loss as the reference drape's frame saw it (its history), then
+      // the solver's own history back for its next step.
+      solver->SetHistory(previous, before_previous);
+      solver->Pose(pose, k);
+      rows[1].energy += solver->Evaluate(params, nullptr) / frames;
+      Measure(*solver, rest, x, frames, &rows[0]);
+      Measure(*solver, rest, solver->PositionsOf(params), frames, &rows[1]);
+      ceres::GradientProblem problem(new FrameLoss(solver));
+      ceres::GradientProblemSolver::Summary summary;
+      ceres::Solve(options, problem, params.data(), &summary);
+      rows[2].energy += summary.final_cost / frames;
+      rows[2].iterations += static_cast<double>(summary.iterations.size()) / frames;
+      Measure(*solver, rest, solver->PositionsOf(params), frames, &rows[2]);
+      solver->SetHistory(x, previous);
+    }
+    before_previous = k > 0 ? previous : x;
+    previous = x;
+  }
+  return rows;
 }
 
 }  // namespace
@@ -117,6 +179,11 @@ int main(int argc, char** argv) {
       return 1;
     }
     weights = TransferSkinWeights(body, mesh, model->skin);
+  }
+  const bool from_reference = argc > 6 && std::string(argv[6]) == "reference";
+  if (argc > 6 && !from_reference) {
+    std::fprintf(stderr, "output_space_benchmark: the mode after MODEL is 'reference' or nothing, not '%s'\n", argv[6]);
+    return 2;
   }
   const auto& clip = loaded->walk.clip;
   std::printf("%s, walk frames 0-%d, the drape solved in the network's output space (L-BFGS per frame)\n\n",
@@ -162,6 +229,16 @@ int main(int argc, char** argv) {
     options.physics.weights.boundary = c.boundary;
     options.num_threads = 2;
     DrapeSolver solver(body, mesh, weights, options);
+    if (from_reference) {
+      const std::array<Row, 3> rows = ReferenceAndFittedWarps(&solver, *clip, frames, c.iterations);
+      std::printf(
+          "k_c %g, eps %g mm, warp order %d: reference drape %.2f / %.2f; its slides as fitted warps %.2f / %.2f "
+          "(loss %.0f J); L-BFGS from there %.2f / %.2f (loss %.0f J, %.0f iterations)\n",
+          c.collision, 1e3 * c.margin, c.warp, rows[0].inside, rows[0].strain, rows[1].inside, rows[1].strain,
+          rows[1].energy, rows[2].inside, rows[2].strain, rows[2].energy, rows[2].iterations);
+      std::fflush(stdout);
+      continue;
+    }
     const Row row = DrapeInOutputSpace(&solver, *clip, frames, c.iterations);
     char floor_mm[32] = "none";
     if (c.floor >= 0.0) std::snprintf(floor_mm, sizeof(floor_mm), "%g", 1e3 * c.floor);
