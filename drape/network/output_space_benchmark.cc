@@ -9,7 +9,7 @@
 // between this and a trained network is the training's.
 //
 //   output_space_benchmark [DATA_DIR [GARMENT [FRAMES [AREA:WARP:ITERATIONS[:KC[:EPS[:FLOOR[:KB]]]],...
-//                          [MODEL [reference]]]]]]
+//                          [MODEL [reference|network]]]]]]
 //   (DATA_DIR: ../shared/data/drape; WARP -1: no warp head; KC, EPS, FLOOR,
 //   KB: the collision weight, margin and margin floor and the patch
 //   boundary weight, the drape's defaults if not given; the default
@@ -21,7 +21,10 @@
 //   that loss, its slides replaced by each patch's warp fitted to them (a
 //   point of the network's output space), and ITERATIONS of L-BFGS from
 //   there each frame: whether the output space holds a better drape than
-//   the frame-to-frame solve finds.
+//   the frame-to-frame solve finds. With `network`: MODEL's prediction per
+//   frame and ITERATIONS of L-BFGS from it (KC, EPS, FLOOR, KB as it was
+//   trained with; AREA and WARP its own).
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <exception>
@@ -157,6 +160,38 @@ std::array<Row, 3> ReferenceAndFittedWarps(DrapeSolver* solver, const polyfit::M
   return rows;
 }
 
+// The model's prediction per frame (its own frames as the history) and,
+// from it, `iterations` L-BFGS iterations on the loss: whether the
+// network's drape is in the basin of the best the output space holds.
+std::array<Row, 2> NetworkAndPolished(const polyfit::OneFitModel& model, const polyfit::SkinnedBody& body,
+                                      const polyfit::SkinWeights& weights, DrapeSolver* solver,
+                                      const polyfit::MotionRetargeter& clip, int frames, int iterations) {
+  const polyfit::OneFitDraper draper(model, *solver, weights, body.skeleton, &body);
+  const polyfit::ClothRest rest = polyfit::PrepareClothRest(solver->rest_garment());
+  const ceres::GradientProblemSolver::Options options = LbfgsOptions(iterations);
+  std::array<Row, 2> rows;
+  Eigen::Matrix3Xd previous, before_previous;
+  const auto pose = [&](int f) { return clip.Pose(std::max(f, 0)); };
+  for (int f = 0; f < frames; ++f) {
+    std::vector<double> params = draper.Predict(pose(f - 2), pose(f - 1), pose(f), 30.0, polyfit::BodyShape{});
+    const Eigen::Matrix3Xd x = solver->PositionsAt(params, pose(f));
+    if (f == 0) previous = before_previous = x;
+    solver->SetHistory(previous, before_previous);
+    solver->Pose(pose(f), kLeadIn + f);
+    rows[0].energy += solver->Evaluate(params, nullptr) / frames;
+    Measure(*solver, rest, x, frames, &rows[0]);
+    ceres::GradientProblem problem(new FrameLoss(solver));
+    ceres::GradientProblemSolver::Summary summary;
+    ceres::Solve(options, problem, params.data(), &summary);
+    rows[1].energy += summary.final_cost / frames;
+    rows[1].iterations += static_cast<double>(summary.iterations.size()) / frames;
+    Measure(*solver, rest, solver->PositionsOf(params), frames, &rows[1]);
+    before_previous = previous;
+    previous = x;
+  }
+  return rows;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -181,8 +216,11 @@ int main(int argc, char** argv) {
     weights = TransferSkinWeights(body, mesh, model->skin);
   }
   const bool from_reference = argc > 6 && std::string(argv[6]) == "reference";
-  if (argc > 6 && !from_reference) {
-    std::fprintf(stderr, "output_space_benchmark: the mode after MODEL is 'reference' or nothing, not '%s'\n", argv[6]);
+  const bool from_network = argc > 6 && std::string(argv[6]) == "network";
+  if (argc > 6 && !from_reference && !from_network) {
+    std::fprintf(stderr,
+                 "output_space_benchmark: the mode after MODEL is 'reference', 'network' or nothing, not '%s'\n",
+                 argv[6]);
     return 2;
   }
   const auto& clip = loaded->walk.clip;
@@ -229,6 +267,16 @@ int main(int argc, char** argv) {
     options.physics.weights.boundary = c.boundary;
     options.num_threads = 2;
     DrapeSolver solver(body, mesh, weights, options);
+    if (from_network) {
+      const std::array<Row, 2> rows = NetworkAndPolished(*model, body, weights, &solver, *clip, frames, c.iterations);
+      std::printf(
+          "k_c %g, eps %g mm, warp order %d: the network %.2f / %.2f (loss %.0f J); L-BFGS from it %.2f / %.2f "
+          "(loss %.0f J, %.0f iterations)\n",
+          c.collision, 1e3 * c.margin, c.warp, rows[0].inside, rows[0].strain, rows[0].energy, rows[1].inside,
+          rows[1].strain, rows[1].energy, rows[1].iterations);
+      std::fflush(stdout);
+      continue;
+    }
     if (from_reference) {
       const std::array<Row, 3> rows = ReferenceAndFittedWarps(&solver, *clip, frames, c.iterations);
       std::printf(
