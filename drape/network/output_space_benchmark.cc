@@ -95,6 +95,18 @@ void Measure(const DrapeSolver& solver, const polyfit::ClothRest& rest, const Ei
   row->strain += polyfit::MeasureCloth(rest, x).edge_strain_percent / frames;
 }
 
+// L-BFGS on the posed solver's loss from params (moved in place); the
+// result's loss, iterations and measures added to row.
+void SolveAndMeasure(const ceres::GradientProblemSolver::Options& options, DrapeSolver* solver,
+                     const polyfit::ClothRest& rest, int frames, std::vector<double>* params, Row* row) {
+  ceres::GradientProblem problem(new FrameLoss(solver));
+  ceres::GradientProblemSolver::Summary summary;
+  ceres::Solve(options, problem, params->data(), &summary);
+  row->energy += summary.final_cost / frames;
+  row->iterations += static_cast<double>(summary.iterations.size()) / frames;
+  Measure(*solver, rest, solver->PositionsOf(*params), frames, row);
+}
+
 // Lead-in from rest to the first pose, then `frames` frames, each solved
 // from the one before with `iterations` L-BFGS iterations.
 Row DrapeInOutputSpace(DrapeSolver* solver, const polyfit::MotionRetargeter& clip, int frames, int iterations) {
@@ -146,12 +158,7 @@ std::array<Row, 3> ReferenceAndFittedWarps(DrapeSolver* solver, const polyfit::M
       rows[1].energy += solver->Evaluate(params, nullptr) / frames;
       Measure(*solver, rest, x, frames, &rows[0]);
       Measure(*solver, rest, solver->PositionsOf(params), frames, &rows[1]);
-      ceres::GradientProblem problem(new FrameLoss(solver));
-      ceres::GradientProblemSolver::Summary summary;
-      ceres::Solve(options, problem, params.data(), &summary);
-      rows[2].energy += summary.final_cost / frames;
-      rows[2].iterations += static_cast<double>(summary.iterations.size()) / frames;
-      Measure(*solver, rest, solver->PositionsOf(params), frames, &rows[2]);
+      SolveAndMeasure(options, solver, rest, frames, &params, &rows[2]);
       solver->SetHistory(x, previous);
     }
     before_previous = k > 0 ? previous : x;
@@ -180,12 +187,7 @@ std::array<Row, 2> NetworkAndPolished(const polyfit::OneFitModel& model, const p
     solver->Pose(pose(f), kLeadIn + f);
     rows[0].energy += solver->Evaluate(params, nullptr) / frames;
     Measure(*solver, rest, x, frames, &rows[0]);
-    ceres::GradientProblem problem(new FrameLoss(solver));
-    ceres::GradientProblemSolver::Summary summary;
-    ceres::Solve(options, problem, params.data(), &summary);
-    rows[1].energy += summary.final_cost / frames;
-    rows[1].iterations += static_cast<double>(summary.iterations.size()) / frames;
-    Measure(*solver, rest, solver->PositionsOf(params), frames, &rows[1]);
+    SolveAndMeasure(options, solver, rest, frames, &params, &rows[1]);
     before_previous = previous;
     previous = x;
   }
