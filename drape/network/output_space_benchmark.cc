@@ -194,6 +194,88 @@ std::array<Row, 2> NetworkAndPolished(const polyfit::OneFitModel& model, const p
   return rows;
 }
 
+// One configuration: the patching (its area and warp order) and the loss's
+// weights; the rest as the drape's defaults.
+struct Config {
+  double area;
+  int warp, iterations;
+  double collision, margin, floor, boundary;
+};
+
+// The configurations of argv[4] (AREA:WARP:ITERATIONS[:KC[:EPS[:FLOOR[:KB]]]],
+// comma-separated), else the defaults (the table of docs/benchmarks.md);
+// empty, after saying why, when one does not parse.
+std::vector<Config> ParseConfigs(int argc, char** argv) {
+  const polyfit::DrapingWeights defaults;
+  const double kc = defaults.collision, eps = defaults.collision_margin, kb = defaults.boundary;
+  const double floor = polyfit::DrapePhysicsOptions{}.margin_floor;
+  if (argc <= 4) {
+    return {Config{0.04, -1, 200, kc, eps, floor, kb}, Config{0.04, 2, 200, kc, eps, floor, kb},
+            Config{0.04, 2, 1000, kc, eps, floor, kb}, Config{0.04, 4, 200, kc, eps, floor, kb},
+            Config{0.02, 2, 200, kc, eps, floor, kb}};
+  }
+  std::vector<Config> configs;
+  std::istringstream list(argv[4]);
+  for (std::string item; std::getline(list, item, ',');) {
+    Config c{0.0, 0, 0, kc, eps, floor, kb};
+    if (std::sscanf(item.c_str(), "%lf:%d:%d:%lf:%lf:%lf:%lf", &c.area, &c.warp, &c.iterations, &c.collision, &c.margin,
+                    &c.floor, &c.boundary) < 3) {
+      std::fprintf(stderr, "output_space_benchmark: '%s' is not AREA:WARP:ITERATIONS[:KC[:EPS[:FLOOR[:KB]]]]\n",
+                   item.c_str());
+      return {};
+    }
+    configs.push_back(c);
+  }
+  return configs;
+}
+
+polyfit::DrapeSolverOptions SolverOptions(const Config& c, const polyfit::OneFitModel* model) {
+  polyfit::DrapeSolverOptions options;
+  if (model != nullptr) polyfit::PatchLikeModel(*model, &options);
+  options.patching.patch_area = c.area;
+  options.slide.warp_order = c.warp;
+  options.slide.enabled = c.warp >= 0;
+  options.physics.weights.collision = c.collision;
+  options.physics.weights.collision_margin = c.margin;
+  options.physics.margin_floor = c.floor;
+  options.physics.weights.boundary = c.boundary;
+  options.num_threads = 2;
+  return options;
+}
+
+enum class Mode { kOutputSpace, kReference, kNetwork };
+
+// One configuration's line (a table row in the output-space mode).
+void RunConfig(const Config& c, Mode mode, const polyfit::OneFitModel* model, const polyfit::BenchmarkWalk& walk,
+               const polyfit::SkinWeights& weights, int frames) {
+  const polyfit::SkinnedBody& body = walk.walk.body;
+  const polyfit::MotionRetargeter& clip = *walk.walk.clip;
+  DrapeSolver solver(body, walk.walk.garment, weights, SolverOptions(c, model));
+  if (mode == Mode::kNetwork) {
+    const std::array<Row, 2> rows = NetworkAndPolished(*model, body, weights, &solver, clip, frames, c.iterations);
+    std::printf(
+        "k_c %g, eps %g mm, warp order %d: the network %.2f / %.2f (loss %.0f J); L-BFGS from it %.2f / %.2f "
+        "(loss %.0f J, %.0f iterations)\n",
+        c.collision, 1e3 * c.margin, c.warp, rows[0].inside, rows[0].strain, rows[0].energy, rows[1].inside,
+        rows[1].strain, rows[1].energy, rows[1].iterations);
+  } else if (mode == Mode::kReference) {
+    const std::array<Row, 3> rows = ReferenceAndFittedWarps(&solver, clip, frames, c.iterations);
+    std::printf(
+        "k_c %g, eps %g mm, warp order %d: reference drape %.2f / %.2f; its slides as fitted warps %.2f / %.2f "
+        "(loss %.0f J); L-BFGS from there %.2f / %.2f (loss %.0f J, %.0f iterations)\n",
+        c.collision, 1e3 * c.margin, c.warp, rows[0].inside, rows[0].strain, rows[1].inside, rows[1].strain,
+        rows[1].energy, rows[2].inside, rows[2].strain, rows[2].energy, rows[2].iterations);
+  } else {
+    const Row row = DrapeInOutputSpace(&solver, clip, frames, c.iterations);
+    char floor_mm[32] = "none";
+    if (c.floor >= 0.0) std::snprintf(floor_mm, sizeof(floor_mm), "%g", 1e3 * c.floor);
+    std::printf("| %g | %d | %d | %g | %g | %s | %g | %d (%.0f) | %.0f | %.2f | %.2f |\n", c.area, solver.num_patches(),
+                c.warp, c.collision, 1e3 * c.margin, floor_mm, c.boundary, c.iterations, row.iterations, row.energy,
+                row.inside, row.strain);
+  }
+  std::fflush(stdout);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -203,9 +285,8 @@ int main(int argc, char** argv) {
   const std::optional<BenchmarkWalk> loaded = LoadBenchmarkWalk(argc, argv);
   if (!loaded) return 1;
   const int frames = argc > 3 ? std::atoi(argv[3]) : 30;
-  const std::string& garment = loaded->garment_path;
-  const SkinnedBody& body = loaded->walk.body;
-  const TriangleMesh& mesh = loaded->walk.garment;
+  const std::vector<Config> configs = ParseConfigs(argc, argv);
+  if (configs.empty()) return 2;
   SkinWeights weights = loaded->walk.weights;
   std::optional<OneFitModel> model;
   if (argc > 5) {
@@ -215,87 +296,26 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "output_space_benchmark: %s\n", e.what());
       return 1;
     }
-    weights = TransferSkinWeights(body, mesh, model->skin);
+    weights = TransferSkinWeights(loaded->walk.body, loaded->walk.garment, model->skin);
   }
-  const bool from_reference = argc > 6 && std::string(argv[6]) == "reference";
-  const bool from_network = argc > 6 && std::string(argv[6]) == "network";
-  if (argc > 6 && !from_reference && !from_network) {
+  const std::string mode_name = argc > 6 ? argv[6] : "";
+  const Mode mode = mode_name == "reference" ? Mode::kReference
+                    : mode_name == "network" ? Mode::kNetwork
+                                             : Mode::kOutputSpace;
+  if (!mode_name.empty() && mode == Mode::kOutputSpace) {
     std::fprintf(stderr,
                  "output_space_benchmark: the mode after MODEL is 'reference', 'network' or nothing, not '%s'\n",
-                 argv[6]);
+                 mode_name.c_str());
     return 2;
   }
-  const auto& clip = loaded->walk.clip;
   std::printf("%s, walk frames 0-%d, the drape solved in the network's output space (L-BFGS per frame)\n\n",
-              garment.c_str(), frames - 1);
-  std::printf(
-      "| patch area m^2 | patches | warp order | k_c | eps mm | floor mm | k_b | L-BFGS iterations (mean taken) | "
-      "energy J | eps_c %% | eps_e %% |\n");
-  std::printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
-  const DrapingWeights defaults;
-  struct Config {
-    double area;
-    int warp, iterations;
-    double collision, margin, floor, boundary;
-  };
-  const double kc = defaults.collision, eps = defaults.collision_margin, kb = defaults.boundary;
-  const double floor = DrapePhysicsOptions{}.margin_floor;
-  std::vector<Config> configs = {Config{0.04, -1, 200, kc, eps, floor, kb}, Config{0.04, 2, 200, kc, eps, floor, kb},
-                                 Config{0.04, 2, 1000, kc, eps, floor, kb}, Config{0.04, 4, 200, kc, eps, floor, kb},
-                                 Config{0.02, 2, 200, kc, eps, floor, kb}};
-  if (argc > 4) {
-    configs.clear();
-    std::istringstream list(argv[4]);
-    for (std::string item; std::getline(list, item, ',');) {
-      Config c{0.0, 0, 0, kc, eps, floor, kb};
-      if (std::sscanf(item.c_str(), "%lf:%d:%d:%lf:%lf:%lf:%lf", &c.area, &c.warp, &c.iterations, &c.collision,
-                      &c.margin, &c.floor, &c.boundary) < 3) {
-        std::fprintf(stderr, "output_space_benchmark: '%s' is not AREA:WARP:ITERATIONS[:KC[:EPS[:FLOOR[:KB]]]]\n",
-                     item.c_str());
-        return 2;
-      }
-      configs.push_back(c);
-    }
+              loaded->garment_path.c_str(), frames - 1);
+  if (mode == Mode::kOutputSpace) {
+    std::printf(
+        "| patch area m^2 | patches | warp order | k_c | eps mm | floor mm | k_b | L-BFGS iterations (mean taken) | "
+        "energy J | eps_c %% | eps_e %% |\n");
+    std::printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
   }
-  for (const Config c : configs) {
-    DrapeSolverOptions options;
-    if (model) PatchLikeModel(*model, &options);
-    options.patching.patch_area = c.area;
-    options.slide.warp_order = c.warp;
-    options.slide.enabled = c.warp >= 0;
-    options.physics.weights.collision = c.collision;
-    options.physics.weights.collision_margin = c.margin;
-    options.physics.margin_floor = c.floor;
-    options.physics.weights.boundary = c.boundary;
-    options.num_threads = 2;
-    DrapeSolver solver(body, mesh, weights, options);
-    if (from_network) {
-      const std::array<Row, 2> rows = NetworkAndPolished(*model, body, weights, &solver, *clip, frames, c.iterations);
-      std::printf(
-          "k_c %g, eps %g mm, warp order %d: the network %.2f / %.2f (loss %.0f J); L-BFGS from it %.2f / %.2f "
-          "(loss %.0f J, %.0f iterations)\n",
-          c.collision, 1e3 * c.margin, c.warp, rows[0].inside, rows[0].strain, rows[0].energy, rows[1].inside,
-          rows[1].strain, rows[1].energy, rows[1].iterations);
-      std::fflush(stdout);
-      continue;
-    }
-    if (from_reference) {
-      const std::array<Row, 3> rows = ReferenceAndFittedWarps(&solver, *clip, frames, c.iterations);
-      std::printf(
-          "k_c %g, eps %g mm, warp order %d: reference drape %.2f / %.2f; its slides as fitted warps %.2f / %.2f "
-          "(loss %.0f J); L-BFGS from there %.2f / %.2f (loss %.0f J, %.0f iterations)\n",
-          c.collision, 1e3 * c.margin, c.warp, rows[0].inside, rows[0].strain, rows[1].inside, rows[1].strain,
-          rows[1].energy, rows[2].inside, rows[2].strain, rows[2].energy, rows[2].iterations);
-      std::fflush(stdout);
-      continue;
-    }
-    const Row row = DrapeInOutputSpace(&solver, *clip, frames, c.iterations);
-    char floor_mm[32] = "none";
-    if (c.floor >= 0.0) std::snprintf(floor_mm, sizeof(floor_mm), "%g", 1e3 * c.floor);
-    std::printf("| %g | %d | %d | %g | %g | %s | %g | %d (%.0f) | %.0f | %.2f | %.2f |\n", c.area, solver.num_patches(),
-                c.warp, c.collision, 1e3 * c.margin, floor_mm, c.boundary, c.iterations, row.iterations, row.energy,
-                row.inside, row.strain);
-    std::fflush(stdout);
-  }
+  for (const Config& c : configs) RunConfig(c, mode, model ? &*model : nullptr, *loaded, weights, frames);
   return 0;
 }
