@@ -86,6 +86,11 @@ std::string OneFitTrainerOptions::Validate() const {
   if (d.num_processes > 1 && !d.all_reduce) return "distribution: several processes need all_reduce";
   if (!(kext_final_epoch >= 0.0) || !std::isfinite(kext_final_epoch)) return "kext_final_epoch must be >= 0";
   if (!(joint_mask_reach >= 0.0 && joint_mask_reach <= 1.0)) return "joint_mask_reach must be in [0, 1]";
+  if (teacher.clips < 0 || teacher.max_frames < 0 || teacher.lead_in < 0 || teacher.batches < 0) {
+    return "teacher: clips, max_frames, lead_in and batches must be >= 0";
+  }
+  if ((teacher.clips > 0) != (teacher.batches > 0)) return "teacher: clips and batches go together";
+  if (teacher.batches > 0 && optimizer != OneFitOptimizer::kAdam) return "teacher: it needs the Adam optimiser";
   return {};
 }
 
@@ -102,6 +107,7 @@ std::string OneFitTrainingSummary::BriefReport() const {
               std::to_string(static_cast<int>(kSpikeRatio)) + "-fold)";
   }
   if (!polish.steps.empty()) report += "\n" + polish.BriefReport();
+  if (!teacher.batches.empty()) report = teacher.BriefReport() + "\n" + report;
   return report;
 }
 
@@ -360,17 +366,22 @@ std::vector<double> OneFitTrainer::Predict(const double* weights, int garment, i
 }
 
 std::vector<double> OneFitTrainer::PredictOn(const double* weights, int garment, int clip, int frame, int thread) {
+  Eigen::MatrixXd outputs;
+  std::vector<OutputProximity> at;
+  Outputs(weights, garment, clip, frame, thread, &outputs, nullptr, &at);
+  return PatchParametersFromOutputs(garments_[garment]->map, outputs, network_.num_coefficients());
+}
+
+void OneFitTrainer::Outputs(const double* weights, int garment, int clip, int frame, int thread,
+                            Eigen::MatrixXd* outputs, OneFitNetwork::Cache* cache, std::vector<OutputProximity>* at) {
   const GarmentData& g = *garments_.at(garment);
   if (g.body != clip_body_.at(clip)) throw std::invalid_argument("OneFitTrainer: a garment and a clip of two bodies");
-  Eigen::MatrixXd outputs;
-  OneFitNetwork::Cache cache;  // the feedback's input
+  OneFitNetwork::Cache local;  // the feedback's input
+  if (cache == nullptr && network_.feedback()) cache = &local;
   network_.Forward(weights, g.features, GarmentBodyFeatures(g, clip, frame), &g.joint_weights,
-                   ProximityAt(garment, clip, frame, thread), &outputs, network_.feedback() ? &cache : nullptr);
-  if (network_.feedback()) {
-    std::vector<OutputProximity> at;
-    ApplyFeedback(weights, garment, clip, frame, thread, &at, &cache, &outputs);
-  }
-  return PatchParametersFromOutputs(g.map, outputs, network_.num_coefficients());
+                   ProximityAt(garment, clip, frame, thread), outputs, cache);
+  at->clear();
+  if (network_.feedback()) ApplyFeedback(weights, garment, clip, frame, thread, at, cache, outputs);
 }
 
 void OneFitTrainer::PrepareSample(const double* weights, const double* history_weights, const OneFitSample& sample,
@@ -405,19 +416,23 @@ double OneFitTrainer::SampleLoss(const double* weights, const double* history_we
   const std::vector<double> params = PatchParametersFromOutputs(g.map, outputs, network_.num_coefficients());
   std::vector<double> d_params;
   const double energy = g.solvers[thread]->Evaluate(params, gradient != nullptr ? &d_params : nullptr);
-  if (gradient != nullptr) {
-    Eigen::MatrixXd d_outputs = ChainPatchParameterGradient(g.map, outputs, network_.num_coefficients(), d_params);
-    // Back through F's passes to D's outputs: directly, and through the
-    // proximity at the patches each pass read.
-    Eigen::MatrixXd d_decoder_input;  // what reaches the encoders through F's passes
-    for (int pass = static_cast<int>(at.size()) - 1; pass >= 0; --pass) {
-      Eigen::MatrixXd d_input, d_proximity;
-      network_.FeedbackBackward(weights, cache, d_outputs, gradient, &d_input, &d_proximity, &d_decoder_input, pass);
-      d_outputs = d_input + at[pass].Chain(d_proximity);
-    }
-    network_.Backward(weights, cache, d_outputs, gradient, at.empty() ? nullptr : &d_decoder_input);
-  }
+  if (gradient != nullptr) BackPropagate(weights, g, outputs, cache, at, d_params, gradient);
   return energy;
+}
+
+void OneFitTrainer::BackPropagate(const double* weights, const GarmentData& g, const Eigen::MatrixXd& outputs,
+                                  const OneFitNetwork::Cache& cache, const std::vector<OutputProximity>& at,
+                                  const std::vector<double>& d_params, double* gradient) {
+  Eigen::MatrixXd d_outputs = ChainPatchParameterGradient(g.map, outputs, network_.num_coefficients(), d_params);
+  // Back through F's passes to D's outputs: directly, and through the
+  // proximity at the patches each pass read.
+  Eigen::MatrixXd d_decoder_input;  // what reaches the encoders through F's passes
+  for (int pass = static_cast<int>(at.size()) - 1; pass >= 0; --pass) {
+    Eigen::MatrixXd d_input, d_proximity;
+    network_.FeedbackBackward(weights, cache, d_outputs, gradient, &d_input, &d_proximity, &d_decoder_input, pass);
+    d_outputs = d_input + at[pass].Chain(d_proximity);
+  }
+  network_.Backward(weights, cache, d_outputs, gradient, at.empty() ? nullptr : &d_decoder_input);
 }
 
 double OneFitTrainer::Loss(const double* weights, const std::vector<OneFitSample>& samples, double* gradient) {
@@ -426,10 +441,6 @@ double OneFitTrainer::Loss(const double* weights, const std::vector<OneFitSample
 
 double OneFitTrainer::LossWithHistory(const double* weights, const double* history_weights,
                                       const std::vector<OneFitSample>& samples, double* gradient) {
-  const OneFitDistribution& d = options_.distribution;
-  std::vector<size_t> mine;  // this process's share of the samples
-  for (size_t i = d.process; i < samples.size(); i += d.num_processes) mine.push_back(i);
-  const int threads = std::max(1, std::min<int>(options_.num_threads, static_cast<int>(mine.size())));
   const int n = num_parameters();
   // Eigen's vectorised kernels round differently with the alignment of
   // the arrays they read, so the weights and the gradients are copied to
@@ -439,10 +450,24 @@ double OneFitTrainer::LossWithHistory(const double* weights, const double* histo
   const bool same_history = history_weights == weights;
   const Eigen::VectorXd aligned_history =
       same_history ? Eigen::VectorXd() : Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(history_weights, n));
-  weights = aligned.data();
-  history_weights = same_history ? weights : aligned_history.data();
+  history_weights = same_history ? aligned.data() : aligned_history.data();
+  return MeanOverSamples(
+      static_cast<int>(samples.size()),
+      [&](int i, int thread, double* g) {
+        return SampleLoss(aligned.data(), history_weights, samples[i], thread, g, epoch_);
+      },
+      gradient);
+}
+
+double OneFitTrainer::MeanOverSamples(int count, const std::function<double(int, int, double*)>& sample_loss,
+                                      double* gradient) {
+  const OneFitDistribution& d = options_.distribution;
+  std::vector<int> mine;  // this process's share of the samples
+  for (int i = d.process; i < count; i += d.num_processes) mine.push_back(i);
+  const int threads = std::max(1, std::min<int>(options_.num_threads, static_cast<int>(mine.size())));
+  const int n = num_parameters();
   std::vector<Eigen::VectorXd> gradients(threads);
-  std::vector<double> energies(samples.size(), 0.0);
+  std::vector<double> losses(count, 0.0);
   if (gradient != nullptr) {
     for (auto& g : gradients) g = Eigen::VectorXd::Zero(n);
   }
@@ -452,15 +477,14 @@ double OneFitTrainer::LossWithHistory(const double* weights, const double* histo
       threads, threads,
       [&](int, int t) {
         for (size_t k = t; k < mine.size(); k += threads) {
-          energies[mine[k]] = SampleLoss(weights, history_weights, samples[mine[k]], t,
-                                         gradient != nullptr ? gradients[t].data() : nullptr, epoch_);
+          losses[mine[k]] = sample_loss(mine[k], t, gradient != nullptr ? gradients[t].data() : nullptr);
         }
       },
       1);
-  const double scale = 1.0 / static_cast<double>(samples.size());
+  const double scale = 1.0 / static_cast<double>(count);
   // [loss, gradient]: reduced over the processes in one call.
   std::vector<double> sums(gradient != nullptr ? n + 1 : 1, 0.0);
-  for (size_t i : mine) sums[0] += scale * energies[i];
+  for (int i : mine) sums[0] += scale * losses[i];
   if (gradient != nullptr) {
     for (const auto& g : gradients) {
       for (int i = 0; i < n; ++i) sums[i + 1] += scale * g[i];
@@ -505,12 +529,24 @@ double AdamStepSize(const OneFitTrainerOptions& options, long long step) {
   return options.learning_rate * fraction;
 }
 
+OneFitBatchSummary OneFitTrainer::AdamBatch(const std::vector<OneFitSample>& batch, int index, AdamState* state,
+                                            std::vector<double>* weights) {
+  OneFitBatchSummary record;
+  record.batch = index;
+  record.initial_loss = AdamSteps([&](const double* w, double* g) { return Loss(w, batch, g); },
+                                  [&](long long step) { return AdamStepSize(options_, step); }, state, weights);
+  record.iterations = options_.iterations_per_batch;
+  record.final_loss = Loss(weights->data(), batch, nullptr);
+  return record;
+}
+
 // Adam (Kingma and Ba): m = b1 m + (1 - b1) g, v = b2 v + (1 - b2) g^2,
 // w -= rate m_hat / (sqrt(v_hat) + eps), its moments kept across batches;
 // with weight decay (AdamW) the layers' matrices also W -= rate lambda W,
 // from the weights the gradient was taken at.
-OneFitBatchSummary OneFitTrainer::AdamBatch(const std::vector<OneFitSample>& batch, int index, AdamState* state,
-                                            std::vector<double>* weights) {
+double OneFitTrainer::AdamSteps(const std::function<double(const double*, double*)>& loss,
+                                const std::function<double(long long)>& rate_at, AdamState* state,
+                                std::vector<double>* weights) {
   constexpr double kBeta1 = 0.9, kBeta2 = 0.999, kEpsilon = 1e-8;
   const size_t n = weights->size();
   if (state->m.size() != n) {
@@ -519,14 +555,13 @@ OneFitBatchSummary OneFitTrainer::AdamBatch(const std::vector<OneFitSample>& bat
   }
   std::vector<double> gradient(n);
   const std::vector<std::pair<int, int>> decayed = network_.WeightMatrixRanges();
-  OneFitBatchSummary record;
-  record.batch = index;
+  double initial = 0.0;
   for (int k = 0; k < options_.iterations_per_batch; ++k) {
-    const double loss = Loss(weights->data(), batch, gradient.data());
-    if (k == 0) record.initial_loss = loss;
+    const double value = loss(weights->data(), gradient.data());
+    if (k == 0) initial = value;
     ++state->steps;
     const double c1 = 1.0 - std::pow(kBeta1, state->steps), c2 = 1.0 - std::pow(kBeta2, state->steps);
-    const double rate = AdamStepSize(options_, state->steps);
+    const double rate = rate_at(state->steps);
     if (options_.weight_decay > 0.0) {
       const double shrink = 1.0 - rate * options_.weight_decay;
       for (const auto& [offset, size] : decayed) {
@@ -538,10 +573,8 @@ OneFitBatchSummary OneFitTrainer::AdamBatch(const std::vector<OneFitSample>& bat
       state->v[i] = kBeta2 * state->v[i] + (1.0 - kBeta2) * gradient[i] * gradient[i];
       (*weights)[i] -= rate * (state->m[i] / c1) / (std::sqrt(state->v[i] / c2) + kEpsilon);
     }
-    ++record.iterations;
   }
-  record.final_loss = Loss(weights->data(), batch, nullptr);
-  return record;
+  return initial;
 }
 
 void OneFitTrainer::SetValidationClip(OneFitTrainingClip clip) {

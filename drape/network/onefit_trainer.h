@@ -93,6 +93,25 @@ struct OneFitPolishOptions {
   double initial_damping = 1e-3;
 };
 
+// A warm start from the reference drape (OneFitTrainer::Teach): the
+// reference drape (DrapeSolver::Step: the training loss minimised over the
+// patch parameters and every vertex's slide) runs on some training clips
+// per garment, and the network is first fitted to its positions, by Adam on
+// DrapeSolver::DistanceTo, before the self-supervised loss takes over.
+// Training alone lands in a basin of the loss whose drapes keep skinning's
+// strain, although the network's output space holds the reference drape's
+// (docs/benchmarks.md, "its output space holds drapes with less strain").
+struct OneFitTeacherOptions {
+  // Per garment, this many of its body's training clips (drawn, seeded) the
+  // reference drape runs on; 0: no teacher.
+  int clips = 0;
+  int max_frames = 0;  // per clip, from its start (0: all)
+  int lead_in = 10;    // frames from rest into each clip's first pose (BlendFromRest)
+  // Adam batches (batch_size frames, iterations_per_batch steps each) on
+  // the distance, the step warmed up and decayed as training's over them.
+  int batches = 0;
+};
+
 struct OneFitTrainerOptions {
   OneFitNetworkOptions network;
   // The loss: the reference drape's terms, weights and patches.
@@ -161,6 +180,7 @@ struct OneFitTrainerOptions {
   int num_threads = 2;  // per process
   OneFitDistribution distribution;
   OneFitPolishOptions polish;
+  OneFitTeacherOptions teacher;
 
   std::string Validate() const;
 };
@@ -210,13 +230,47 @@ struct OneFitPolishSummary {
   std::string BriefReport() const;
 };
 
+struct OneFitTeacherBatch {
+  int batch = 0;
+  // The root of the batch's mean squared distance to the reference drape
+  // (area-weighted over vertices, mm) before its steps and after.
+  double initial_rms_mm = 0.0, final_rms_mm = 0.0;
+  double time_s = 0.0;  // since the teacher started (its reference drapes included)
+};
+
+// One reference drape of the teacher (a garment through a clip), over its
+// frames kept: how far it is from the garment's rest patches skinned (what
+// a new network predicts; RMS over vertices, mm), epsilon_c and epsilon_e
+// (%), means.
+struct OneFitTeacherDrape {
+  std::string garment, clip;
+  int frames = 0;
+  double from_skinning_mm = 0.0, inside_percent = 0.0, edge_strain_percent = 0.0;
+};
+
+struct OneFitTeacherSummary {
+  int frames = 0;  // the reference drape's frames kept as targets
+  std::vector<OneFitTeacherDrape> drapes;
+  double reference_time_s = 0.0;  // the reference drapes' time
+  std::vector<OneFitTeacherBatch> batches;
+  // The validation drape (OneFitBatchSummary's) after the warm start (on
+  // process 0 only; NaN without validation).
+  double validation_inside_percent = std::numeric_limits<double>::quiet_NaN();
+  double validation_edge_strain_percent = std::numeric_limits<double>::quiet_NaN();
+  double validation_loss = std::numeric_limits<double>::quiet_NaN();
+  double total_time_s = 0.0;
+
+  std::string BriefReport() const;
+};
+
 struct OneFitTrainingSummary {
   TerminationType termination_type = TerminationType::kConvergence;
   std::string message;
   std::vector<OneFitBatchSummary> batches;
   int undone_batches = 0;  // OneFitBatchSummary::undone
   double total_time_s = 0.0;
-  OneFitPolishSummary polish;  // its steps empty without a polish
+  OneFitPolishSummary polish;    // its steps empty without a polish
+  OneFitTeacherSummary teacher;  // its batches empty without a teacher
 
   std::string BriefReport() const;
 };
@@ -297,6 +351,18 @@ class OneFitTrainer {
   OneFitTrainingSummary Train(std::vector<double>* weights, int first_batch = 0,
                               const BatchCallback& on_batch = nullptr, OneFitAdamState* adam = nullptr);
 
+  // The warm start (OneFitTeacherOptions) of `weights`, in place: the
+  // reference drapes, then Adam on the distance to them (fresh moments:
+  // Train starts its own). With a distribution, every process runs every
+  // reference drape (they are deterministic) and the batches' gradients are
+  // summed as Train's. Nothing to do without teacher clips or batches.
+  using TeacherCallback = std::function<void(const OneFitTeacherBatch&)>;
+  OneFitTeacherSummary Teach(std::vector<double>* weights, const TeacherCallback& on_batch = nullptr);
+  // The mean of DrapeSolver::DistanceTo over teacher frames (indices into
+  // the frames Teach's reference drapes kept) and its gradient.
+  double TeacherLoss(const double* weights, const std::vector<int>& frames, double* gradient);
+  int num_teacher_frames() const { return static_cast<int>(teacher_.size()); }
+
   // The second-order polish (OneFitPolishOptions) of `weights`, in place:
   // only the decoder's last layer changes, and only by steps that lower
   // the mean loss over the polish's samples. With a distribution, every
@@ -342,6 +408,37 @@ class OneFitTrainer {
   OneFitBatchSummary LbfgsBatch(const std::vector<OneFitSample>& batch, int index, std::vector<double>* weights);
   OneFitBatchSummary AdamBatch(const std::vector<OneFitSample>& batch, int index, AdamState* state,
                                std::vector<double>* weights);
+  // iterations_per_batch Adam steps on `loss` (weights, gradient -> mean
+  // loss) at the step sizes `rate` gives for Adam's step count; returns
+  // the loss before the first step.
+  double AdamSteps(const std::function<double(const double*, double*)>& loss,
+                   const std::function<double(long long)>& rate, AdamState* state, std::vector<double>* weights);
+  // The mean of sample_loss(i, thread, gradient) over count samples, this
+  // process's share (i % num_processes == process) dealt to threads in a
+  // fixed pattern, summed over the processes, and its gradient (added to
+  // per thread by sample_loss) when not null.
+  double MeanOverSamples(int count, const std::function<double(int, int, double*)>& sample_loss, double* gradient);
+  // The network's outputs (num_outputs() by #patches) for a garment at a
+  // clip's frame, after the feedback decoder's passes (their proximity in
+  // *at); cache: the backward pass's (null: none, without feedback).
+  void Outputs(const double* weights, int garment, int clip, int frame, int thread, Eigen::MatrixXd* outputs,
+               OneFitNetwork::Cache* cache, std::vector<OutputProximity>* at);
+  // Adds d(loss)/d(weights) into gradient from d(loss)/d(patch parameters)
+  // at the outputs Outputs gave.
+  void BackPropagate(const double* weights, const GarmentData& g, const Eigen::MatrixXd& outputs,
+                     const OneFitNetwork::Cache& cache, const std::vector<OutputProximity>& at,
+                     const std::vector<double>& d_params, double* gradient);
+  // A reference drape's frame and the garment's positions there (3 by #V).
+  struct TeacherFrame {
+    int garment = 0, clip = 0, frame = 0;
+    Eigen::Matrix3Xd target;
+  };
+  std::vector<TeacherFrame> teacher_;
+  // The reference drape of a garment through a clip (lead-in from rest
+  // included) on a thread's solver; its usable frames appended to *out,
+  // and what they measure.
+  OneFitTeacherDrape ReferenceDrape(int garment, int clip, int thread, std::vector<TeacherFrame>* out);
+  double TeacherSampleLoss(const double* weights, const TeacherFrame& frame, int thread, double* gradient);
   void AddGarment(const SkinnedBody& body, const OneFitTrainingGarment& garment, int body_index,
                   const DrapeSolverOptions& drape);
   Eigen::MatrixXd ClipBodyFeatures(int clip) const;

@@ -937,6 +937,70 @@ TEST_F(OneFitTrainerTest, AWarpUnderASlideBoundHasTheRightGradientAndDrapesAsTra
   ExpectDraperPredictsAsTraining(body_, options_, Sway(body_, 8), loaded, trainer, weights);
 }
 
+// The warm start from the reference drape: its distance's gradient
+// against central differences (through the body proximity and the
+// feedback decoder), and its batches bring the network's drape to the
+// reference drape's positions, the same under the same seed.
+TEST_F(OneFitTrainerTest, TheTeacherFitsTheNetworkToTheReferenceDrape) {
+  options_.network.body_proximity = true;
+  options_.network.feedback = true;
+  options_.network.feedback_hidden = {12};
+  options_.optimizer = OneFitOptimizer::kAdam;
+  options_.learning_rate = 1e-3;
+  options_.teacher.clips = 1;
+  options_.teacher.max_frames = 6;
+  options_.teacher.lead_in = 3;
+  options_.teacher.batches = 40;
+  options_.validation_every = 0;
+  // Not Ceres' sparse Cholesky in this binary: the linker keeps this test's
+  // out-of-line copy of Eigen's aligned_malloc (64-byte aligned by hand
+  // under -march=native), which Ceres' inlined free cannot release
+  // ("double free or corruption" in its Eigen sparse Cholesky).
+  options_.drape.solve.linear_solver = DrapeLinearSolver::kConjugateGradients;
+  OneFitTrainer trainer = ShirtTrainer(body_, options_);
+  std::vector<double> weights = trainer.InitialWeights();
+  const OneFitTeacherSummary summary = trainer.Teach(&weights);
+  ASSERT_EQ(summary.frames, 6) << summary.BriefReport();
+  ASSERT_EQ(trainer.num_teacher_frames(), 6);
+  ASSERT_EQ(summary.batches.size(), 40u);
+  const std::vector<int> all = {0, 1, 2, 3, 4, 5};
+  const double start = trainer.TeacherLoss(trainer.InitialWeights().data(), all, nullptr);
+  const double end = trainer.TeacherLoss(weights.data(), all, nullptr);
+  EXPECT_GT(start, 0.0);
+  EXPECT_LT(end, 0.25 * start) << summary.BriefReport();
+  EXPECT_LT(summary.batches.back().final_rms_mm, 0.5 * summary.batches.front().initial_rms_mm);
+
+  std::vector<double> gradient(trainer.num_parameters());
+  const std::vector<double> jiggled = JiggledWeights(trainer, 3);
+  const std::vector<int> two = {1, 4};
+  trainer.TeacherLoss(jiggled.data(), two, gradient.data());
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> normal(0.0, 0.05);
+  for (int trial = 0; trial < 3; ++trial) {
+    std::vector<double> plus = jiggled, minus = jiggled;
+    double slope = 0.0;
+    const double h = 1e-6;
+    for (size_t i = 0; i < jiggled.size(); ++i) {
+      const double d = normal(rng);
+      plus[i] += h * d;
+      minus[i] -= h * d;
+      slope += gradient[i] * d;
+    }
+    const double numeric =
+        (trainer.TeacherLoss(plus.data(), two, nullptr) - trainer.TeacherLoss(minus.data(), two, nullptr)) / (2.0 * h);
+    EXPECT_NEAR(numeric, slope, 1e-5 * std::abs(slope) + 1e-12) << "trial " << trial;
+  }
+
+  OneFitTrainer again = ShirtTrainer(body_, options_);
+  std::vector<double> weights_again = again.InitialWeights();
+  again.Teach(&weights_again);
+  EXPECT_EQ(weights_again, weights);
+
+  OneFitTrainerOptions bad = options_;
+  bad.teacher.batches = 0;
+  EXPECT_NE(bad.Validate().find("teacher"), std::string::npos);
+}
+
 TEST_F(OneFitTrainerTest, AValidationClipIsValidatedButNeverTrainedOn) {
   options_.validation_every = 2;
   options_.validation_frames = 3;

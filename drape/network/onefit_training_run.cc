@@ -507,10 +507,28 @@ void WritePolishProgress(const OneFitPolishSummary& polish, std::ostream& out) {
   }
 }
 
+// MODEL.teacher.csv: a row per batch of the warm start, then the
+// validation drape after it.
+void WriteTeacherProgress(const OneFitTeacherSummary& teacher, std::ostream& out) {
+  out.precision(8);
+  out << "# " << teacher.frames << " reference frames in " << teacher.reference_time_s
+      << " s; validation after: " << teacher.validation_inside_percent << " % inside, "
+      << teacher.validation_edge_strain_percent << " % strain, loss " << teacher.validation_loss << " J\n";
+  for (const OneFitTeacherDrape& d : teacher.drapes) {
+    out << "# " << d.garment << " on " << d.clip << ": " << d.frames << " frames, " << d.from_skinning_mm
+        << " mm from skinning, " << d.inside_percent << " % inside, " << d.edge_strain_percent << " % strain\n";
+  }
+  out << "batch,initial_rms_mm,final_rms_mm,time_s\n";
+  for (const OneFitTeacherBatch& b : teacher.batches) {
+    out << b.batch << ',' << b.initial_rms_mm << ',' << b.final_rms_mm << ',' << b.time_s << '\n';
+  }
+}
+
 }  // namespace
 
 OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options, const OneFitProgress& progress,
-                                        const OneFitPolishProgress& polish_progress) {
+                                        const OneFitPolishProgress& polish_progress,
+                                        const OneFitTeacherProgress& teacher_progress) {
   if (const std::string problem = options.Validate(); !problem.empty()) {
     throw Error(ErrorKind::kInvalidArgument, "onefit train: " + problem);
   }
@@ -543,7 +561,16 @@ OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
     WriteFileAtomically(options.model_path + ".csv", [&](std::ostream& out) { out << resume.csv; });
     if (progress) progress(batch);
   };
+  OneFitTeacherSummary teacher;
+  if (resume.first_batch == 0 && options.trainer.teacher.batches > 0) {
+    teacher = trainer->Teach(&weights, writer ? teacher_progress : nullptr);
+    if (writer) {
+      WriteFileAtomically(options.model_path + ".teacher.csv",
+                          [&](std::ostream& out) { WriteTeacherProgress(teacher, out); });
+    }
+  }
   OneFitTrainingSummary summary = trainer->Train(&weights, resume.first_batch, checkpoint, &resume.adam);
+  summary.teacher = teacher;
   if (resume.first_batch > 0) summary.message += "; resumed at batch " + std::to_string(resume.first_batch);
   if (options.trainer.polish.iterations > 0 && summary.termination_type != TerminationType::kFailure) {
     summary.polish = trainer->PolishOutputLayer(&weights, writer ? polish_progress : nullptr);

@@ -12,6 +12,8 @@
 //                validation loss so far (early stopping without stopping)
 //   MODEL.polish.csv  with a polish (OneFitPolishOptions), its steps; MODEL
 //                is then the polished network
+//   MODEL.teacher.csv  with a teacher (OneFitTeacherOptions), its batches
+//                (the warm start runs before batch 0, not when resuming)
 // Every input is checked before anything is written.
 #ifndef POLYFIT_DRAPE_NETWORK_ONEFIT_TRAINING_RUN_H_
 #define POLYFIT_DRAPE_NETWORK_ONEFIT_TRAINING_RUN_H_
@@ -109,12 +111,15 @@ struct OneFitTrainingRunOptions {
 using OneFitProgress = std::function<void(const OneFitBatchSummary&)>;
 // Called after every polish step (its number from 1) with it.
 using OneFitPolishProgress = std::function<void(int, const OneFitPolishStep&)>;
+// Called after every batch of the teacher's warm start with it.
+using OneFitTeacherProgress = std::function<void(const OneFitTeacherBatch&)>;
 
 // Throws an Error naming the file or option (kInput, kInvalidArgument)
 // before anything is written; kOutput when the model cannot be written.
 OneFitTrainingSummary RunOneFitTraining(const OneFitTrainingRunOptions& options,
                                         const OneFitProgress& progress = nullptr,
-                                        const OneFitPolishProgress& polish_progress = nullptr);
+                                        const OneFitPolishProgress& polish_progress = nullptr,
+                                        const OneFitTeacherProgress& teacher_progress = nullptr);
 
 }  // namespace polyfit
 

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <numeric>
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
@@ -877,6 +878,63 @@ Eigen::Matrix3Xd DrapeSolver::PositionsOf(const std::vector<double>& patch_param
   m.params = m.saved_params;
   m.slides = m.saved_slides;
   return x;
+}
+
+double DrapeSolver::DistanceTo(const std::vector<double>& patch_parameters, const Eigen::Matrix3Xd& target,
+                               std::vector<double>* gradient) {
+  Impl& m = *impl_;
+  if (target.cols() != positions_.cols() || target.rows() != 3) {
+    throw std::invalid_argument("DrapeSolver::DistanceTo: the target has " + std::to_string(target.cols()) +
+                                " points, the garment " + std::to_string(positions_.cols()));
+  }
+  m.saved_params = m.params;
+  m.saved_slides = m.slides;
+  m.SetPatchParameters(model_, patch_parameters);
+  if (m.chain_begin.empty()) m.BuildChain(model_);
+  const int num_patches = model_.num_patches(), block = m.num_coefficients + 4;
+  // Ceres' layout (alpha, s, T per patch, then with warps each slide),
+  // chained to the packed one below as Evaluate's gradient is.
+  std::vector<double> raw(gradient != nullptr ? m.chain_begin.size() - 1 : 0, 0.0);
+  const double total_area = std::accumulate(m.rest.vertex_area.begin(), m.rest.vertex_area.end(), 0.0);
+  double cost = 0.0;
+  for (int v = 0; v < model_.num_vertices(); ++v) {
+    const IndexRange range = model_.memberships(v);
+    Eigen::Vector3d x = Eigen::Vector3d::Zero();
+    for (int k : range) {
+      const int p = model_.membership_patch[k];
+      x += m.points[k].Position(m.alpha(p), m.scale(p), m.translation(p), m.slide(k));
+    }
+    x /= range.size();
+    const double a = m.rest.vertex_area[v] / total_area;
+    const Eigen::Vector3d d = x - target.col(v);
+    cost += 0.5 * a * d.squaredNorm();
+    if (gradient == nullptr) continue;
+    // dE/dx_v, shared equally by the vertex's points on its patches.
+    const Eigen::Matrix<double, 1, 3> de_dx = (a / range.size()) * d.transpose();
+    for (int k : range) {
+      const int p = model_.membership_patch[k];
+      double* base = raw.data() + p * block;
+      double slide_gradient[2];
+      double* jacobians[4] = {base, base + m.num_coefficients, base + m.num_coefficients + 1,
+                              m.num_warp > 0 ? slide_gradient : nullptr};
+      const PatchPointState state = m.points[k].State(m.alpha(p), m.slide(k));
+      m.points[k].Chain<1>(de_dx, state, m.scale(p), jacobians, 3, 1.0, true);
+      if (m.num_warp > 0) {
+        raw[num_patches * block + 2 * k] += slide_gradient[0];
+        raw[num_patches * block + 2 * k + 1] += slide_gradient[1];
+      }
+    }
+  }
+  m.params = m.saved_params;
+  m.slides = m.saved_slides;
+  if (gradient != nullptr) {
+    gradient->assign(static_cast<size_t>(num_patches) * m.packed_stride(), 0.0);
+    for (size_t c = 0; c + 1 < m.chain_begin.size(); ++c) {
+      for (int i = m.chain_begin[c]; i < m.chain_begin[c + 1]; ++i)
+        (*gradient)[m.chain[i].packed] += m.chain[i].weight * raw[c];
+    }
+  }
+  return cost;
 }
 
 void DrapeSolver::WarmStart(const std::vector<double>& patch_parameters) {

@@ -221,6 +221,15 @@ class DrapeSolver {
   // (when not null): r, in a fixed order.
   double EvaluateGaussNewton(const std::vector<double>& patch_parameters, std::vector<double>* gradient,
                              Eigen::MatrixXd* gauss_newton, std::vector<double>* residuals = nullptr);
+  // Half the area-weighted mean squared distance between the positions
+  // given patch parameters take (posed as last posed: Pose, Step or
+  // PositionsAt) and `target` (3 by #V),
+  //   E = 1/2 sum_v a_v |x_v - target_v|^2,  a_v = A_v / sum A (rest areas),
+  // in m^2, and its gradient over the parameters (num_patch_parameters()
+  // #patches): a supervised loss, the reference drape as a network's
+  // teacher (OneFitTrainer::Teach).
+  double DistanceTo(const std::vector<double>& patch_parameters, const Eigen::Matrix3Xd& target,
+                    std::vector<double>* gradient);
   int num_patch_parameters() const;
   // The rest patch parameters (the fit; no warp), the current ones (the
   // last Step; warps fitted to the slides by least squares), and the

@@ -267,6 +267,45 @@ TEST_P(DrapeSolverEvaluateTest, GivesTheGaussNewtonMatrixOfItsResiduals) {
   }
 }
 
+// The supervised distance: zero at its own positions, half the mean
+// squared offset for a rigid shift, the gradient against central
+// differences, the solver's state untouched.
+TEST_P(DrapeSolverEvaluateTest, GivesTheDistanceToTargetPositionsAndItsGradient) {
+  DrapeSolver& solver = *solver_;
+  std::vector<double> theta = solver.RestPatchParameters();
+  std::mt19937_64 rng(13);
+  std::normal_distribution<double> normal(0.0, 1e-3);
+  for (double& t : theta) t += normal(rng);
+  const Eigen::Matrix3Xd x = solver.PositionsOf(theta);
+  std::vector<double> gradient;
+  EXPECT_NEAR(solver.DistanceTo(theta, x, &gradient), 0.0, 1e-24);
+  for (double g : gradient) EXPECT_NEAR(g, 0.0, 1e-12);
+  const Eigen::Vector3d shift(0.003, -0.004, 0.0);
+  EXPECT_NEAR(solver.DistanceTo(theta, x.colwise() + shift, nullptr), 0.5 * shift.squaredNorm(), 1e-15);
+  Eigen::Matrix3Xd target = x;
+  for (int v = 0; v < target.cols(); ++v)
+    target.col(v) += 0.01 * Eigen::Vector3d(normal(rng), normal(rng), normal(rng)) * 1e3;
+  const std::vector<double> before = solver.PatchParameters();
+  const double distance = solver.DistanceTo(theta, target, &gradient);
+  EXPECT_EQ(solver.PatchParameters(), before);
+  ASSERT_EQ(gradient.size(), theta.size());
+  for (int trial = 0; trial < 4; ++trial) {
+    std::vector<double> plus = theta, minus = theta;
+    double slope = 0.0;
+    const double h = 1e-6;
+    for (size_t i = 0; i < theta.size(); ++i) {
+      const double d = normal(rng) * 1e3;
+      plus[i] += h * d;
+      minus[i] -= h * d;
+      slope += gradient[i] * d;
+    }
+    const double numeric =
+        (solver.DistanceTo(plus, target, nullptr) - solver.DistanceTo(minus, target, nullptr)) / (2.0 * h);
+    EXPECT_NEAR(numeric, slope, 1e-6 * std::abs(slope) + 1e-12) << "trial " << trial << ", distance " << distance;
+  }
+  EXPECT_THROW(solver.DistanceTo(theta, target.leftCols(3), nullptr), std::invalid_argument);
+}
+
 INSTANTIATE_TEST_SUITE_P(WarpOrders, DrapeSolverEvaluateTest, ::testing::Values(-1, 0, 1, 2));
 
 TEST(DrapeSolverTest, StiffWeightRatiosStayFinite) {

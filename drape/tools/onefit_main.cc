@@ -431,6 +431,14 @@ void AddTrainRunFlags(CLI::App* train, TrainFlags* f) {
                    "then this many Levenberg-Marquardt iterations on the output layer, features frozen (with "
                    "--batches 0: a polish of --init's model); progress in MODEL.polish.csv")
       ->capture_default_str();
+  train
+      ->add_option("--teacher-clips", t.teacher.clips,
+                   "warm start: per garment, the reference drape runs on this many training clips (drawn) and the "
+                   "network is first fitted to its positions (0: none)")
+      ->capture_default_str();
+  train->add_option("--teacher-batches", t.teacher.batches, "the warm start's Adam batches")->capture_default_str();
+  train->add_option("--teacher-frames", t.teacher.max_frames, "the warm start's frames per clip (0: all)")
+      ->capture_default_str();
   train->add_option("--polish-samples", t.polish.samples, "samples the polish fits")->capture_default_str();
   train->add_option("--polish-damping", t.polish.initial_damping, "the polish's initial Marquardt lambda")
       ->capture_default_str();
@@ -469,6 +477,12 @@ int RunTrainOn(TrainFlags& f, bool quiet) {
         if (quiet) return;
         std::printf("polish step %2d  loss %.5g J  lambda %.3g  %s  %7.1f s\n", step, s.loss, s.damping,
                     s.accepted ? "kept" : "rejected", s.time_s);
+        std::fflush(stdout);
+      },
+      [quiet](const polyfit::OneFitTeacherBatch& b) {
+        if (quiet) return;
+        std::printf("teacher batch %4d  distance %.2f -> %.2f mm  %7.1f s\n", b.batch, b.initial_rms_mm,
+                    b.final_rms_mm, b.time_s);
         std::fflush(stdout);
       });
   if (!quiet) {
