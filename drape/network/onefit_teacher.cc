@@ -63,8 +63,14 @@ OneFitTeacherDrape OneFitTrainer::ReferenceDrape(int garment, int clip, int thre
     if (!solver.Step(c.poses[f], step).IsSolutionUsable()) continue;
     const Eigen::Matrix3Xd x = solver.positions();
     const Eigen::VectorXd d = solver.SignedDistances(x);
-    record.inside_percent += 100.0 * (d.array() < 0.0).count() / static_cast<double>(d.size());
-    record.edge_strain_percent += MeasureCloth(cloth, x).edge_strain_percent;
+    const double inside = 100.0 * (d.array() < 0.0).count() / static_cast<double>(d.size());
+    const double strain = MeasureCloth(cloth, x).edge_strain_percent;
+    if (inside > o.max_inside_percent || strain > o.max_edge_strain_percent) {
+      ++record.dropped;
+      continue;
+    }
+    record.inside_percent += inside;
+    record.edge_strain_percent += strain;
     // PositionsAt leaves the body posed: the solver's next Step poses both.
     const Eigen::Matrix3Xd skinned = solver.PositionsAt(rest, c.poses[f]);
     record.from_skinning_mm += 1e3 * std::sqrt((x - skinned).colwise().squaredNorm().mean());

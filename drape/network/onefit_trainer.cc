@@ -90,6 +90,9 @@ std::string OneFitTrainerOptions::Validate() const {
     return "teacher: clips, max_frames, lead_in and batches must be >= 0";
   }
   if ((teacher.clips > 0) != (teacher.batches > 0)) return "teacher: clips and batches go together";
+  if (!(teacher.max_inside_percent >= 0.0) || !(teacher.max_edge_strain_percent >= 0.0)) {
+    return "teacher: max_inside_percent and max_edge_strain_percent must be >= 0";
+  }
   if (teacher.batches > 0 && optimizer != OneFitOptimizer::kAdam) return "teacher: it needs the Adam optimiser";
   return {};
 }

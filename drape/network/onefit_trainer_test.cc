@@ -961,6 +961,9 @@ TEST_F(OneFitTrainerTest, TheTeacherFitsTheNetworkToTheReferenceDrape) {
   std::vector<double> weights = trainer.InitialWeights();
   const OneFitTeacherSummary summary = trainer.Teach(&weights);
   ASSERT_EQ(summary.frames, 6) << summary.BriefReport();
+  ASSERT_EQ(summary.drapes.size(), 1u);
+  EXPECT_EQ(summary.drapes[0].dropped, 0);
+  EXPECT_GT(summary.drapes[0].from_skinning_mm, 0.0);
   ASSERT_EQ(trainer.num_teacher_frames(), 6);
   ASSERT_EQ(summary.batches.size(), 40u);
   const std::vector<int> all = {0, 1, 2, 3, 4, 5};
@@ -995,6 +998,18 @@ TEST_F(OneFitTrainerTest, TheTeacherFitsTheNetworkToTheReferenceDrape) {
   std::vector<double> weights_again = again.InitialWeights();
   again.Teach(&weights_again);
   EXPECT_EQ(weights_again, weights);
+
+  // A frame where the reference drape stretches more than the bound is no
+  // target: with a zero bound none is, and the weights stay.
+  options_.teacher.max_edge_strain_percent = 0.0;
+  OneFitTrainer strict = ShirtTrainer(body_, options_);
+  std::vector<double> untouched = strict.InitialWeights();
+  const OneFitTeacherSummary none = strict.Teach(&untouched);
+  EXPECT_EQ(none.frames, 0);
+  ASSERT_EQ(none.drapes.size(), 1u);
+  EXPECT_EQ(none.drapes[0].dropped, 6);
+  EXPECT_TRUE(none.batches.empty());
+  EXPECT_EQ(untouched, strict.InitialWeights());
 
   OneFitTrainerOptions bad = options_;
   bad.teacher.batches = 0;

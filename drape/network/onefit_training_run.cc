@@ -515,8 +515,9 @@ void WriteTeacherProgress(const OneFitTeacherSummary& teacher, std::ostream& out
       << " s; validation after: " << teacher.validation_inside_percent << " % inside, "
       << teacher.validation_edge_strain_percent << " % strain, loss " << teacher.validation_loss << " J\n";
   for (const OneFitTeacherDrape& d : teacher.drapes) {
-    out << "# " << d.garment << " on " << d.clip << ": " << d.frames << " frames, " << d.from_skinning_mm
-        << " mm from skinning, " << d.inside_percent << " % inside, " << d.edge_strain_percent << " % strain\n";
+    out << "# " << d.garment << " on " << d.clip << ": " << d.frames << " frames (" << d.dropped << " dropped), "
+        << d.from_skinning_mm << " mm from skinning, " << d.inside_percent << " % inside, " << d.edge_strain_percent
+        << " % strain\n";
   }
   out << "batch,initial_rms_mm,final_rms_mm,time_s\n";
   for (const OneFitTeacherBatch& b : teacher.batches) {

@@ -439,6 +439,14 @@ void AddTrainRunFlags(CLI::App* train, TrainFlags* f) {
   train->add_option("--teacher-batches", t.teacher.batches, "the warm start's Adam batches")->capture_default_str();
   train->add_option("--teacher-frames", t.teacher.max_frames, "the warm start's frames per clip (0: all)")
       ->capture_default_str();
+  train
+      ->add_option("--teacher-max-inside", t.teacher.max_inside_percent,
+                   "the warm start keeps a reference frame only with at most this % of the garment inside the body")
+      ->capture_default_str();
+  train
+      ->add_option("--teacher-max-strain", t.teacher.max_edge_strain_percent,
+                   "... and at most this mean edge strain (%)")
+      ->capture_default_str();
   train->add_option("--polish-samples", t.polish.samples, "samples the polish fits")->capture_default_str();
   train->add_option("--polish-damping", t.polish.initial_damping, "the polish's initial Marquardt lambda")
       ->capture_default_str();
@@ -481,8 +489,8 @@ int RunTrainOn(TrainFlags& f, bool quiet) {
       },
       [quiet](const polyfit::OneFitTeacherBatch& b) {
         if (quiet) return;
-        std::printf("teacher batch %4d  distance %.2f -> %.2f mm  %7.1f s\n", b.batch, b.initial_rms_mm,
-                    b.final_rms_mm, b.time_s);
+        std::printf("teacher batch %4d  distance %.2f -> %.2f mm  %7.1f s\n", b.batch, b.initial_rms_mm, b.final_rms_mm,
+                    b.time_s);
         std::fflush(stdout);
       });
   if (!quiet) {
