@@ -11,6 +11,15 @@ function(polyfit_target_options target)
     # raise to 32 or 64 bytes here. Eigen's blocked dense kernels are still
     # shared (weak) symbols compiled for two instruction sets: code linked
     # with Ceres avoids Eigen's dense decompositions (drape_solver.cc).
+    # The allocation is such a symbol too: under AVX-512 Eigen's default
+    # alignment stays 64 bytes whatever EIGEN_MAX_ALIGN_BYTES says, so a
+    # translation unit that emits aligned_malloc out of line emits the
+    # hand-aligned one, and where the linker keeps it Ceres' inlined free
+    # fails on it (onefit_trainer_test, Ceres' Eigen sparse Cholesky:
+    # "double free or corruption"). EIGEN_MALLOC_ALREADY_ALIGNED=1 would
+    # agree with Ceres but leaves our arrays 16-byte aligned, and then
+    # AVX-512 kernels crashed and sums changed with the addresses (training
+    # no longer bit-for-bit deterministic): not set.
     target_compile_definitions(${target} PRIVATE EIGEN_MAX_ALIGN_BYTES=16)
   endif()
 endfunction()
