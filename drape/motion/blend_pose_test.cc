@@ -6,23 +6,23 @@
 #include <gtest/gtest.h>
 
 #include "drape/body/procedural_body.h"
+#include "drape/motion/perturb_pose.h"
 
 namespace polyfit {
 namespace {
 
-// A connected pose: each joint turned about its rest head relative to its
-// parent, the root also moved.
+// A connected pose: the whole body moved rigidly, then each joint turned
+// about its rest head relative to its parent (TurnJointsInRest).
 std::vector<Eigen::Isometry3d> ConnectedPose(const Skeleton& skeleton) {
-  std::vector<Eigen::Isometry3d> pose(skeleton.num_joints());
+  Eigen::Isometry3d moved = Eigen::Isometry3d::Identity();
+  moved.linear() = Eigen::AngleAxisd(0.4, Eigen::Vector3d(0.2, 1.0, 0.1).normalized()).toRotationMatrix();
+  moved.translation() = Eigen::Vector3d(0.1, -0.05, 0.2);
+  std::vector<Eigen::Matrix3d> turns(skeleton.num_joints());
   for (int j = 0; j < skeleton.num_joints(); ++j) {
-    Eigen::Isometry3d local = Eigen::Isometry3d::Identity();
-    local.linear() = Eigen::AngleAxisd(0.3 + 0.1 * j, Eigen::Vector3d(1.0, 0.3 * j, -0.4).normalized()).toRotationMatrix();
-    local.translation() = skeleton.rest_heads.col(j) - local.linear() * skeleton.rest_heads.col(j);
-    const int p = skeleton.parents[j];
-    if (p < 0) local.translation() += Eigen::Vector3d(0.1, -0.05, 0.2);
-    pose[j] = p < 0 ? local : pose[p] * local;
+    turns[j] = Eigen::AngleAxisd(0.3 + 0.1 * j, Eigen::Vector3d(1.0, 0.3 * j, -0.4).normalized()).toRotationMatrix();
   }
-  return pose;
+  return TurnJointsInRest(skeleton.parents, skeleton.rest_heads,
+                          std::vector<Eigen::Isometry3d>(skeleton.num_joints(), moved), turns);
 }
 
 TEST(BlendFromRestTest, GoesFromRestToThePoseWithBonesConnected) {

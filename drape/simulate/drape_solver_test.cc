@@ -1,6 +1,7 @@
 #include "drape/simulate/drape_solver.h"
 
 #include <cmath>
+#include <cstdint>
 #include <memory>
 #include <random>
 
@@ -179,6 +180,15 @@ class DrapeSolverEvaluateTest : public ::testing::TestWithParam<int> {
     solver_->Pose(pose);
   }
 
+  // The rest patch parameters, each moved by N(0, 1e-3) under `seed`.
+  std::vector<double> JitteredParameters(std::uint64_t seed) const {
+    std::vector<double> theta = solver_->RestPatchParameters();
+    std::mt19937_64 rng(seed);
+    std::normal_distribution<double> normal(0.0, 1e-3);
+    for (double& t : theta) t += normal(rng);
+    return theta;
+  }
+
   SkinnedBody body_;
   std::unique_ptr<DrapeSolver> solver_;
 };
@@ -186,11 +196,10 @@ class DrapeSolverEvaluateTest : public ::testing::TestWithParam<int> {
 TEST_P(DrapeSolverEvaluateTest, GivesTheEnergyAndItsGradientAtGivenPatchParameters) {
   DrapeSolver& solver = *solver_;
   EXPECT_EQ(solver.num_patch_parameters(), 15 + 4 + 2 * NumJetCoefficients(GetParam()));
-  std::vector<double> theta = solver.RestPatchParameters();
+  const std::vector<double> theta = JitteredParameters(9);
   ASSERT_EQ(static_cast<int>(theta.size()), solver.num_patches() * solver.num_patch_parameters());
-  std::mt19937_64 rng(9);
+  std::mt19937_64 rng(90);
   std::normal_distribution<double> normal(0.0, 1e-3);
-  for (double& t : theta) t += normal(rng);
   const std::vector<double> before = solver.PatchParameters();
   std::vector<double> gradient;
   const double energy = solver.Evaluate(theta, &gradient);
@@ -230,10 +239,9 @@ TEST_P(DrapeSolverEvaluateTest, GivesTheEnergyAndItsGradientAtGivenPatchParamete
 // ceres::Problem::Evaluate: the two paths agree.)
 TEST_P(DrapeSolverEvaluateTest, GivesTheGaussNewtonMatrixOfItsResiduals) {
   DrapeSolver& solver = *solver_;
-  std::vector<double> theta = solver.RestPatchParameters();
-  std::mt19937_64 rng(11);
+  const std::vector<double> theta = JitteredParameters(11);
+  std::mt19937_64 rng(110);
   std::normal_distribution<double> normal(0.0, 1e-3);
-  for (double& t : theta) t += normal(rng);
   std::vector<double> gradient, expected_gradient, residuals;
   Eigen::MatrixXd jtj;
   const double energy = solver.EvaluateGaussNewton(theta, &gradient, &jtj, &residuals);
@@ -272,10 +280,9 @@ TEST_P(DrapeSolverEvaluateTest, GivesTheGaussNewtonMatrixOfItsResiduals) {
 // differences, the solver's state untouched.
 TEST_P(DrapeSolverEvaluateTest, GivesTheDistanceToTargetPositionsAndItsGradient) {
   DrapeSolver& solver = *solver_;
-  std::vector<double> theta = solver.RestPatchParameters();
-  std::mt19937_64 rng(13);
+  const std::vector<double> theta = JitteredParameters(13);
+  std::mt19937_64 rng(130);
   std::normal_distribution<double> normal(0.0, 1e-3);
-  for (double& t : theta) t += normal(rng);
   const Eigen::Matrix3Xd x = solver.PositionsOf(theta);
   std::vector<double> gradient;
   EXPECT_NEAR(solver.DistanceTo(theta, x, &gradient), 0.0, 1e-24);
