@@ -90,6 +90,7 @@ std::string OneFitTrainerOptions::Validate() const {
     return "teacher: clips, max_frames, lead_in and batches must be >= 0";
   }
   if ((teacher.clips > 0) != (teacher.batches > 0)) return "teacher: clips and batches go together";
+  if (!(teacher.weight >= 0.0) || !std::isfinite(teacher.weight)) return "teacher: weight must be finite and >= 0";
   if (!(teacher.max_inside_percent >= 0.0) || !(teacher.max_edge_strain_percent >= 0.0)) {
     return "teacher: max_inside_percent and max_edge_strain_percent must be >= 0";
   }
@@ -536,8 +537,30 @@ OneFitBatchSummary OneFitTrainer::AdamBatch(const std::vector<OneFitSample>& bat
                                             std::vector<double>* weights) {
   OneFitBatchSummary record;
   record.batch = index;
-  record.initial_loss = AdamSteps([&](const double* w, double* g) { return Loss(w, batch, g); },
-                                  [&](long long step) { return AdamStepSize(options_, step); }, state, weights);
+  // With the teacher's term: its distance over a batch of its frames
+  // (drawn per batch, seeded) adds its gradient; the record keeps the
+  // loss alone.
+  const double teacher_weight =
+      teacher_.empty() ? 0.0 : options_.teacher.weight * (1.0 - static_cast<double>(index) / options_.num_batches);
+  std::vector<int> teacher_batch;
+  std::vector<double> teacher_gradient;
+  if (teacher_weight > 0.0) {
+    std::mt19937_64 rng(options_.seed * 1000003u + static_cast<std::uint64_t>(index));
+    std::uniform_int_distribution<int> draw(0, num_teacher_frames() - 1);
+    teacher_batch.resize(options_.batch_size);
+    for (int& i : teacher_batch) i = draw(rng);
+    teacher_gradient.resize(weights->size());
+  }
+  const auto loss = [&](const double* w, double* g) {
+    const double value = Loss(w, batch, g);
+    if (teacher_weight > 0.0) {
+      TeacherLoss(w, teacher_batch, teacher_gradient.data());
+      for (size_t i = 0; i < teacher_gradient.size(); ++i) g[i] += teacher_weight * teacher_gradient[i];
+    }
+    return value;
+  };
+  record.initial_loss = AdamSteps(
+      loss, [&](long long step) { return AdamStepSize(options_, step); }, state, weights);
   record.iterations = options_.iterations_per_batch;
   record.final_loss = Loss(weights->data(), batch, nullptr);
   return record;

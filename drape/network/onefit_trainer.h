@@ -118,6 +118,13 @@ struct OneFitTeacherOptions {
   // Adam batches (batch_size frames, iterations_per_batch steps each) on
   // the distance, the step warmed up and decayed as training's over them.
   int batches = 0;
+  // Then, through training (Adam), each step's gradient also holds this
+  // weight (J per m^2 of the distance) times the distance's gradient over
+  // batch_size teacher frames, the weight falling linearly to 0 at the
+  // last batch: the reference drape keeps pulling while the loss takes
+  // over. 0: the warm start alone. Not after a resume (the reference
+  // drapes are not kept).
+  double weight = 0.0;
 };
 
 struct OneFitTrainerOptions {

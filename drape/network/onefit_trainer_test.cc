@@ -999,6 +999,27 @@ TEST_F(OneFitTrainerTest, TheTeacherFitsTheNetworkToTheReferenceDrape) {
   again.Teach(&weights_again);
   EXPECT_EQ(weights_again, weights);
 
+  // Through training, the teacher's term pulls the drape nearer the
+  // reference drape than the loss alone does (from a warm start of one
+  // batch, so that there is a distance to close).
+  {
+    options_.num_batches = 6;
+    options_.batch_size = 4;
+    const auto trained_distance = [&](double weight) {
+      OneFitTrainerOptions o = options_;
+      o.teacher.batches = 1;
+      o.teacher.weight = weight;
+      OneFitTrainer t = ShirtTrainer(body_, o);
+      std::vector<double> w = t.InitialWeights();
+      t.Teach(&w);
+      const OneFitTrainingSummary trained = t.Train(&w);
+      EXPECT_NE(trained.termination_type, TerminationType::kFailure) << trained.BriefReport();
+      return t.TeacherLoss(w.data(), all, nullptr);
+    };
+    const double alone = trained_distance(0.0), pulled = trained_distance(1e9);
+    EXPECT_LT(pulled, 0.5 * alone);
+  }
+
   // A frame where the reference drape stretches more than the bound is no
   // target: with a zero bound none is, and the weights stay.
   options_.teacher.max_edge_strain_percent = 0.0;

@@ -440,6 +440,11 @@ void AddTrainRunFlags(CLI::App* train, TrainFlags* f) {
   train->add_option("--teacher-frames", t.teacher.max_frames, "the warm start's frames per clip (0: all)")
       ->capture_default_str();
   train
+      ->add_option("--teacher-weight", t.teacher.weight,
+                   "then through training the distance to the reference drape also pulls, at this weight (J per "
+                   "m^2) falling linearly to 0 (0: the warm start alone)")
+      ->capture_default_str();
+  train
       ->add_option("--teacher-max-inside", t.teacher.max_inside_percent,
                    "the warm start keeps a reference frame only with at most this % of the garment inside the body")
       ->capture_default_str();
