@@ -431,29 +431,32 @@ void AddTrainRunFlags(CLI::App* train, TrainFlags* f) {
                    "then this many Levenberg-Marquardt iterations on the output layer, features frozen (with "
                    "--batches 0: a polish of --init's model); progress in MODEL.polish.csv")
       ->capture_default_str();
+  train->add_option("--polish-samples", t.polish.samples, "samples the polish fits")->capture_default_str();
+  train->add_option("--polish-damping", t.polish.initial_damping, "the polish's initial Marquardt lambda")
+      ->capture_default_str();
+}
+
+// The warm start from the reference drape (OneFitTeacherOptions).
+void AddTrainTeacherFlags(CLI::App* train, polyfit::OneFitTrainerOptions* options) {
+  polyfit::OneFitTeacherOptions& t = options->teacher;
   train
-      ->add_option("--teacher-clips", t.teacher.clips,
+      ->add_option("--teacher-clips", t.clips,
                    "warm start: per garment, the reference drape runs on this many training clips (drawn) and the "
                    "network is first fitted to its positions (0: none)")
       ->capture_default_str();
-  train->add_option("--teacher-batches", t.teacher.batches, "the warm start's Adam batches")->capture_default_str();
-  train->add_option("--teacher-frames", t.teacher.max_frames, "the warm start's frames per clip (0: all)")
+  train->add_option("--teacher-batches", t.batches, "the warm start's Adam batches")->capture_default_str();
+  train->add_option("--teacher-frames", t.max_frames, "the warm start's frames per clip (0: all)")
       ->capture_default_str();
   train
-      ->add_option("--teacher-weight", t.teacher.weight,
+      ->add_option("--teacher-weight", t.weight,
                    "then through training the distance to the reference drape also pulls, at this weight (J per "
                    "m^2) falling linearly to 0 (0: the warm start alone)")
       ->capture_default_str();
   train
-      ->add_option("--teacher-max-inside", t.teacher.max_inside_percent,
+      ->add_option("--teacher-max-inside", t.max_inside_percent,
                    "the warm start keeps a reference frame only with at most this % of the garment inside the body")
       ->capture_default_str();
-  train
-      ->add_option("--teacher-max-strain", t.teacher.max_edge_strain_percent,
-                   "... and at most this mean edge strain (%)")
-      ->capture_default_str();
-  train->add_option("--polish-samples", t.polish.samples, "samples the polish fits")->capture_default_str();
-  train->add_option("--polish-damping", t.polish.initial_damping, "the polish's initial Marquardt lambda")
+  train->add_option("--teacher-max-strain", t.max_edge_strain_percent, "... and at most this mean edge strain (%)")
       ->capture_default_str();
 }
 
@@ -466,6 +469,7 @@ CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
   AddTrainNetworkSizeFlags(train, &t);
   AddTrainNetworkInputFlags(train, &t);
   AddTrainRunFlags(train, f);
+  AddTrainTeacherFlags(train, &t);
   return train;
 }
 
