@@ -112,41 +112,46 @@ double OneFitTrainer::TeacherLoss(const double* weights, const std::vector<int>&
       gradient);
 }
 
-OneFitTeacherSummary OneFitTrainer::Teach(std::vector<double>* weights, const TeacherCallback& on_batch) {
-  const auto start = Clock::now();
-  const OneFitTeacherOptions& o = options_.teacher;
-  OneFitTeacherSummary summary;
-  if (o.clips == 0 || o.batches == 0) return summary;
-  // Phase 1: the reference drapes, (garment, clip) pairs dealt to threads
-  // in a fixed pattern and gathered in their order.
-  std::mt19937_64 rng(options_.seed ^ 0x7eac4e2u);
+// The teacher's targets: per garment, o.clips of its body's clips (drawn
+// from *rng), (garment, clip) pairs dealt to threads in a fixed pattern
+// and their frames gathered in that order into teacher_.
+void OneFitTrainer::RunReferenceDrapes(std::mt19937_64* rng, OneFitTeacherSummary* summary) {
   std::vector<std::pair<int, int>> jobs;
   for (int g = 0; g < static_cast<int>(garments_.size()); ++g) {
     std::vector<int> clips = body_clips_[garments_[g]->body];
-    std::shuffle(clips.begin(), clips.end(), rng);
-    clips.resize(std::min<size_t>(clips.size(), o.clips));
+    std::shuffle(clips.begin(), clips.end(), *rng);
+    clips.resize(std::min<size_t>(clips.size(), options_.teacher.clips));
     for (int c : clips) jobs.emplace_back(g, c);
   }
   std::vector<std::vector<TeacherFrame>> drapes(jobs.size());
-  summary.drapes.resize(jobs.size());
+  summary->drapes.resize(jobs.size());
   const int threads = std::max(1, std::min<int>(options_.num_threads, static_cast<int>(jobs.size())));
   ParallelFor(
       threads, threads,
       [&](int, int t) {
         for (size_t j = t; j < jobs.size(); j += threads)
-          summary.drapes[j] = ReferenceDrape(jobs[j].first, jobs[j].second, t, &drapes[j]);
+          summary->drapes[j] = ReferenceDrape(jobs[j].first, jobs[j].second, t, &drapes[j]);
       },
       1);
   teacher_.clear();
   for (auto& d : drapes) std::move(d.begin(), d.end(), std::back_inserter(teacher_));
-  summary.frames = num_teacher_frames();
+  summary->frames = num_teacher_frames();
+}
+
+OneFitTeacherSummary OneFitTrainer::Teach(std::vector<double>* weights, const TeacherCallback& on_batch) {
+  const auto start = Clock::now();
+  const OneFitTeacherOptions& o = options_.teacher;
+  OneFitTeacherSummary summary;
+  if (o.clips == 0 || o.batches == 0) return summary;
+  std::mt19937_64 rng(options_.seed ^ 0x7eac4e2u);
+  RunReferenceDrapes(&rng, &summary);
   summary.reference_time_s = Seconds(start);
   if (teacher_.empty()) {
     summary.total_time_s = Seconds(start);
     return summary;
   }
-  // Phase 2: Adam on the distance, its step scheduled over the teacher's
-  // batches as training's is over its own.
+  // Adam on the distance, its step scheduled over the teacher's batches
+  // as training's is over its own.
   OneFitTrainerOptions schedule = options_;
   schedule.num_batches = o.batches;
   schedule.warmup_batches = std::min(options_.warmup_batches, o.batches / 4);

@@ -455,6 +455,7 @@ class OneFitTrainer {
   // and what they measure.
   OneFitTeacherDrape ReferenceDrape(int garment, int clip, int thread, std::vector<TeacherFrame>* out);
   double TeacherSampleLoss(const double* weights, const TeacherFrame& frame, int thread, double* gradient);
+  void RunReferenceDrapes(std::mt19937_64* rng, OneFitTeacherSummary* summary);
   void AddGarment(const SkinnedBody& body, const OneFitTrainingGarment& garment, int body_index,
                   const DrapeSolverOptions& drape);
   Eigen::MatrixXd ClipBodyFeatures(int clip) const;
