@@ -23,7 +23,9 @@
 //   there each frame: whether the output space holds a better drape than
 //   the frame-to-frame solve finds. With `network`: MODEL's prediction per
 //   frame and ITERATIONS of L-BFGS from it (KC, EPS, FLOOR, KB as it was
-//   trained with; AREA and WARP its own).
+//   trained with; AREA and WARP its own). Both modes also split each
+//   drape's strain between the edges within a patch (both vertices owned
+//   by it) and those across a seam.
 #include <algorithm>
 #include <array>
 #include <cstdio>
@@ -68,6 +70,9 @@ class FrameLoss : public ceres::FirstOrderFunction {
 
 struct Row {
   double energy = 0.0, inside = 0.0, strain = 0.0, iterations = 0.0;
+  // The strain (%) of the edges whose two vertices belong to one patch
+  // (their owners), and of those across a patch seam.
+  double within = 0.0, seam = 0.0;
 };
 
 double PercentNegative(const Eigen::VectorXd& d) { return 100.0 * (d.array() < 0.0).count() / d.size(); }
@@ -88,11 +93,22 @@ ceres::GradientProblemSolver::Options LbfgsOptions(int iterations) {
   return options;
 }
 
-// Adds a frame's measures (inside %, strain %) of positions x to row.
+// Adds a frame's measures (inside %, strain %, its split by edge class)
+// of positions x to row.
 void Measure(const DrapeSolver& solver, const polyfit::ClothRest& rest, const Eigen::Matrix3Xd& x, int frames,
              Row* row) {
   row->inside += PercentNegative(solver.SignedDistances(x)) / frames;
   row->strain += polyfit::MeasureCloth(rest, x).edge_strain_percent / frames;
+  double sum[2] = {0.0, 0.0};
+  int count[2] = {0, 0};
+  for (size_t e = 0; e < rest.edges.size(); ++e) {
+    const int a = rest.edges[e][0], b = rest.edges[e][1];
+    const int seam = solver.model().owner(a) != solver.model().owner(b) ? 1 : 0;
+    sum[seam] += std::abs((x.col(a) - x.col(b)).norm() / rest.edge_length[e] - 1.0);
+    ++count[seam];
+  }
+  row->within += 100.0 * sum[0] / std::max(count[0], 1) / frames;
+  row->seam += 100.0 * sum[1] / std::max(count[1], 1) / frames;
 }
 
 // L-BFGS on the posed solver's loss from params (moved in place); the
@@ -245,6 +261,13 @@ polyfit::DrapeSolverOptions SolverOptions(const Config& c, const polyfit::OneFit
 
 enum class Mode { kOutputSpace, kReference, kNetwork };
 
+// The strain of each row split by edge class (Row::within, Row::seam).
+void PrintSplit(const std::vector<const char*>& names, const std::vector<Row>& rows) {
+  std::printf("  strain within a patch / across a seam (%%):");
+  for (size_t i = 0; i < rows.size(); ++i) std::printf(" %s %.2f / %.2f;", names[i], rows[i].within, rows[i].seam);
+  std::printf("\n");
+}
+
 // One configuration's line (a table row in the output-space mode).
 void RunConfig(const Config& c, Mode mode, const polyfit::OneFitModel* model, const polyfit::BenchmarkWalk& walk,
                const polyfit::SkinWeights& weights, int frames) {
@@ -258,6 +281,7 @@ void RunConfig(const Config& c, Mode mode, const polyfit::OneFitModel* model, co
         "(loss %.0f J, %.0f iterations)\n",
         c.collision, 1e3 * c.margin, c.warp, rows[0].inside, rows[0].strain, rows[0].energy, rows[1].inside,
         rows[1].strain, rows[1].energy, rows[1].iterations);
+    PrintSplit({"the network", "L-BFGS from it"}, {rows[0], rows[1]});
   } else if (mode == Mode::kReference) {
     const std::array<Row, 3> rows = ReferenceAndFittedWarps(&solver, clip, frames, c.iterations);
     std::printf(
@@ -265,6 +289,7 @@ void RunConfig(const Config& c, Mode mode, const polyfit::OneFitModel* model, co
         "(loss %.0f J); L-BFGS from there %.2f / %.2f (loss %.0f J, %.0f iterations)\n",
         c.collision, 1e3 * c.margin, c.warp, rows[0].inside, rows[0].strain, rows[1].inside, rows[1].strain,
         rows[1].energy, rows[2].inside, rows[2].strain, rows[2].energy, rows[2].iterations);
+    PrintSplit({"reference drape", "fitted warps", "L-BFGS from there"}, {rows[0], rows[1], rows[2]});
   } else {
     const Row row = DrapeInOutputSpace(&solver, clip, frames, c.iterations);
     char floor_mm[32] = "none";
