@@ -9,7 +9,7 @@
 // between this and a trained network is the training's.
 //
 //   output_space_benchmark [DATA_DIR [GARMENT [FRAMES [AREA:WARP:ITERATIONS[:KC[:EPS[:FLOOR[:KB]]]],...
-//                          [MODEL [reference|network]]]]]]
+//                          [MODEL [reference|network|swap]]]]]]
 //   (DATA_DIR: ../shared/data/drape; WARP -1: no warp head; KC, EPS, FLOOR,
 //   KB: the collision weight, margin and margin floor and the patch
 //   boundary weight, the drape's defaults if not given; the default
@@ -25,7 +25,9 @@
 //   frame and ITERATIONS of L-BFGS from it (KC, EPS, FLOOR, KB as it was
 //   trained with; AREA and WARP its own). Both modes also split each
 //   drape's strain between the edges within a patch (both vertices owned
-//   by it) and those across a seam.
+//   by it) and those across a seam. With `swap`: the reference drape's
+//   fitted warps F and MODEL's prediction N per frame, and N with each
+//   block of F's patch parameters swapped in (SwappedBlocks).
 #include <algorithm>
 #include <array>
 #include <cstdio>
@@ -210,6 +212,44 @@ std::array<Row, 2> NetworkAndPolished(const polyfit::OneFitModel& model, const p
   return rows;
 }
 
+// Which of a patch's outputs carries the network's strain: per frame, the
+// reference drape's fitted warps F and the network's prediction N (from
+// the poses alone), and N with one block of each patch's parameters
+// taken from F (its jet; its scale and translation; its warp), and F
+// with N's jets. Rows in that order.
+std::array<Row, 6> SwappedBlocks(const polyfit::OneFitModel& model, const polyfit::SkinnedBody& body,
+                                 const polyfit::SkinWeights& weights, DrapeSolver* solver,
+                                 const polyfit::MotionRetargeter& clip, int frames) {
+  const polyfit::OneFitDraper draper(model, *solver, weights, body.skeleton, &body);
+  const polyfit::ClothRest rest = polyfit::PrepareClothRest(solver->rest_garment());
+  const int stride = solver->num_patch_parameters(), num_jet = polyfit::NumJetCoefficients(model.jet_order);
+  // [begin, end) of each block within a patch's parameters.
+  const std::pair<int, int> jets{0, num_jet}, frame{num_jet, num_jet + 4}, warp{num_jet + 4, stride};
+  const auto swap = [&](std::vector<double> into, const std::vector<double>& from, std::pair<int, int> block) {
+    for (int p = 0; p < solver->num_patches(); ++p) {
+      for (int i = block.first; i < block.second; ++i) into[p * stride + i] = from[p * stride + i];
+    }
+    return into;
+  };
+  std::array<Row, 6> rows;
+  for (int k = 0; k < kLeadIn + frames; ++k) {
+    solver->Step(LeadInOrFrame(clip, k), k);
+    if (k < kLeadIn) continue;
+    const int f = k - kLeadIn;
+    const auto pose = [&](int g) { return clip.Pose(std::max(g, 0)); };
+    const std::vector<double> fitted = solver->PatchParameters();
+    const std::vector<double> network = draper.Predict(pose(f - 2), pose(f - 1), pose(f), 30.0, polyfit::BodyShape{});
+    const std::vector<double> drapes[6] = {fitted,
+                                           network,
+                                           swap(network, fitted, jets),
+                                           swap(network, fitted, frame),
+                                           swap(network, fitted, warp),
+                                           swap(fitted, network, jets)};
+    for (int r = 0; r < 6; ++r) Measure(*solver, rest, solver->PositionsOf(drapes[r]), frames, &rows[r]);
+  }
+  return rows;
+}
+
 // One configuration: the patching (its area and warp order) and the loss's
 // weights; the rest as the drape's defaults.
 struct Config {
@@ -259,7 +299,7 @@ polyfit::DrapeSolverOptions SolverOptions(const Config& c, const polyfit::OneFit
   return options;
 }
 
-enum class Mode { kOutputSpace, kReference, kNetwork };
+enum class Mode { kOutputSpace, kReference, kNetwork, kSwap };
 
 // The strain of each row split by edge class (Row::within, Row::seam).
 void PrintSplit(const std::vector<const char*>& names, const std::vector<Row>& rows) {
@@ -282,6 +322,14 @@ void RunConfig(const Config& c, Mode mode, const polyfit::OneFitModel* model, co
         c.collision, 1e3 * c.margin, c.warp, rows[0].inside, rows[0].strain, rows[0].energy, rows[1].inside,
         rows[1].strain, rows[1].energy, rows[1].iterations);
     PrintSplit({"the network", "L-BFGS from it"}, {rows[0], rows[1]});
+  } else if (mode == Mode::kSwap) {
+    const std::array<Row, 6> rows = SwappedBlocks(*model, body, weights, &solver, clip, frames);
+    const char* names[6] = {"fitted warps F",   "network N",      "N with F's jets", "N with F's scale and translation",
+                            "N with F's warps", "F with N's jets"};
+    for (int r = 0; r < 6; ++r) {
+      std::printf("%-34s eps_c %.2f%%  eps_e %.2f%%  (within a patch %.2f, across a seam %.2f)\n", names[r],
+                  rows[r].inside, rows[r].strain, rows[r].within, rows[r].seam);
+    }
   } else if (mode == Mode::kReference) {
     const std::array<Row, 3> rows = ReferenceAndFittedWarps(&solver, clip, frames, c.iterations);
     std::printf(
@@ -326,10 +374,12 @@ int main(int argc, char** argv) {
   const std::string mode_name = argc > 6 ? argv[6] : "";
   const Mode mode = mode_name == "reference" ? Mode::kReference
                     : mode_name == "network" ? Mode::kNetwork
+                    : mode_name == "swap"    ? Mode::kSwap
                                              : Mode::kOutputSpace;
   if (!mode_name.empty() && mode == Mode::kOutputSpace) {
     std::fprintf(stderr,
-                 "output_space_benchmark: the mode after MODEL is 'reference', 'network' or nothing, not '%s'\n",
+                 "output_space_benchmark: the mode after MODEL is 'reference', 'network', 'swap' or nothing, not "
+                 "'%s'\n",
                  mode_name.c_str());
     return 2;
   }
