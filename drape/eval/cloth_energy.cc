@@ -85,8 +85,7 @@ ClothMeasures MeasureCloth(const ClothRest& rest, const Eigen::Matrix3Xd& x, con
   }
   double edge_strain = 0.0;
   for (size_t e = 0; e < rest.edges.size(); ++e) {
-    const double length = (x.col(rest.edges[e][0]) - x.col(rest.edges[e][1])).norm();
-    const double strain = std::abs(length - rest.edge_length[e]) / rest.edge_length[e];
+    const double strain = EdgeStrain(rest, x, e);
     edge_strain += strain;
     m.max_edge_strain_percent = std::max(m.max_edge_strain_percent, 100.0 * strain);
   }

@@ -12,6 +12,7 @@
 #define POLYFIT_DRAPE_EVAL_CLOTH_ENERGY_H_
 
 #include <array>
+#include <cmath>
 #include <vector>
 
 #include <Eigen/Core>
@@ -57,6 +58,12 @@ struct ClothMeasures {
 // positions: 3 by #V, the rest mesh's vertices moved.
 ClothMeasures MeasureCloth(const ClothRest& rest, const Eigen::Matrix3Xd& positions,
                            const ClothMaterial& material = {});
+
+// Edge e's strain |l - L| / L at positions (3 by #V): epsilon_e's term.
+inline double EdgeStrain(const ClothRest& rest, const Eigen::Matrix3Xd& positions, size_t e) {
+  const double length = (positions.col(rest.edges[e][0]) - positions.col(rest.edges[e][1])).norm();
+  return std::abs(length - rest.edge_length[e]) / rest.edge_length[e];
+}
 
 }  // namespace polyfit
 

@@ -23,9 +23,9 @@
 //   there each frame: whether the output space holds a better drape than
 //   the frame-to-frame solve finds. With `network`: MODEL's prediction per
 //   frame and ITERATIONS of L-BFGS from it (KC, EPS, FLOOR, KB as it was
-//   trained with; AREA and WARP its own). Both modes also split each
-//   drape's strain between the edges within a patch (both vertices owned
-//   by it) and those across a seam. With `swap`: the reference drape's
+//   trained with; AREA and WARP its own). `reference` and `network` also
+//   split each drape's strain between the edges within a patch (both
+//   vertices owned by it) and those across a seam. With `swap`: the reference drape's
 //   fitted warps F and MODEL's prediction N per frame, and N with each
 //   block of F's patch parameters swapped in (SwappedBlocks).
 #include <algorithm>
@@ -100,15 +100,14 @@ ceres::GradientProblemSolver::Options LbfgsOptions(int iterations) {
 void Measure(const DrapeSolver& solver, const polyfit::ClothRest& rest, const Eigen::Matrix3Xd& x, int frames,
              Row* row) {
   row->inside += PercentNegative(solver.SignedDistances(x)) / frames;
-  row->strain += polyfit::MeasureCloth(rest, x).edge_strain_percent / frames;
   double sum[2] = {0.0, 0.0};
   int count[2] = {0, 0};
   for (size_t e = 0; e < rest.edges.size(); ++e) {
-    const int a = rest.edges[e][0], b = rest.edges[e][1];
-    const int seam = solver.model().owner(a) != solver.model().owner(b) ? 1 : 0;
-    sum[seam] += std::abs((x.col(a) - x.col(b)).norm() / rest.edge_length[e] - 1.0);
+    const int seam = solver.model().owner(rest.edges[e][0]) != solver.model().owner(rest.edges[e][1]) ? 1 : 0;
+    sum[seam] += polyfit::EdgeStrain(rest, x, e);
     ++count[seam];
   }
+  row->strain += 100.0 * (sum[0] + sum[1]) / std::max(count[0] + count[1], 1) / frames;
   row->within += 100.0 * sum[0] / std::max(count[0], 1) / frames;
   row->seam += 100.0 * sum[1] / std::max(count[1], 1) / frames;
 }

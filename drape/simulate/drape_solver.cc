@@ -268,6 +268,8 @@ struct DrapeSolver::Impl {
   std::vector<int> chain_begin;
   std::vector<ChainEntry> chain;
   void BuildChain(const PolyFitModel& model);
+  // gradient (num_packed) = C^T raw, raw a gradient in Ceres' layout.
+  void ChainGradient(const std::vector<double>& raw, int num_packed, std::vector<double>* gradient) const;
   // (J C)^T (J C), J Ceres' Jacobian (rows of a few entries), dense.
   void AccumulateGaussNewton(const ceres::CRSMatrix& jacobian, int num_packed, Eigen::MatrixXd* out) const;
   double EvaluatePacked(const PolyFitModel& model, const std::vector<double>& packed, std::vector<double>* gradient,
@@ -927,13 +929,7 @@ double DrapeSolver::DistanceTo(const std::vector<double>& patch_parameters, cons
   }
   m.params = m.saved_params;
   m.slides = m.saved_slides;
-  if (gradient != nullptr) {
-    gradient->assign(static_cast<size_t>(num_patches) * m.packed_stride(), 0.0);
-    for (size_t c = 0; c + 1 < m.chain_begin.size(); ++c) {
-      for (int i = m.chain_begin[c]; i < m.chain_begin[c + 1]; ++i)
-        (*gradient)[m.chain[i].packed] += m.chain[i].weight * raw[c];
-    }
-  }
+  if (gradient != nullptr) m.ChainGradient(raw, num_patches * m.packed_stride(), gradient);
   return cost;
 }
 
@@ -1027,16 +1023,18 @@ double DrapeSolver::Impl::EvaluatePacked(const PolyFitModel& model, const std::v
   // Ceres' parameters are a linear map of the packed ones (the warps set
   // the slides): J_packed = J C, gradient = C^T (J^T r).
   if (chain_begin.empty()) BuildChain(model);
-  const int num_ceres = static_cast<int>(chain_begin.size()) - 1, num_packed = model.num_patches() * packed_stride();
-  if (gradient != nullptr) {
-    gradient->assign(num_packed, 0.0);
-    for (int c = 0; c < num_ceres; ++c) {
-      for (int i = chain_begin[c]; i < chain_begin[c + 1]; ++i)
-        (*gradient)[chain[i].packed] += chain[i].weight * raw[c];
-    }
-  }
+  const int num_packed = model.num_patches() * packed_stride();
+  if (gradient != nullptr) ChainGradient(raw, num_packed, gradient);
   if (gauss_newton != nullptr) AccumulateGaussNewton(jacobian, num_packed, gauss_newton);
   return cost;
+}
+
+void DrapeSolver::Impl::ChainGradient(const std::vector<double>& raw, int num_packed,
+                                      std::vector<double>* gradient) const {
+  gradient->assign(num_packed, 0.0);
+  for (size_t c = 0; c + 1 < chain_begin.size(); ++c) {
+    for (int i = chain_begin[c]; i < chain_begin[c + 1]; ++i) (*gradient)[chain[i].packed] += chain[i].weight * raw[c];
+  }
 }
 
 void DrapeSolver::Impl::BuildDirectBlocks(const std::vector<double*>& listed) {
