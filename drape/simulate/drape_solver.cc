@@ -889,6 +889,7 @@ double DrapeSolver::DistanceTo(const std::vector<double>& patch_parameters, cons
     throw std::invalid_argument("DrapeSolver::DistanceTo: the target has " + std::to_string(target.cols()) +
                                 " points, the garment " + std::to_string(positions_.cols()));
   }
+  if (!target.allFinite()) throw std::invalid_argument("DrapeSolver::DistanceTo: the target has non-finite points");
   m.saved_params = m.params;
   m.saved_slides = m.slides;
   m.SetPatchParameters(model_, patch_parameters);

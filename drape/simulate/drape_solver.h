@@ -227,7 +227,8 @@ class DrapeSolver {
   //   E = 1/2 sum_v a_v |x_v - target_v|^2,  a_v = A_v / sum A (rest areas),
   // in m^2, and its gradient over the parameters (num_patch_parameters()
   // #patches): a supervised loss, the reference drape as a network's
-  // teacher (OneFitTrainer::Teach).
+  // teacher (OneFitTrainer::Teach). Throws std::invalid_argument for a
+  // target of another size or with non-finite points.
   double DistanceTo(const std::vector<double>& patch_parameters, const Eigen::Matrix3Xd& target,
                     std::vector<double>* gradient);
   int num_patch_parameters() const;

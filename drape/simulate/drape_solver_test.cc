@@ -311,6 +311,8 @@ TEST_P(DrapeSolverEvaluateTest, GivesTheDistanceToTargetPositionsAndItsGradient)
     EXPECT_NEAR(numeric, slope, 1e-6 * std::abs(slope) + 1e-12) << "trial " << trial << ", distance " << distance;
   }
   EXPECT_THROW(solver.DistanceTo(theta, target.leftCols(3), nullptr), std::invalid_argument);
+  target(1, 2) = std::nan("");
+  EXPECT_THROW(solver.DistanceTo(theta, target, nullptr), std::invalid_argument);
 }
 
 INSTANTIATE_TEST_SUITE_P(WarpOrders, DrapeSolverEvaluateTest, ::testing::Values(-1, 0, 1, 2));
