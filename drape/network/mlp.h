@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <random>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include <Eigen/Core>
@@ -72,8 +73,13 @@ class Mlp {
       Matrix a = w * h;
       a.colwise() += b;
       if (l + 1 == num_layers()) return a;
-      for (Eigen::Index i = 0; i < a.size(); ++i) {
-        if (!(a.data()[i] > T(0.0))) a.data()[i] *= T(leaky_slope_);
+      if constexpr (std::is_floating_point_v<T>) {
+        // max(a, slope a) is LeakyReLU for slope < 1, and vectorises.
+        a = a.array().max(T(leaky_slope_) * a.array()).matrix();
+      } else {
+        for (Eigen::Index i = 0; i < a.size(); ++i) {
+          if (!(a.data()[i] > T(0.0))) a.data()[i] *= T(leaky_slope_);
+        }
       }
       h = SkipsAt(l) ? Matrix(h + a) : a;
     }

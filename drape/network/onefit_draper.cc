@@ -33,8 +33,8 @@ PatchOutputMap MakePatchOutputMap(const DrapeSolver& solver, int jet_order, int 
 }
 
 OneFitDraper::OneFitDraper(const OneFitModel& model, const DrapeSolver& solver, const SkinWeights& weights,
-                           const Skeleton& skeleton, const SkinnedBody* body)
-    : model_(model), skeleton_(skeleton) {
+                           const Skeleton& skeleton, const SkinnedBody* body, InferencePrecision precision)
+    : model_(model), precision_(precision), skeleton_(skeleton) {
   if (skeleton.num_joints() != model.num_joints) {
     throw OneFitModelError("the model was trained for a rig of " + std::to_string(model.num_joints) +
                                " joints, the body has " + std::to_string(skeleton.num_joints()),
@@ -64,6 +64,30 @@ OneFitDraper::OneFitDraper(const OneFitModel& model, const DrapeSolver& solver, 
     feedback_half_ = model.network.FeedbackGarmentHalf(model.weights.data(), features);
     output_proximity_ = std::make_unique<OutputProximity>(map_, probes_, model.jet_order);
   }
+  if (precision_ == InferencePrecision::kFloat) {
+    weights_f_.assign(model.weights.begin(), model.weights.end());
+    garment_half_f_ = garment_half_.cast<float>();
+    feedback_half_f_ = feedback_half_.cast<float>();
+  }
+}
+
+// The network's outputs (num_outputs by #patches, double) from the
+// frame's normalised body features, in T.
+template <typename T>
+Eigen::MatrixXd OneFitDraper::Outputs(const T* weights, const MatrixX<T>& garment_half,
+                                      const MatrixX<T>& feedback_half, const JointTransforms& now,
+                                      const Eigen::VectorXd& body) const {
+  MatrixX<T> outputs, refined;
+  VectorX<T> z_b;
+  model_.network.ForwardWithGarmentHalf<T>(weights, garment_half, body, &joint_weights_, &proximity_, &outputs, &z_b);
+  for (int pass = 0; pass < model_.network.feedback_passes(); ++pass) {
+    const Eigen::MatrixXd& output_proximity =
+        output_proximity_->Evaluate(outputs.template cast<double>(), now, *posed_body_);
+    model_.network.FeedbackWithGarmentHalf<T>(weights, feedback_half, z_b, body, &joint_weights_, &proximity_,
+                                              outputs, output_proximity, &refined);
+    outputs.swap(refined);
+  }
+  return outputs.template cast<double>();
 }
 
 std::vector<double> OneFitDraper::Predict(const JointTransforms& before_previous, const JointTransforms& previous,
@@ -72,21 +96,14 @@ std::vector<double> OneFitDraper::Predict(const JointTransforms& before_previous
       model_.body_normalizer
           .Apply(BodyFeatures(skeleton_, before_previous, previous, now, fps, shape, model_.root_rotation))
           .cwiseProduct(body_mask_);
-  Eigen::MatrixXd outputs;
   if (posed_body_) {
     posed_body_->Pose(now);
     BodyProximityFeatures(probes_, now, *posed_body_, &proximity_);
   }
-  Eigen::VectorXd z_b;
-  model_.network.ForwardWithGarmentHalf(model_.weights.data(), garment_half_, body, &joint_weights_, &proximity_,
-                                        &outputs, &z_b);
-  Eigen::MatrixXd refined;
-  for (int pass = 0; pass < model_.network.feedback_passes(); ++pass) {
-    model_.network.FeedbackWithGarmentHalf(model_.weights.data(), feedback_half_, z_b, body, &joint_weights_,
-                                           &proximity_, outputs,
-                                           output_proximity_->Evaluate(outputs, now, *posed_body_), &refined);
-    outputs.swap(refined);
-  }
+  const Eigen::MatrixXd outputs =
+      precision_ == InferencePrecision::kFloat
+          ? Outputs<float>(weights_f_.data(), garment_half_f_, feedback_half_f_, now, body)
+          : Outputs<double>(model_.weights.data(), garment_half_, feedback_half_, now, body);
   return PatchParametersFromOutputs(map_, outputs, model_.network.num_coefficients());
 }
 

@@ -31,6 +31,12 @@ void PatchLikeModel(const OneFitModel& model, DrapeSolverOptions* options);
 PatchOutputMap MakePatchOutputMap(const DrapeSolver& solver, int jet_order, int warp_order, bool area_units,
                                   double warp_slide_bound);
 
+// What the network's per-frame half runs in: float by default (twice
+// double's SIMD lanes; its outputs within about 1e-6 of the outputs'
+// bounds of double's, far below what moves a vertex), double to match
+// training's forward pass to rounding.
+enum class InferencePrecision { kFloat, kDouble };
+
 class OneFitDraper {
  public:
   // solver: the garment's drape (its patches); body: the body it is draped
@@ -39,7 +45,8 @@ class OneFitDraper {
   // ignored. Throws OneFitModelError (kInvalidArgument) when the model does
   // not fit the rig or the jets, or needs a body that is not given.
   OneFitDraper(const OneFitModel& model, const DrapeSolver& solver, const SkinWeights& weights,
-               const Skeleton& skeleton, const SkinnedBody* body = nullptr);
+               const Skeleton& skeleton, const SkinnedBody* body = nullptr,
+               InferencePrecision precision = InferencePrecision::kFloat);
   // Its parts refer to each other.
   OneFitDraper(const OneFitDraper&) = delete;
   OneFitDraper& operator=(const OneFitDraper&) = delete;
@@ -50,10 +57,18 @@ class OneFitDraper {
                               const JointTransforms& now, double fps, const BodyShape& shape) const;
 
  private:
+  template <typename T>
+  Eigen::MatrixXd Outputs(const T* weights, const MatrixX<T>& garment_half, const MatrixX<T>& feedback_half,
+                          const JointTransforms& now, const Eigen::VectorXd& body) const;
+
   const OneFitModel& model_;
+  InferencePrecision precision_;
   const Skeleton& skeleton_;
   PatchOutputMap map_;
   Eigen::MatrixXd garment_half_;
+  // The float path's weights and garment halves (kFloat only).
+  std::vector<float> weights_f_;
+  Eigen::MatrixXf garment_half_f_, feedback_half_f_;
   Eigen::MatrixXd joint_weights_;  // #joints by #patches, for the local pose
   Eigen::VectorXd body_mask_;      // BodyFeatureMask by the model's reach
   // With the body proximity: the patches' probes, the body posed per frame

@@ -6,7 +6,9 @@
 // width, with and without a warp head, the local pose and the body
 // proximity at five or nine probes a patch (which poses the body each
 // frame), and with the feedback decoder (default width) after it, once
-// or twice. Random weights: the time does not depend on them. The
+// or twice; the network in single precision (OneFitDraper's default) and,
+// for the shipped inputs (feedback once), also in double. Random weights:
+// the time does not depend on them. The
 // MakeHuman body when the shared data is there (its rig's features), else the procedural body.
 //
 //   onefit_inference_benchmark [BODY_DIR [PATCH_AREA]]
@@ -93,8 +95,8 @@ int main(int argc, char** argv) {
   const Eigen::Vector3d centre = 0.5 * (lo + hi);
   const std::vector<JointTransforms> poses = Poses(body.skeleton.num_joints(), 202);
   std::printf(
-      "| garment vertices | patches | width | warp | local pose | body proximity | parameters | ms per frame "
-      "|\n|---:|---:|---:|---|---|---|---:|---:|\n");
+      "| garment vertices | patches | width | warp | local pose | body proximity | parameters | precision | ms per "
+      "frame |\n|---:|---:|---:|---|---|---|---:|---|---:|\n");
   for (const auto& [segments, rings] : {std::pair{40, 12}, {80, 25}, {160, 50}}) {
     polyfit::TriangleMesh tube =
         polyfit::MakeTube(0.2, centre.y() - 0.1 * height, centre.y() + 0.15 * height, segments, rings);
@@ -116,26 +118,31 @@ int main(int argc, char** argv) {
       polyfit::DrapeSolver solver(body, tube, weights, options);
       for (const int width : {48, 128, 256}) {
         const polyfit::OneFitModel model = RandomModel(body, width, inputs);
-        const polyfit::OneFitDraper draper(model, solver, weights, body.skeleton, &body);
-        std::vector<double> ms;
-        double checksum = 0.0;
-        for (int t = 2; t < static_cast<int>(poses.size()); ++t) {
-          const auto start = Clock::now();
-          const std::vector<double> params = draper.Predict(poses[t - 2], poses[t - 1], poses[t], 30.0, {});
-          const Eigen::Matrix3Xd x = solver.PositionsAt(params, poses[t]);
-          ms.push_back(1e3 * std::chrono::duration<double>(Clock::now() - start).count());
-          checksum += x(0, 0);
+        const bool shipped = inputs.feedback && inputs.feedback_passes == 1;
+        for (const auto precision : {polyfit::InferencePrecision::kFloat, polyfit::InferencePrecision::kDouble}) {
+          if (precision == polyfit::InferencePrecision::kDouble && !shipped) continue;
+          const polyfit::OneFitDraper draper(model, solver, weights, body.skeleton, &body, precision);
+          std::vector<double> ms;
+          double checksum = 0.0;
+          for (int t = 2; t < static_cast<int>(poses.size()); ++t) {
+            const auto start = Clock::now();
+            const std::vector<double> params = draper.Predict(poses[t - 2], poses[t - 1], poses[t], 30.0, {});
+            const Eigen::Matrix3Xd x = solver.PositionsAt(params, poses[t]);
+            ms.push_back(1e3 * std::chrono::duration<double>(Clock::now() - start).count());
+            checksum += x(0, 0);
+          }
+          std::nth_element(ms.begin(), ms.begin() + ms.size() / 2, ms.end());
+          std::printf("| %d | %d | %d | %s | %s | %s | %d | %s | %.3f |\n", tube.num_vertices(), solver.num_patches(),
+                      width, inputs.warp_order < 0 ? "none" : "order 2", inputs.local_pose ? "yes" : "no",
+                      inputs.proximity_probes == 0
+                          ? "no"
+                          : (std::to_string(inputs.proximity_probes) + " probes" +
+                             (inputs.feedback ? ", feedback x" + std::to_string(inputs.feedback_passes) : ""))
+                                .c_str(),
+                      model.network.num_parameters(),
+                      precision == polyfit::InferencePrecision::kFloat ? "float" : "double", ms[ms.size() / 2]);
+          if (!std::isfinite(checksum)) return 1;
         }
-        std::nth_element(ms.begin(), ms.begin() + ms.size() / 2, ms.end());
-        std::printf("| %d | %d | %d | %s | %s | %s | %d | %.3f |\n", tube.num_vertices(), solver.num_patches(), width,
-                    inputs.warp_order < 0 ? "none" : "order 2", inputs.local_pose ? "yes" : "no",
-                    inputs.proximity_probes == 0
-                        ? "no"
-                        : (std::to_string(inputs.proximity_probes) + " probes" +
-                           (inputs.feedback ? ", feedback x" + std::to_string(inputs.feedback_passes) : ""))
-                              .c_str(),
-                    model.network.num_parameters(), ms[ms.size() / 2]);
-        if (!std::isfinite(checksum)) return 1;
       }
     }
   }

@@ -225,14 +225,14 @@ Eigen::MatrixXd FirstLayerGarmentHalf(const Mlp& mlp, const double* params, cons
 // The MLP's output from its first layer's pre-activation a: its layers
 // 1.. (`tail`, an MLP of their own over the same weights' layout) after
 // the activation, or a itself for a one-layer MLP.
-void FinishFromFirstLayer(const Mlp& mlp, const Mlp& tail, const double* params, Eigen::MatrixXd a,
-                          Eigen::MatrixXd* outputs) {
+template <typename T>
+void FinishFromFirstLayer(const Mlp& mlp, const Mlp& tail, const T* params, MatrixX<T> a, MatrixX<T>* outputs) {
   if (mlp.num_layers() == 1) {
     *outputs = std::move(a);
     return;
   }
-  const Eigen::MatrixXd h = (a.array() > 0.0).select(a, mlp.leaky_slope() * a);
-  tail.Forward(params + mlp.weight_offset(1), h, outputs);
+  const MatrixX<T> h = (a.array() > T(0)).select(a, T(mlp.leaky_slope()) * a);
+  *outputs = tail.ForwardT<T>(params + mlp.weight_offset(1), h);
 }
 
 }  // namespace
@@ -243,25 +243,36 @@ Eigen::MatrixXd OneFitNetwork::GarmentHalf(const double* weights, const Eigen::M
   return FirstLayerGarmentHalf(decoder_, weights + decoder_offset(), z_t);
 }
 
-void OneFitNetwork::ForwardWithGarmentHalf(const double* weights, const Eigen::MatrixXd& garment_half,
+template <typename T>
+void OneFitNetwork::ForwardWithGarmentHalf(const T* weights, const MatrixX<T>& garment_half,
                                            const Eigen::VectorXd& body_features, const Eigen::MatrixXd* joint_weights,
-                                           const Eigen::MatrixXd* proximity, Eigen::MatrixXd* outputs,
-                                           Eigen::VectorXd* body_embedding) const {
-  Eigen::MatrixXd z_b;
-  body_encoder_.Forward(weights + body_encoder_offset(), body_features, &z_b);
+                                           const Eigen::MatrixXd* proximity, MatrixX<T>* outputs,
+                                           VectorX<T>* body_embedding) const {
+  const MatrixX<T> z_b = body_encoder_.ForwardT<T>(weights + body_encoder_offset(), body_features.template cast<T>());
   if (body_embedding != nullptr) *body_embedding = z_b.col(0);
-  const double* d = weights + decoder_offset();
+  const T* d = weights + decoder_offset();
   const int width = decoder_.sizes()[1], e_t = patch_encoder_.output_size();
-  const Eigen::Map<const Eigen::MatrixXd> w(d + decoder_.weight_offset(0), width, decoder_.input_size());
-  Eigen::MatrixXd a = garment_half;
+  const Eigen::Map<const MatrixX<T>> w(d + decoder_.weight_offset(0), width, decoder_.input_size());
+  MatrixX<T> a = garment_half;
   a.colwise() += w.middleCols(e_t, z_b.rows()) * z_b.col(0);
   if (local_size_ > 0) {
-    a.noalias() += w.middleCols(e_t + z_b.rows(), local_size_) * LocalPose(body_features, joint_weights, a.cols());
+    a.noalias() +=
+        w.middleCols(e_t + z_b.rows(), local_size_) * LocalPose(body_features, joint_weights, a.cols()).template cast<T>();
   }
-  if (proximity_size_ > 0)
-    a.noalias() += w.rightCols(proximity_size_) * Proximity(proximity, proximity_size_, a.cols());
-  FinishFromFirstLayer(decoder_, decoder_tail_, d, std::move(a), outputs);
+  if (proximity_size_ > 0) {
+    a.noalias() += w.rightCols(proximity_size_) * Proximity(proximity, proximity_size_, a.cols()).template cast<T>();
+  }
+  FinishFromFirstLayer<T>(decoder_, decoder_tail_, d, std::move(a), outputs);
 }
+
+template void OneFitNetwork::ForwardWithGarmentHalf<double>(const double*, const Eigen::MatrixXd&,
+                                                            const Eigen::VectorXd&, const Eigen::MatrixXd*,
+                                                            const Eigen::MatrixXd*, Eigen::MatrixXd*,
+                                                            Eigen::VectorXd*) const;
+template void OneFitNetwork::ForwardWithGarmentHalf<float>(const float*, const Eigen::MatrixXf&,
+                                                           const Eigen::VectorXd&, const Eigen::MatrixXd*,
+                                                           const Eigen::MatrixXd*, Eigen::MatrixXf*,
+                                                           Eigen::VectorXf*) const;
 
 Eigen::MatrixXd OneFitNetwork::FeedbackGarmentHalf(const double* weights, const Eigen::MatrixXd& patch_features) const {
   if (!feedback()) throw std::invalid_argument("OneFitNetwork: the network has no feedback decoder");
@@ -270,12 +281,13 @@ Eigen::MatrixXd OneFitNetwork::FeedbackGarmentHalf(const double* weights, const 
   return FirstLayerGarmentHalf(feedback_, weights + feedback_offset(), z_t);
 }
 
-void OneFitNetwork::FeedbackWithGarmentHalf(const double* weights, const Eigen::MatrixXd& feedback_half,
-                                            const Eigen::VectorXd& body_embedding, const Eigen::VectorXd& body_features,
+template <typename T>
+void OneFitNetwork::FeedbackWithGarmentHalf(const T* weights, const MatrixX<T>& feedback_half,
+                                            const VectorX<T>& body_embedding, const Eigen::VectorXd& body_features,
                                             const Eigen::MatrixXd* joint_weights, const Eigen::MatrixXd* proximity,
-                                            const Eigen::MatrixXd& outputs, const Eigen::MatrixXd& output_proximity,
-                                            Eigen::MatrixXd* refined) const {
-  const double* f = weights + feedback_offset();
+                                            const MatrixX<T>& outputs, const Eigen::MatrixXd& output_proximity,
+                                            MatrixX<T>* refined) const {
+  const T* f = weights + feedback_offset();
   const int width = feedback_.sizes()[1], e_t = patch_encoder_.output_size();
   const int e_b = static_cast<int>(body_embedding.size()), joint = decoder_.input_size();
   const Eigen::Index n = feedback_half.cols();
@@ -283,16 +295,30 @@ void OneFitNetwork::FeedbackWithGarmentHalf(const double* weights, const Eigen::
       output_proximity.rows() != proximity_size_ || output_proximity.cols() != n) {
     throw std::invalid_argument("OneFitNetwork::FeedbackWithGarmentHalf: inputs of the wrong size");
   }
-  const Eigen::Map<const Eigen::MatrixXd> w(f + feedback_.weight_offset(0), width, feedback_.input_size());
-  Eigen::MatrixXd a = feedback_half;
+  const Eigen::Map<const MatrixX<T>> w(f + feedback_.weight_offset(0), width, feedback_.input_size());
+  MatrixX<T> a = feedback_half;
   a.colwise() += w.middleCols(e_t, e_b) * body_embedding;
-  if (local_size_ > 0) a.noalias() += w.middleCols(e_t + e_b, local_size_) * LocalPose(body_features, joint_weights, n);
-  a.noalias() += w.middleCols(joint - proximity_size_, proximity_size_) * Proximity(proximity, proximity_size_, n);
+  if (local_size_ > 0) {
+    a.noalias() += w.middleCols(e_t + e_b, local_size_) * LocalPose(body_features, joint_weights, n).template cast<T>();
+  }
+  a.noalias() +=
+      w.middleCols(joint - proximity_size_, proximity_size_) * Proximity(proximity, proximity_size_, n).template cast<T>();
   a.noalias() += w.middleCols(joint, num_outputs()) * outputs;
-  a.noalias() += w.rightCols(proximity_size_) * output_proximity;
-  FinishFromFirstLayer(feedback_, feedback_tail_, f, std::move(a), refined);
+  a.noalias() += w.rightCols(proximity_size_) * output_proximity.template cast<T>();
+  FinishFromFirstLayer<T>(feedback_, feedback_tail_, f, std::move(a), refined);
   *refined += outputs;
 }
+
+template void OneFitNetwork::FeedbackWithGarmentHalf<double>(const double*, const Eigen::MatrixXd&,
+                                                             const Eigen::VectorXd&, const Eigen::VectorXd&,
+                                                             const Eigen::MatrixXd*, const Eigen::MatrixXd*,
+                                                             const Eigen::MatrixXd&, const Eigen::MatrixXd&,
+                                                             Eigen::MatrixXd*) const;
+template void OneFitNetwork::FeedbackWithGarmentHalf<float>(const float*, const Eigen::MatrixXf&,
+                                                            const Eigen::VectorXf&, const Eigen::VectorXd&,
+                                                            const Eigen::MatrixXd*, const Eigen::MatrixXd*,
+                                                            const Eigen::MatrixXf&, const Eigen::MatrixXd&,
+                                                            Eigen::MatrixXf*) const;
 
 void OneFitNetwork::Check() {
   if (warp_order_ < -1 || warp_order_ > kMaxJetOrder) throw std::invalid_argument("OneFitNetwork: bad warp order");

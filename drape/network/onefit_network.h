@@ -88,6 +88,11 @@ struct OneFitNetworkOptions {
   std::string Validate() const;
 };
 
+template <typename T>
+using MatrixX = Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic>;
+template <typename T>
+using VectorX = Eigen::Matrix<T, Eigen::Dynamic, 1>;
+
 class OneFitNetwork {
  public:
   OneFitNetwork() = default;
@@ -146,12 +151,15 @@ class OneFitNetwork {
   // so per frame only W_B z_B (and W_x x_k, W_p p_k) is new. GarmentHalf:
   // first-layer width by #patches; ForwardWithGarmentHalf gives Forward's
   // outputs.
+  // The per-frame half runs in T = double (what training sees) or float
+  // (inference: twice the SIMD lanes; weights and garment half cast once
+  // per garment, OneFitDraper); the inputs read from the body stay double.
   Eigen::MatrixXd GarmentHalf(const double* weights, const Eigen::MatrixXd& patch_features) const;
   // body_embedding (may be null): z_B, for FeedbackWithGarmentHalf.
-  void ForwardWithGarmentHalf(const double* weights, const Eigen::MatrixXd& garment_half,
-                              const Eigen::VectorXd& body_features, const Eigen::MatrixXd* joint_weights,
-                              const Eigen::MatrixXd* proximity, Eigen::MatrixXd* outputs,
-                              Eigen::VectorXd* body_embedding = nullptr) const;
+  template <typename T>
+  void ForwardWithGarmentHalf(const T* weights, const MatrixX<T>& garment_half, const Eigen::VectorXd& body_features,
+                              const Eigen::MatrixXd* joint_weights, const Eigen::MatrixXd* proximity,
+                              MatrixX<T>* outputs, VectorX<T>* body_embedding = nullptr) const;
   // Adds dL/dweights to gradient given dL/doutputs, and, when given,
   // dL/d(decoder input) that reached it otherwise (FeedbackBackward's).
   void Backward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_outputs, double* gradient,
@@ -180,11 +188,11 @@ class OneFitNetwork {
   // Feedback's refined outputs from the frame's z_B (ForwardWithGarmentHalf's
   // body_embedding), its x_k and p_k, D's outputs and the proximity at them.
   Eigen::MatrixXd FeedbackGarmentHalf(const double* weights, const Eigen::MatrixXd& patch_features) const;
-  void FeedbackWithGarmentHalf(const double* weights, const Eigen::MatrixXd& feedback_half,
-                               const Eigen::VectorXd& body_embedding, const Eigen::VectorXd& body_features,
-                               const Eigen::MatrixXd* joint_weights, const Eigen::MatrixXd* proximity,
-                               const Eigen::MatrixXd& outputs, const Eigen::MatrixXd& output_proximity,
-                               Eigen::MatrixXd* refined) const;
+  template <typename T>
+  void FeedbackWithGarmentHalf(const T* weights, const MatrixX<T>& feedback_half, const VectorX<T>& body_embedding,
+                               const Eigen::VectorXd& body_features, const Eigen::MatrixXd* joint_weights,
+                               const Eigen::MatrixXd* proximity, const MatrixX<T>& outputs,
+                               const Eigen::MatrixXd& output_proximity, MatrixX<T>* refined) const;
 
  private:
   void Check();

@@ -537,7 +537,7 @@ TEST_F(OneFitTrainerTest, AFineTuneStartsFromTheModelsNetworkAndNormalizers) {
   // The same body features normalise the same way: frame 3's prediction of
   // the shared clip matches a draper of the model on that garment.
   DrapeSolver solver(body_, wide.mesh, wide.weights, options_.drape);
-  const OneFitDraper draper(model, solver, wide.weights, body_.skeleton);
+  const OneFitDraper draper(model, solver, wide.weights, body_.skeleton, nullptr, InferencePrecision::kDouble);
   const OneFitTrainingClip clip = Bob(body_, 8);
   const std::vector<double> a = draper.Predict(clip.poses[1], clip.poses[2], clip.poses[3], clip.fps, clip.shape);
   const std::vector<double> b = tune.Predict(weights.data(), 0, 0, 3);
@@ -632,11 +632,21 @@ void ExpectDraperPredictsAsTraining(const SkinnedBody& body, const OneFitTrainer
                                     const std::vector<double>& weights) {
   OneFitTrainingGarment shirt = TubeShirt();
   DrapeSolver solver(body, shirt.mesh, shirt.weights, options.drape);
-  const OneFitDraper draper(model, solver, shirt.weights, body.skeleton, &body);
+  const OneFitDraper draper(model, solver, shirt.weights, body.skeleton, &body, InferencePrecision::kDouble);
   const std::vector<double> a = draper.Predict(clip.poses[1], clip.poses[2], clip.poses[3], clip.fps, clip.shape);
   const std::vector<double> b = trainer.Predict(weights.data(), 0, 0, 3);
   ASSERT_EQ(a.size(), b.size());
   for (size_t i = 0; i < a.size(); ++i) EXPECT_NEAR(a[i], b[i], 1e-12) << i;
+  // Single precision (the default) agrees to float's rounding through a
+  // few layers, and is not double's answer by accident.
+  const OneFitDraper single(model, solver, shirt.weights, body.skeleton, &body);
+  const std::vector<double> c = single.Predict(clip.poses[1], clip.poses[2], clip.poses[3], clip.fps, clip.shape);
+  double largest = 0.0;
+  for (size_t i = 0; i < c.size(); ++i) {
+    EXPECT_NEAR(c[i], b[i], 1e-5 * (1.0 + std::abs(b[i]))) << i;
+    largest = std::max(largest, std::abs(c[i] - b[i]));
+  }
+  EXPECT_GT(largest, 0.0);
 }
 
 // Bob, with joint 1 (the shirt's) also swaying about its head: its local

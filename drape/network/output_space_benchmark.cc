@@ -52,21 +52,27 @@ namespace {
 
 using polyfit::DrapeSolver;
 
-// The loss of one frame as a function of the flat patch parameters.
+// The loss of one frame as a function of the flat patch parameters; with
+// `free_begin` > 0 only each patch's parameters from there on move (their
+// gradient alone is kept, so L-BFGS leaves the others where they are).
 class FrameLoss : public ceres::FirstOrderFunction {
  public:
-  explicit FrameLoss(DrapeSolver* solver) : solver_(solver) {}
+  explicit FrameLoss(DrapeSolver* solver, int free_begin = 0) : solver_(solver), free_begin_(free_begin) {}
   bool Evaluate(const double* parameters, double* cost, double* gradient) const override {
     const int n = NumParameters();
     const std::vector<double> x(parameters, parameters + n);
     *cost = solver_->Evaluate(x, gradient ? &gradient_ : nullptr);
-    if (gradient) std::copy(gradient_.begin(), gradient_.end(), gradient);
+    if (gradient) {
+      const int stride = solver_->num_patch_parameters();
+      for (int i = 0; i < n; ++i) gradient[i] = i % stride >= free_begin_ ? gradient_[i] : 0.0;
+    }
     return std::isfinite(*cost);
   }
   int NumParameters() const override { return solver_->num_patches() * solver_->num_patch_parameters(); }
 
  private:
   DrapeSolver* solver_;
+  int free_begin_;
   mutable std::vector<double> gradient_;
 };
 
@@ -115,8 +121,9 @@ void Measure(const DrapeSolver& solver, const polyfit::ClothRest& rest, const Ei
 // L-BFGS on the posed solver's loss from params (moved in place); the
 // result's loss, iterations and measures added to row.
 void SolveAndMeasure(const ceres::GradientProblemSolver::Options& options, DrapeSolver* solver,
-                     const polyfit::ClothRest& rest, int frames, std::vector<double>* params, Row* row) {
-  ceres::GradientProblem problem(new FrameLoss(solver));
+                     const polyfit::ClothRest& rest, int frames, std::vector<double>* params, Row* row,
+                     int free_begin = 0) {
+  ceres::GradientProblem problem(new FrameLoss(solver, free_begin));
   ceres::GradientProblemSolver::Summary summary;
   ceres::Solve(options, problem, params->data(), &summary);
   row->energy += summary.final_cost / frames;
@@ -187,15 +194,16 @@ std::array<Row, 3> ReferenceAndFittedWarps(DrapeSolver* solver, const polyfit::M
 // The model's prediction per frame (its own frames as the history) and,
 // from it, `iterations` L-BFGS iterations on the loss: whether the
 // network's drape is in the basin of the best the output space holds.
-std::array<Row, 2> NetworkAndPolished(const polyfit::OneFitModel& model, const polyfit::SkinnedBody& body,
+std::array<Row, 3> NetworkAndPolished(const polyfit::OneFitModel& model, const polyfit::SkinnedBody& body,
                                       const polyfit::SkinWeights& weights, DrapeSolver* solver,
                                       const polyfit::MotionRetargeter& clip, int frames, int iterations) {
   const polyfit::OneFitDraper draper(model, *solver, weights, body.skeleton, &body);
   const polyfit::ClothRest rest = polyfit::PrepareClothRest(solver->rest_garment());
   const ceres::GradientProblemSolver::Options options = LbfgsOptions(iterations);
-  std::array<Row, 2> rows;
+  std::array<Row, 3> rows;
   Eigen::Matrix3Xd previous, before_previous;
   const auto pose = [&](int f) { return clip.Pose(std::max(f, 0)); };
+  const int warp_begin = polyfit::NumJetCoefficients(model.jet_order) + 4;
   for (int f = 0; f < frames; ++f) {
     std::vector<double> params = draper.Predict(pose(f - 2), pose(f - 1), pose(f), 30.0, polyfit::BodyShape{});
     const Eigen::Matrix3Xd x = solver->PositionsAt(params, pose(f));
@@ -204,7 +212,11 @@ std::array<Row, 2> NetworkAndPolished(const polyfit::OneFitModel& model, const p
     solver->Pose(pose(f), kLeadIn + f);
     rows[0].energy += solver->Evaluate(params, nullptr) / frames;
     Measure(*solver, rest, x, frames, &rows[0]);
+    std::vector<double> warped = params;
     SolveAndMeasure(options, solver, rest, frames, &params, &rows[1]);
+    if (warp_begin < solver->num_patch_parameters()) {
+      SolveAndMeasure(options, solver, rest, frames, &warped, &rows[2], warp_begin);
+    }
     before_previous = previous;
     previous = x;
   }
@@ -314,13 +326,14 @@ void RunConfig(const Config& c, Mode mode, const polyfit::OneFitModel* model, co
   const polyfit::MotionRetargeter& clip = *walk.walk.clip;
   DrapeSolver solver(body, walk.walk.garment, weights, SolverOptions(c, model));
   if (mode == Mode::kNetwork) {
-    const std::array<Row, 2> rows = NetworkAndPolished(*model, body, weights, &solver, clip, frames, c.iterations);
+    const std::array<Row, 3> rows = NetworkAndPolished(*model, body, weights, &solver, clip, frames, c.iterations);
     std::printf(
         "k_c %g, eps %g mm, warp order %d: the network %.2f / %.2f (loss %.0f J); L-BFGS from it %.2f / %.2f "
-        "(loss %.0f J, %.0f iterations)\n",
+        "(loss %.0f J, %.0f iterations); over its warps alone %.2f / %.2f (loss %.0f J, %.0f iterations)\n",
         c.collision, 1e3 * c.margin, c.warp, rows[0].inside, rows[0].strain, rows[0].energy, rows[1].inside,
-        rows[1].strain, rows[1].energy, rows[1].iterations);
-    PrintSplit({"the network", "L-BFGS from it"}, {rows[0], rows[1]});
+        rows[1].strain, rows[1].energy, rows[1].iterations, rows[2].inside, rows[2].strain, rows[2].energy,
+        rows[2].iterations);
+    PrintSplit({"the network", "L-BFGS from it", "over its warps alone"}, {rows[0], rows[1], rows[2]});
   } else if (mode == Mode::kSwap) {
     const std::array<Row, 6> rows = SwappedBlocks(*model, body, weights, &solver, clip, frames);
     const char* names[6] = {"fitted warps F",   "network N",      "N with F's jets", "N with F's scale and translation",
