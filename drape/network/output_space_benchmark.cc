@@ -30,6 +30,7 @@
 //   block of F's patch parameters swapped in (SwappedBlocks).
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cstdio>
 #include <exception>
 #include <filesystem>
@@ -47,6 +48,7 @@
 #include "drape/network/onefit_draper.h"
 #include "drape/network/onefit_model.h"
 #include "drape/simulate/drape_solver.h"
+#include "polyfit/jet/jet_basis.h"
 
 namespace {
 
@@ -86,6 +88,8 @@ struct Row {
 double PercentNegative(const Eigen::VectorXd& d) { return 100.0 * (d.array() < 0.0).count() / d.size(); }
 
 constexpr int kLeadIn = 10;
+// DrapeSolver::SolveWarps' sweeps in the `network` mode.
+constexpr int kWarpSolveSweeps = 5;
 
 std::vector<Eigen::Isometry3d> LeadInOrFrame(const polyfit::MotionRetargeter& clip, int k) {
   return k < kLeadIn ? clip.Pose(0, (k + 1.0) / (kLeadIn + 1.0)) : clip.Pose(k - kLeadIn);
@@ -194,13 +198,13 @@ std::array<Row, 3> ReferenceAndFittedWarps(DrapeSolver* solver, const polyfit::M
 // The model's prediction per frame (its own frames as the history) and,
 // from it, `iterations` L-BFGS iterations on the loss: whether the
 // network's drape is in the basin of the best the output space holds.
-std::array<Row, 3> NetworkAndPolished(const polyfit::OneFitModel& model, const polyfit::SkinnedBody& body,
+std::array<Row, 4> NetworkAndPolished(const polyfit::OneFitModel& model, const polyfit::SkinnedBody& body,
                                       const polyfit::SkinWeights& weights, DrapeSolver* solver,
                                       const polyfit::MotionRetargeter& clip, int frames, int iterations) {
   const polyfit::OneFitDraper draper(model, *solver, weights, body.skeleton, &body);
   const polyfit::ClothRest rest = polyfit::PrepareClothRest(solver->rest_garment());
   const ceres::GradientProblemSolver::Options options = LbfgsOptions(iterations);
-  std::array<Row, 3> rows;
+  std::array<Row, 4> rows;
   Eigen::Matrix3Xd previous, before_previous;
   const auto pose = [&](int f) { return clip.Pose(std::max(f, 0)); };
   const int warp_begin = polyfit::NumJetCoefficients(model.jet_order) + 4;
@@ -212,6 +216,13 @@ std::array<Row, 3> NetworkAndPolished(const polyfit::OneFitModel& model, const p
     solver->Pose(pose(f), kLeadIn + f);
     rows[0].energy += solver->Evaluate(params, nullptr) / frames;
     Measure(*solver, rest, x, frames, &rows[0]);
+    if (warp_begin < solver->num_patch_parameters()) {
+      const auto start = std::chrono::steady_clock::now();
+      const std::vector<double> solved = solver->SolveWarps(params, kWarpSolveSweeps);
+      rows[3].iterations += 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() / frames;
+      rows[3].energy += solver->Evaluate(solved, nullptr) / frames;
+      Measure(*solver, rest, solver->PositionsOf(solved), frames, &rows[3]);
+    }
     std::vector<double> warped = params;
     SolveAndMeasure(options, solver, rest, frames, &params, &rows[1]);
     if (warp_begin < solver->num_patch_parameters()) {
@@ -326,14 +337,17 @@ void RunConfig(const Config& c, Mode mode, const polyfit::OneFitModel* model, co
   const polyfit::MotionRetargeter& clip = *walk.walk.clip;
   DrapeSolver solver(body, walk.walk.garment, weights, SolverOptions(c, model));
   if (mode == Mode::kNetwork) {
-    const std::array<Row, 3> rows = NetworkAndPolished(*model, body, weights, &solver, clip, frames, c.iterations);
+    const std::array<Row, 4> rows = NetworkAndPolished(*model, body, weights, &solver, clip, frames, c.iterations);
     std::printf(
         "k_c %g, eps %g mm, warp order %d: the network %.2f / %.2f (loss %.0f J); L-BFGS from it %.2f / %.2f "
         "(loss %.0f J, %.0f iterations); over its warps alone %.2f / %.2f (loss %.0f J, %.0f iterations)\n",
         c.collision, 1e3 * c.margin, c.warp, rows[0].inside, rows[0].strain, rows[0].energy, rows[1].inside,
         rows[1].strain, rows[1].energy, rows[1].iterations, rows[2].inside, rows[2].strain, rows[2].energy,
         rows[2].iterations);
-    PrintSplit({"the network", "L-BFGS from it", "over its warps alone"}, {rows[0], rows[1], rows[2]});
+    std::printf("  its warps solved per patch on their edges' strain (SolveWarps, %d sweeps): %.2f / %.2f (loss %.0f J, %.2f ms)\n",
+                kWarpSolveSweeps, rows[3].inside, rows[3].strain, rows[3].energy, rows[3].iterations);
+    PrintSplit({"the network", "L-BFGS from it", "over its warps alone", "warps solved"},
+               {rows[0], rows[1], rows[2], rows[3]});
   } else if (mode == Mode::kSwap) {
     const std::array<Row, 6> rows = SwappedBlocks(*model, body, weights, &solver, clip, frames);
     const char* names[6] = {"fitted warps F",   "network N",      "N with F's jets", "N with F's scale and translation",

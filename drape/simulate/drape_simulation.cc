@@ -208,6 +208,16 @@ void RunNetworkFrames(const DrapeSimulationOptions& options, const DrapeInputs& 
       solver->WarmStart(params);
       step = solver->Step(now);
       step.time_s = Seconds(start);
+    } else if (options.warp_sweeps > 0) {
+      solver->Pose(now);  // the body too: the warps' collision term reads it
+      const std::vector<double> solved = solver->SolveWarps(params, options.warp_sweeps);
+      const Eigen::Matrix3Xd positions = solver->PositionsOf(solved);
+      step.time_s = step.solve_time_s = Seconds(start);
+      solver->Adopt(solved);
+      if (!positions.allFinite()) {
+        step.termination_type = TerminationType::kFailure;
+        step.message = "the network predicted non-finite positions";
+      }
     } else {
       const Eigen::Matrix3Xd positions = solver->PositionsAt(params, now);
       step.time_s = step.solve_time_s = Seconds(start);
@@ -346,6 +356,9 @@ std::string DrapeSimulationOptions::Validate() const {
   if (first_frame < 0) return "first_frame must be >= 0";
   if (num_frames == 0 || num_frames < -1) return "num_frames must be positive (or -1 for all)";
   if (refine_iterations < 0) return "refine_iterations must be >= 0";
+  if (warp_sweeps < 0) return "warp_sweeps must be >= 0";
+  if (warp_sweeps > 0 && model_path.empty()) return "warp_sweeps needs a model";
+  if (warp_sweeps > 0 && refine_iterations > 0) return "warp_sweeps and refine_iterations do not go together";
   if (strain_limit_passes < 0) return "strain_limit_passes must be >= 0";
   if (lead_in_frames < 0 || render_every < 0) return "lead_in_frames and render_every must be >= 0";
   if (render_height < 32) return "render_height must be >= 32";
@@ -386,6 +399,10 @@ DrapeSimulationSummary RunDrapeSimulation(const DrapeSimulationOptions& options)
     // The solver lays out the patch parameters as the network predicts them.
     PatchLikeModel(model, &solver_options.solver);
     solver_options.skin = model.skin;
+    if (options.warp_sweeps > 0 && model.network.warp_order() < 0) {
+      throw DrapeInputError("onefit: " + options.model_path + " has no warp head: its warps cannot be re-solved",
+                            ErrorKind::kInvalidArgument);
+    }
     if (model.network.warp_order() >= 0 && !options.solver.slide.enabled) {
       throw DrapeInputError("onefit: " + options.model_path + " predicts slides (a warp head); slides cannot be off",
                             ErrorKind::kInvalidArgument);

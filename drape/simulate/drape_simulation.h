@@ -61,6 +61,11 @@ struct DrapeSimulationOptions {
   // iterations of the reference drape from it (slides included, one
   // collision pass), timed with the inference; 0: the network alone.
   int refine_iterations = 0;
+  // With a model that has a warp head and no refinement: each prediction's
+  // warps re-solved for its jets by this many sweeps of
+  // DrapeSolver::SolveWarps (the body posed for its collision term), timed
+  // with the inference; 0: the network's own warps.
+  int warp_sweeps = 0;
 
   int first_frame = 0;
   int num_frames = -1;  // -1: to the clip's end

@@ -1,6 +1,7 @@
 #include "drape/simulate/drape_solver.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -254,6 +255,32 @@ struct DrapeSolver::Impl {
   std::vector<double> PackedPatchParameters(const std::vector<double>& strided) const;
   // Each patch's warp set to the least-squares fit of its points' slides.
   void FitWarpsToSlides(const PolyFitModel& model, std::vector<double>* packed) const;
+  // SolveWarps' parts: each patch's entries of patch_edges (built on
+  // first use), the half squared strain of patch p's edges at its warp c
+  // (a then b, num_warp each) with, when jtj is given, its Gauss-Newton
+  // system (2 num_warp square) and gradient, and one patch's solve.
+  // Per patch: its memberships, and its edges as (edge, i, j), i and j
+  // indices into its memberships.
+  std::vector<std::vector<int>> members_by_patch;
+  std::vector<std::vector<std::array<int, 3>>> edges_by_patch;
+  // Per patch (indices into its memberships): those whose vertex other
+  // patches share (seam points), pulled to the mean of the other patches'
+  // points of their vertex (seam_targets, 3 by #memberships, per sweep),
+  // and those whose vertex is within the collision band of the body
+  // (contact, queried at the given parameters' positions), kept
+  // kWarpMarginScale times the vertex's margin off the contact's tangent
+  // plane.
+  std::vector<std::vector<int>> seam_members_by_patch;
+  Eigen::Matrix3Xd seam_targets;
+  std::vector<std::vector<int>> near_members_by_patch;
+  std::vector<int> member_index;  // per membership: its index in its patch's
+  static constexpr double kWarpMarginScale = 0.25;  // SolveWarps (drape_solver.h)
+  Eigen::Matrix3Xd warp_positions;  // SolveWarps' scratch, 3 by #V
+  void CollectPatchWarpTerms(const PolyFitModel& model);
+  double PatchEdgeStrain(int p, const double* c, Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr);
+  void SolvePatchWarp(int p, int iterations, double* warp);
+  // seam_targets from the warps in packed.
+  void UpdateSeamTargets(const PolyFitModel& model, const std::vector<double>& packed);
   // d(Ceres' parameters)/d(packed parameters), Ceres' layout being alpha,
   // s, T per patch, then with warps each membership's slide (a linear map
   // of its patch's warp), built once: Ceres' parameter c is the sum over
@@ -662,6 +689,214 @@ void DrapeSolver::Impl::SetPatchParameters(const PolyFitModel& model, const std:
     slide(k)[0] = du;
     slide(k)[1] = dv;
   }
+}
+
+void DrapeSolver::Impl::CollectPatchWarpTerms(const PolyFitModel& model) {
+  members_by_patch.assign(model.num_patches(), {});
+  member_index.assign(model.num_memberships(), -1);
+  for (int k = 0; k < model.num_memberships(); ++k) {
+    std::vector<int>& members = members_by_patch[model.membership_patch[k]];
+    member_index[k] = static_cast<int>(members.size());
+    members.push_back(k);
+  }
+  edges_by_patch.assign(model.num_patches(), {});
+  for (const PatchEdge& e : patch_edges) {
+    edges_by_patch[model.membership_patch[e.mi]].push_back({e.edge, member_index[e.mi], member_index[e.mj]});
+  }
+  seam_members_by_patch.assign(model.num_patches(), {});
+  for (int v = 0; v < model.num_vertices(); ++v) {
+    const IndexRange range = model.memberships(v);
+    if (range.size() < 2) continue;
+    for (int k : range) seam_members_by_patch[model.membership_patch[k]].push_back(member_index[k]);
+  }
+  near_members_by_patch.assign(model.num_patches(), {});
+}
+
+double DrapeSolver::Impl::PatchEdgeStrain(int p, const double* c, Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr) {
+  const int n = num_warp;
+  const std::vector<int>& members = members_by_patch[p];
+  // Each member's point once: position and dx/d(slide) (3 by 2).
+  thread_local std::vector<Eigen::Vector3d> x;
+  thread_local std::vector<Eigen::Matrix<double, 3, 2, Eigen::RowMajor>> dx_dslide;
+  x.resize(members.size());
+  dx_dslide.resize(members.size());
+  for (size_t i = 0; i < members.size(); ++i) {
+    const int k = members[i];
+    const double* phi = warp_monomials(k);
+    double slid[2] = {0.0, 0.0};
+    for (int j = 0; j < n; ++j) {
+      slid[0] += c[j] * phi[j];
+      slid[1] += c[n + j] * phi[j];
+    }
+    const PatchPointState state = points[k].State(alpha(p), slid);
+    x[i] = points[k].Position(state, scale(p), translation(p));
+    if (jtj == nullptr) continue;
+    double* jacobians[4] = {nullptr, nullptr, nullptr, dx_dslide[i].data()};
+    points[k].Chain<3>(Eigen::Matrix3d::Identity(), state, scale(p), jacobians, 3);
+  }
+  if (jtj != nullptr) {
+    jtj->setZero(2 * n, 2 * n);
+    jtr->setZero(2 * n);
+  }
+  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 2 * kMaxJetCoefficients, 1> row(2 * n);
+  // Adds residual r with derivative dr_dx at member i (and -dr_dx at
+  // member j >= 0) to the system.
+  const auto add = [&](double r, const Eigen::Matrix<double, 1, 3>& dr_dx, int i, int j) {
+    row.setZero();
+    for (const auto& [m, sign] : {std::pair{i, 1.0}, std::pair{j, -1.0}}) {
+      if (m < 0) continue;
+      const Eigen::Matrix<double, 1, 2> dr_dslide = sign * dr_dx * dx_dslide[m];
+      const double* phi = warp_monomials(members[m]);
+      for (int l = 0; l < n; ++l) {
+        row[l] += dr_dslide[0] * phi[l];
+        row[n + l] += dr_dslide[1] * phi[l];
+      }
+    }
+    jtj->noalias() += row * row.transpose();
+    *jtr += r * row;
+  };
+  double cost = 0.0;
+  for (const auto& [edge, i, j] : edges_by_patch[p]) {
+    const double rest_length = rest.edge_length[edge];
+    const double w = std::sqrt(edge_area[edge]) / rest_length;
+    const Eigen::Vector3d d = x[i] - x[j];
+    const double length = d.norm();
+    const double r = w * (length - rest_length);
+    cost += 0.5 * r * r;
+    if (jtj != nullptr && length > 0.0) add(r, w * d.transpose() / length, i, j);
+  }
+  // A seam point pulled to its vertex's other points, as stiff as the
+  // loss's agreement term: without it the patch drifts along itself (edge
+  // lengths barely see a rigid slide) away from its neighbours.
+  for (int i : seam_members_by_patch[p]) {
+    const int k = members[i];
+    const double w = std::sqrt(rest.vertex_area[membership_vertex[k]]) / mean_edge;
+    const Eigen::Vector3d r = w * (x[i] - seam_targets.col(k));
+    cost += 0.5 * r.squaredNorm();
+    if (jtj == nullptr) continue;
+    for (int axis = 0; axis < 3; ++axis) add(r[axis], w * Eigen::Matrix<double, 1, 3>::Unit(axis), i, -1);
+  }
+  // The collision term, in the same units (the loss's k_c kappa / 2
+  // max(eps - d, 0)^2 over its stretch factor 2 k_mi sigma mu), at a
+  // fraction of each vertex's margin.
+  const DrapePhysicsOptions& o = options.physics;
+  const double collision_weight =
+      std::sqrt(o.weights.collision * o.collision_stiffness / (2.0 * stretch_weight() * o.material.mu));
+  for (int i : near_members_by_patch[p]) {
+    const int v = membership_vertex[members[i]];
+    const SignedDistanceResult& hit = contact[v];
+    const double gap = kWarpMarginScale * margin[v] - hit.normal.dot(x[i] - hit.closest);
+    if (!(gap > 0.0)) continue;
+    const double r = collision_weight * gap;
+    cost += 0.5 * r * r;
+    if (jtj != nullptr) add(r, -collision_weight * hit.normal.transpose(), i, -1);
+  }
+  return cost;
+}
+
+void DrapeSolver::Impl::UpdateSeamTargets(const PolyFitModel& model, const std::vector<double>& packed) {
+  SetPatchParameters(model, packed);
+  seam_targets.resize(3, model.num_memberships());
+  for (int v = 0; v < model.num_vertices(); ++v) {
+    const IndexRange range = model.memberships(v);
+    if (range.size() < 2) continue;
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (int k : range) {
+      const int p = model.membership_patch[k];
+      seam_targets.col(k) = points[k].Position(alpha(p), scale(p), translation(p), slide(k));
+      sum += seam_targets.col(k);
+    }
+    // Each point's target: the mean of its vertex's other points.
+    const double others = static_cast<double>(range.size() - 1);
+    for (int k : range) seam_targets.col(k) = (sum - seam_targets.col(k)) / others;
+  }
+}
+
+namespace {
+
+// x = H^-1 b for a small symmetric positive definite H by Cholesky,
+// written out (Eigen's dense decompositions are kept out of code linked
+// with Ceres: cmake/PolyFitHelpers.cmake). False if H is not positive
+// definite.
+bool SolveSmallSpd(Eigen::MatrixXd h, const Eigen::VectorXd& b, Eigen::VectorXd* x) {
+  const Eigen::Index n = h.rows();
+  for (Eigen::Index j = 0; j < n; ++j) {
+    double d = h(j, j);
+    for (Eigen::Index k = 0; k < j; ++k) d -= h(j, k) * h(j, k);
+    if (!(d > 0.0)) return false;
+    h(j, j) = std::sqrt(d);
+    for (Eigen::Index i = j + 1; i < n; ++i) {
+      double v = h(i, j);
+      for (Eigen::Index k = 0; k < j; ++k) v -= h(i, k) * h(j, k);
+      h(i, j) = v / h(j, j);
+    }
+  }
+  *x = b;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    for (Eigen::Index k = 0; k < i; ++k) (*x)[i] -= h(i, k) * (*x)[k];
+    (*x)[i] /= h(i, i);
+  }
+  for (Eigen::Index i = n - 1; i >= 0; --i) {
+    for (Eigen::Index k = i + 1; k < n; ++k) (*x)[i] -= h(k, i) * (*x)[k];
+    (*x)[i] /= h(i, i);
+  }
+  return true;
+}
+
+}  // namespace
+
+// Levenberg-Marquardt on the patch's edge strain: the damping scales the
+// system's diagonal, grows on a rejected step and shrinks on an accepted one.
+void DrapeSolver::Impl::SolvePatchWarp(int p, int iterations, double* warp) {
+  const int size = 2 * num_warp;
+  Eigen::MatrixXd jtj;
+  Eigen::VectorXd jtr, step;
+  Eigen::Map<Eigen::VectorXd> c(warp, size);
+  double cost = PatchEdgeStrain(p, warp, &jtj, &jtr), damping = 1e-4;
+  for (int it = 0; it < iterations && cost > 0.0; ++it) {
+    Eigen::MatrixXd h = jtj;
+    h.diagonal() *= 1.0 + damping;
+    h.diagonal().array() += 1e-12 * (1.0 + jtj.diagonal().maxCoeff());
+    if (!SolveSmallSpd(h, -jtr, &step)) break;
+    const Eigen::VectorXd tried = c + step;
+    const double tried_cost = PatchEdgeStrain(p, tried.data(), nullptr, nullptr);
+    if (std::isfinite(tried_cost) && tried_cost < cost) {
+      c = tried;
+      cost = PatchEdgeStrain(p, warp, &jtj, &jtr);
+      damping = std::max(damping / 3.0, 1e-8);
+    } else {
+      damping *= 8.0;
+    }
+  }
+}
+
+std::vector<double> DrapeSolver::SolveWarps(const std::vector<double>& patch_parameters, int sweeps, int iterations) {
+  Impl& m = *impl_;
+  if (m.num_warp == 0) throw std::logic_error("DrapeSolver::SolveWarps: the patches have no warp (warp_order < 0)");
+  if (m.edges_by_patch.empty()) m.CollectPatchWarpTerms(model_);
+  std::vector<double> out = patch_parameters;
+  const int stride = m.packed_stride(), begin = m.num_coefficients + 4;
+  // The body where the given parameters put the garment.
+  m.SetPatchParameters(model_, patch_parameters);
+  m.warp_positions.resize(3, model_.num_vertices());
+  m.Positions(model_, &m.warp_positions);
+  m.QueryContacts(m.warp_positions);
+  for (auto& members : m.near_members_by_patch) members.clear();
+  if (m.options.physics.weights.collision > 0.0) {
+    for (int k = 0; k < model_.num_memberships(); ++k) {
+      if (m.contact[m.membership_vertex[k]].distance < m.options.physics.collision_band) {
+        m.near_members_by_patch[model_.membership_patch[k]].push_back(m.member_index[k]);
+      }
+    }
+  }
+  // Jacobi sweeps: every patch against its neighbours' points of the sweep
+  // before.
+  for (int sweep = 0; sweep < sweeps; ++sweep) {
+    m.UpdateSeamTargets(model_, out);
+    ParallelFor(model_.num_patches(), m.options.num_threads,
+                [&](int, int p) { m.SolvePatchWarp(p, iterations, out.data() + p * stride + begin); });
+  }
+  return out;
 }
 
 std::vector<double> DrapeSolver::Impl::PackedPatchParameters(const std::vector<double>& strided) const {

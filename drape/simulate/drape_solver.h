@@ -231,6 +231,25 @@ class DrapeSolver {
   // target of another size or with non-finite points.
   double DistanceTo(const std::vector<double>& patch_parameters, const Eigen::Matrix3Xd& target,
                     std::vector<double>* gradient);
+  // The given patch parameters with each patch's warp re-solved for its
+  // jet, scale and translation (held), posed as last posed by Pose or
+  // Step (the body too): `sweeps` Jacobi sweeps, each `iterations`
+  // damped Gauss-Newton steps per patch from its warp, on
+  //   sum_e a_e ((l_e - L_e) / L_e)^2                its own edges' strain
+  //   + sum_k A_v / h^2 |x_k - mean_(k' != k) x_k'|^2 its seam points against
+  //                                                   the other patches' points
+  //                                                   of their vertex (the
+  //                                                   sweep before)
+  //   + k_c kappa / (2 k_mi sigma mu) sum_k max(eps_v / 4 - d_k, 0)^2
+  // (a_e, A_v: rest areas; h the mean edge; d_k along the normal of the
+  // body's point closest to the vertex where the given parameters put it,
+  // for vertices within the collision band; eps_v the vertex's margin, a
+  // quarter of it so that the warps keep the garment out of the body but
+  // need not hold it off: with the whole margin, on the suit's walk, the
+  // strain fell half as far). The loss's own agreement and collision
+  // weights in units of its stretch. Needs warp_order >= 0 (throws
+  // std::logic_error otherwise). Not thread-safe.
+  std::vector<double> SolveWarps(const std::vector<double>& patch_parameters, int sweeps = 5, int iterations = 2);
   int num_patch_parameters() const;
   // The rest patch parameters (the fit; no warp), the current ones (the
   // last Step; warps fitted to the slides by least squares), and the

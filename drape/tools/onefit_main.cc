@@ -607,6 +607,10 @@ int main(int argc, char** argv) {
       ->add_option("--refine", drape.options.refine_iterations,
                    "Levenberg-Marquardt iterations of the reference drape from each prediction (0: none)")
       ->capture_default_str();
+  drape_command
+      ->add_option("--warp-sweeps", drape.options.warp_sweeps,
+                   "re-solve each prediction's warps for its jets with this many sweeps (0: the network's own)")
+      ->capture_default_str();
   SimulateFlags eval;
   eval.options.render_every = 0;
   eval.options.project_offset = polyfit::kNetworkProjectOffset;
@@ -617,6 +621,10 @@ int main(int argc, char** argv) {
   eval_command
       ->add_option("--refine", eval.options.refine_iterations,
                    "Levenberg-Marquardt iterations of the reference drape from each prediction (0: none)")
+      ->capture_default_str();
+  eval_command
+      ->add_option("--warp-sweeps", eval.options.warp_sweeps,
+                   "re-solve each prediction's warps for its jets with this many sweeps (0: the network's own)")
       ->capture_default_str();
   TrainFlags train;
   CLI::App* train_command = AddTrainCommand(&app, &train);
