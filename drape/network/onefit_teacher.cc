@@ -86,7 +86,7 @@ OneFitTeacherDrape OneFitTrainer::ReferenceDrape(int garment, int clip, int thre
 }
 
 double OneFitTrainer::TeacherSampleLoss(const double* weights, const TeacherFrame& frame, int thread,
-                                        double* gradient) {
+                                        double* gradient, bool warps_only) {
   const GarmentData& g = *garments_[frame.garment];
   DrapeSolver& solver = *g.solvers[thread];
   Eigen::MatrixXd outputs;
@@ -98,8 +98,48 @@ double OneFitTrainer::TeacherSampleLoss(const double* weights, const TeacherFram
   solver.PositionsAt(params, clips_[frame.clip].poses[frame.frame]);  // poses the garment's skinning
   std::vector<double> d_params;
   const double distance = solver.DistanceTo(params, frame.target, gradient != nullptr ? &d_params : nullptr);
-  if (gradient != nullptr) BackPropagate(weights, g, outputs, cache, at, d_params, gradient);
+  if (gradient == nullptr) return distance;
+  if (warps_only) {
+    const int stride = solver.num_patch_parameters(), warp = network_.num_coefficients() + 4;
+    for (size_t i = 0; i < d_params.size(); ++i) {
+      if (static_cast<int>(i) % stride < warp) d_params[i] = 0.0;
+    }
+  }
+  BackPropagate(weights, g, outputs, cache, at, d_params, gradient);
   return distance;
+}
+
+std::vector<OneFitTrainer::TeacherFrame> OneFitTrainer::WarpTargets(const double* weights,
+                                                                    const std::vector<OneFitSample>& batch) {
+  const Eigen::VectorXd aligned = Eigen::Map<const Eigen::VectorXd>(weights, num_parameters());
+  std::vector<TeacherFrame> targets(batch.size());
+  MeanOverSamples(
+      static_cast<int>(batch.size()),
+      [&](int i, int thread, double*) {
+        const OneFitSample& s = batch[i];
+        DrapeSolver& solver = *garments_[s.garment]->solvers[thread];
+        solver.Pose(clips_[s.clip].poses[s.frame], epoch_);  // the body: the warps' collision term
+        const std::vector<double> solved =
+            solver.SolveWarps(PredictOn(aligned.data(), s.garment, s.clip, s.frame, thread),
+                              options_.warp_target_sweeps);
+        targets[i] = TeacherFrame{s.garment, s.clip, s.frame, solver.PositionsOf(solved)};
+        return 0.0;
+      },
+      nullptr);
+  return targets;
+}
+
+double OneFitTrainer::WarpTargetDistance(const double* weights, const std::vector<OneFitSample>& samples) {
+  return WarpTargetLoss(weights, WarpTargets(weights, samples), nullptr);
+}
+
+double OneFitTrainer::WarpTargetLoss(const double* weights, const std::vector<TeacherFrame>& targets,
+                                     double* gradient) {
+  const Eigen::VectorXd aligned = Eigen::Map<const Eigen::VectorXd>(weights, num_parameters());
+  return MeanOverSamples(
+      static_cast<int>(targets.size()),
+      [&](int i, int thread, double* g) { return TeacherSampleLoss(aligned.data(), targets[i], thread, g, true); },
+      gradient);
 }
 
 double OneFitTrainer::TeacherLoss(const double* weights, const std::vector<int>& frames, double* gradient) {

@@ -95,6 +95,13 @@ std::string OneFitTrainerOptions::Validate() const {
     return "teacher: max_inside_percent and max_edge_strain_percent must be >= 0";
   }
   if (teacher.batches > 0 && optimizer != OneFitOptimizer::kAdam) return "teacher: it needs the Adam optimiser";
+  if (!(warp_target_weight >= 0.0) || !std::isfinite(warp_target_weight)) {
+    return "warp_target_weight must be finite and >= 0";
+  }
+  if (warp_target_sweeps < 1) return "warp_target_sweeps must be >= 1";
+  if (warp_target_weight > 0.0 && (network.warp_order < 0 || optimizer != OneFitOptimizer::kAdam)) {
+    return "warp_target_weight needs a warp head (warp_order >= 0) and the Adam optimiser";
+  }
   return {};
 }
 
@@ -551,11 +558,24 @@ OneFitBatchSummary OneFitTrainer::AdamBatch(const std::vector<OneFitSample>& bat
     for (int& i : teacher_batch) i = draw(rng);
     teacher_gradient.resize(weights->size());
   }
+  // With the warp target: the warps the batch's jets ask for, once per
+  // batch; its gradient added as the teacher's.
+  std::vector<TeacherFrame> warp_targets;
+  if (options_.warp_target_weight > 0.0) {
+    warp_targets = WarpTargets(weights->data(), batch);
+    if (teacher_gradient.empty()) teacher_gradient.resize(weights->size());
+  }
   const auto loss = [&](const double* w, double* g) {
     const double value = Loss(w, batch, g);
     if (teacher_weight > 0.0) {
       TeacherLoss(w, teacher_batch, teacher_gradient.data());
       for (size_t i = 0; i < teacher_gradient.size(); ++i) g[i] += teacher_weight * teacher_gradient[i];
+    }
+    if (!warp_targets.empty()) {
+      WarpTargetLoss(w, warp_targets, teacher_gradient.data());
+      for (size_t i = 0; i < teacher_gradient.size(); ++i) {
+        g[i] += options_.warp_target_weight * teacher_gradient[i];
+      }
     }
     return value;
   };

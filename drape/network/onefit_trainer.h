@@ -196,6 +196,16 @@ struct OneFitTrainerOptions {
   OneFitDistribution distribution;
   OneFitPolishOptions polish;
   OneFitTeacherOptions teacher;
+  // The warps the network's own jets ask for as its warp head's target:
+  // at each batch's start, per sample, the prediction's warps re-solved
+  // (DrapeSolver::SolveWarps, warp_target_sweeps sweeps, under the loss's
+  // collision settings), and every Adam step's gradient also holds this
+  // weight (J per m^2) times the gradient, over the warps alone, of the
+  // area-weighted squared distance to the positions they give
+  // (DrapeSolver::DistanceTo). The target moves with the jets, unlike the
+  // teacher's. 0: none. Needs a warp head and Adam.
+  double warp_target_weight = 0.0;
+  int warp_target_sweeps = 3;
 
   std::string Validate() const;
 };
@@ -378,6 +388,10 @@ class OneFitTrainer {
   // the frames Teach's reference drapes kept) and its gradient.
   double TeacherLoss(const double* weights, const std::vector<int>& frames, double* gradient);
   int num_teacher_frames() const { return static_cast<int>(teacher_.size()); }
+  // The warp target's distance (OneFitTrainerOptions::warp_target_weight)
+  // over given samples: the mean of DrapeSolver::DistanceTo from each
+  // prediction to its own warps re-solved (m^2).
+  double WarpTargetDistance(const double* weights, const std::vector<OneFitSample>& samples);
 
   // The second-order polish (OneFitPolishOptions) of `weights`, in place:
   // only the decoder's last layer changes, and only by steps that lower
@@ -454,7 +468,14 @@ class OneFitTrainer {
   // included) on a thread's solver; its usable frames appended to *out,
   // and what they measure.
   OneFitTeacherDrape ReferenceDrape(int garment, int clip, int thread, std::vector<TeacherFrame>* out);
-  double TeacherSampleLoss(const double* weights, const TeacherFrame& frame, int thread, double* gradient);
+  // warps_only: the gradient over each patch's warp alone (the rest held).
+  double TeacherSampleLoss(const double* weights, const TeacherFrame& frame, int thread, double* gradient,
+                           bool warps_only = false);
+  // The warp target (OneFitTrainerOptions::warp_target_weight): per
+  // sample of a batch, the positions of its prediction with the warps
+  // re-solved, and the mean distance to them with its gradient.
+  std::vector<TeacherFrame> WarpTargets(const double* weights, const std::vector<OneFitSample>& batch);
+  double WarpTargetLoss(const double* weights, const std::vector<TeacherFrame>& targets, double* gradient);
   void RunReferenceDrapes(std::mt19937_64* rng, OneFitTeacherSummary* summary);
   void AddGarment(const SkinnedBody& body, const OneFitTrainingGarment& garment, int body_index,
                   const DrapeSolverOptions& drape);

@@ -951,6 +951,36 @@ TEST_F(OneFitTrainerTest, AWarpUnderASlideBoundHasTheRightGradientAndDrapesAsTra
 // against central differences (through the body proximity and the
 // feedback decoder), and its batches bring the network's drape to the
 // reference drape's positions, the same under the same seed.
+// The warp target: through training, the warps the network predicts come
+// nearer those its own jets ask for (DrapeSolver::SolveWarps) than the
+// loss alone brings them; and the option is checked.
+TEST_F(OneFitTrainerTest, TheWarpTargetPullsTheWarpHeadToTheWarpsItsJetsAskFor) {
+  options_.optimizer = OneFitOptimizer::kAdam;
+  options_.learning_rate = 1e-4;
+  options_.validation_every = 0;
+  options_.num_batches = 6;
+  const std::vector<OneFitSample> samples = {{0, 0, 2}, {0, 0, 4}, {0, 0, 6}};
+  const auto trained_distance = [&](double weight) {
+    OneFitTrainerOptions o = options_;
+    o.warp_target_weight = weight;
+    OneFitTrainer t = ShirtTrainer(body_, o);
+    std::vector<double> w = t.InitialWeights();
+    const OneFitTrainingSummary trained = t.Train(&w);
+    EXPECT_NE(trained.termination_type, TerminationType::kFailure) << trained.BriefReport();
+    return t.WarpTargetDistance(w.data(), samples);
+  };
+  const double alone = trained_distance(0.0), pulled = trained_distance(1e10);
+  EXPECT_GT(alone, 0.0);
+  EXPECT_LT(pulled, 0.5 * alone);
+  OneFitTrainerOptions bad = options_;
+  bad.warp_target_weight = 1.0;
+  bad.network.warp_order = -1;
+  EXPECT_NE(bad.Validate().find("warp_target_weight needs a warp head"), std::string::npos);
+  bad = options_;
+  bad.warp_target_sweeps = 0;
+  EXPECT_NE(bad.Validate().find("warp_target_sweeps"), std::string::npos);
+}
+
 TEST_F(OneFitTrainerTest, TheTeacherFitsTheNetworkToTheReferenceDrape) {
   options_.network.body_proximity = true;
   options_.network.feedback = true;

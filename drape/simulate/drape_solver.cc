@@ -876,6 +876,9 @@ std::vector<double> DrapeSolver::SolveWarps(const std::vector<double>& patch_par
   if (m.edges_by_patch.empty()) m.CollectPatchWarpTerms(model_);
   std::vector<double> out = patch_parameters;
   const int stride = m.packed_stride(), begin = m.num_coefficients + 4;
+  // The solver's own state is put back at the end (as PositionsOf does).
+  m.saved_params = m.params;
+  m.saved_slides = m.slides;
   // The body where the given parameters put the garment.
   m.SetPatchParameters(model_, patch_parameters);
   m.warp_positions.resize(3, model_.num_vertices());
@@ -896,6 +899,8 @@ std::vector<double> DrapeSolver::SolveWarps(const std::vector<double>& patch_par
     ParallelFor(model_.num_patches(), m.options.num_threads,
                 [&](int, int p) { m.SolvePatchWarp(p, iterations, out.data() + p * stride + begin); });
   }
+  m.params = m.saved_params;
+  m.slides = m.saved_slides;
   return out;
 }
 

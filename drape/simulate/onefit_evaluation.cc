@@ -27,6 +27,7 @@ DrapeSimulationSummary RunDrape(const OneFitEvaluationOptions& options, bool net
     o.strain_limit_passes = options.strain_limit_passes;
   } else {
     o.model_path.clear();
+    o.warp_sweeps = 0;
     o.project_offset = -1.0;
   }
   return RunDrapeSimulation(o);
@@ -167,10 +168,11 @@ OneFitEvaluationSummary EvaluateOneFitModel(const OneFitEvaluationOptions& optio
   }
   const std::vector<double> reference_jitter = Jitter(reference.positions), network_jitter = Jitter(network.positions);
   summary.reference = Summarize("reference drape", reference, reference_jitter);
-  const int refine = options.simulation.refine_iterations;
-  summary.network =
-      Summarize(refine > 0 ? "network + " + std::to_string(refine) + " LM iterations" : std::string("network"), network,
-                network_jitter);
+  const int refine = options.simulation.refine_iterations, sweeps = options.simulation.warp_sweeps;
+  const std::string name = refine > 0   ? "network + " + std::to_string(refine) + " LM iterations"
+                           : sweeps > 0 ? "network + warps re-solved (" + std::to_string(sweeps) + " sweeps)"
+                                        : std::string("network");
+  summary.network = Summarize(name, network, network_jitter);
   summary.network.distance_to_reference_mm = FiniteMean(summary.distance_mm);
   summary.network.max_distance_to_reference_mm =
       summary.distance_mm.empty() ? 0.0 : *std::max_element(summary.distance_mm.begin(), summary.distance_mm.end());

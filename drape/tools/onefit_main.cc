@@ -458,6 +458,15 @@ void AddTrainTeacherFlags(CLI::App* train, polyfit::OneFitTrainerOptions* option
       ->capture_default_str();
   train->add_option("--teacher-max-strain", t.max_edge_strain_percent, "... and at most this mean edge strain (%)")
       ->capture_default_str();
+  train
+      ->add_option("--warp-target", options->warp_target_weight,
+                   "the warps each batch's jets ask for (re-solved per sample) pull the warp head at this weight "
+                   "(J per m^2; 0: none)")
+      ->capture_default_str();
+  train
+      ->add_option("--warp-target-sweeps", options->warp_target_sweeps, "the warp target's sweeps")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
 }
 
 CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
