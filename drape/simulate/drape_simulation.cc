@@ -208,21 +208,22 @@ void RunNetworkFrames(const DrapeSimulationOptions& options, const DrapeInputs& 
       solver->WarmStart(params);
       step = solver->Step(now);
       step.time_s = Seconds(start);
-    } else if (options.warp_sweeps > 0) {
-      solver->Pose(now);  // the body too: the warps' collision term reads it
-      const std::vector<double> solved = solver->SolveWarps(params, options.warp_sweeps);
-      const Eigen::Matrix3Xd positions = solver->PositionsOf(solved);
-      step.time_s = step.solve_time_s = Seconds(start);
-      solver->Adopt(solved);
-      if (!positions.allFinite()) {
-        step.termination_type = TerminationType::kFailure;
-        step.message = "the network predicted non-finite positions";
-      }
     } else {
-      const Eigen::Matrix3Xd positions = solver->PositionsAt(params, now);
+      // With re-solved warps the body is posed within the inference (their
+      // collision term reads it); else only the garment's skinning is, and
+      // the body after it, for the metrics.
+      std::vector<double> drape = params;
+      Eigen::Matrix3Xd positions;
+      if (options.warp_sweeps > 0) {
+        solver->Pose(now);
+        drape = solver->SolveWarps(params, options.warp_sweeps);
+        positions = solver->PositionsOf(drape);
+      } else {
+        positions = solver->PositionsAt(params, now);
+      }
       step.time_s = step.solve_time_s = Seconds(start);
-      solver->Pose(now);
-      solver->Adopt(params);
+      if (options.warp_sweeps == 0) solver->Pose(now);
+      solver->Adopt(drape);
       if (!positions.allFinite()) {
         step.termination_type = TerminationType::kFailure;
         step.message = "the network predicted non-finite positions";

@@ -278,6 +278,10 @@ struct DrapeSolver::Impl {
   Eigen::Matrix3Xd warp_positions;  // SolveWarps' scratch, 3 by #V
   void CollectPatchWarpTerms(const PolyFitModel& model);
   double PatchEdgeStrain(int p, const double* c, Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr);
+  // Patch p's points at its warp c, in its memberships' order: posed, and
+  // their derivatives in the slide (3 by 2) when dx_dslide is given.
+  void PatchPoints(int p, const double* c, std::vector<Eigen::Vector3d>* x,
+                   std::vector<Eigen::Matrix<double, 3, 2, Eigen::RowMajor>>* dx_dslide);
   void SolvePatchWarp(int p, int iterations, double* warp);
   // seam_targets from the warps in packed.
   void UpdateSeamTargets(const PolyFitModel& model, const std::vector<double>& packed);
@@ -712,14 +716,12 @@ void DrapeSolver::Impl::CollectPatchWarpTerms(const PolyFitModel& model) {
   near_members_by_patch.assign(model.num_patches(), {});
 }
 
-double DrapeSolver::Impl::PatchEdgeStrain(int p, const double* c, Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr) {
+void DrapeSolver::Impl::PatchPoints(int p, const double* c, std::vector<Eigen::Vector3d>* x,
+                                    std::vector<Eigen::Matrix<double, 3, 2, Eigen::RowMajor>>* dx_dslide) {
   const int n = num_warp;
   const std::vector<int>& members = members_by_patch[p];
-  // Each member's point once: position and dx/d(slide) (3 by 2).
-  thread_local std::vector<Eigen::Vector3d> x;
-  thread_local std::vector<Eigen::Matrix<double, 3, 2, Eigen::RowMajor>> dx_dslide;
-  x.resize(members.size());
-  dx_dslide.resize(members.size());
+  x->resize(members.size());
+  if (dx_dslide != nullptr) dx_dslide->resize(members.size());
   for (size_t i = 0; i < members.size(); ++i) {
     const int k = members[i];
     const double* phi = warp_monomials(k);
@@ -729,11 +731,20 @@ double DrapeSolver::Impl::PatchEdgeStrain(int p, const double* c, Eigen::MatrixX
       slid[1] += c[n + j] * phi[j];
     }
     const PatchPointState state = points[k].State(alpha(p), slid);
-    x[i] = points[k].Position(state, scale(p), translation(p));
-    if (jtj == nullptr) continue;
-    double* jacobians[4] = {nullptr, nullptr, nullptr, dx_dslide[i].data()};
+    (*x)[i] = points[k].Position(state, scale(p), translation(p));
+    if (dx_dslide == nullptr) continue;
+    double* jacobians[4] = {nullptr, nullptr, nullptr, (*dx_dslide)[i].data()};
     points[k].Chain<3>(Eigen::Matrix3d::Identity(), state, scale(p), jacobians, 3);
   }
+}
+
+double DrapeSolver::Impl::PatchEdgeStrain(int p, const double* c, Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr) {
+  const int n = num_warp;
+  const std::vector<int>& members = members_by_patch[p];
+  // Each member's point once (buffers kept per thread across calls).
+  thread_local std::vector<Eigen::Vector3d> x;
+  thread_local std::vector<Eigen::Matrix<double, 3, 2, Eigen::RowMajor>> dx_dslide;
+  PatchPoints(p, c, &x, jtj != nullptr ? &dx_dslide : nullptr);
   if (jtj != nullptr) {
     jtj->setZero(2 * n, 2 * n);
     jtr->setZero(2 * n);
