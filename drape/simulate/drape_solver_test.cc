@@ -82,23 +82,35 @@ TEST(DrapeSolverTest, AFreeSheetFallsWithTheWeightsAccelerationAndKeepsItsShape)
   }
 }
 
-TEST(DrapeSolverTest, SlidesUndoInPlaneSkinningDistortion) {
-  // A flat sheet whose skinning stretches it in its own plane: vertices
-  // weighted to a second joint by their x, that joint moved 5 cm along x.
-  // Moving along the patch normals cannot undo that; slides can.
-  const SkinnedBody body = MakeProceduralBody();
-  TriangleMesh sheet = MakeGrid(12, 12, 0.3);
-  sheet.vertices.row(1).array() += 2.5;  // no contact
-  const double x_min = sheet.vertices.row(0).minCoeff(), x_max = sheet.vertices.row(0).maxCoeff();
+// A flat sheet whose skinning stretches it in its own plane: vertices
+// weighted to a second joint by their x, that joint moved 5 cm along x.
+// Moving along the patch normals cannot undo that; slides can.
+struct StretchedSheet {
+  SkinnedBody body = MakeProceduralBody();
+  TriangleMesh sheet;
   SkinWeights weights;
-  for (int v = 0; v < sheet.num_vertices(); ++v) {
-    const double t = (sheet.vertices(0, v) - x_min) / (x_max - x_min);
-    weights.joint.insert(weights.joint.end(), {0, 1});
-    weights.value.insert(weights.value.end(), {1.0 - t * t, t * t});
-    weights.offsets.push_back(static_cast<int>(weights.joint.size()));
+  std::vector<Eigen::Isometry3d> pose;
+
+  StretchedSheet() : sheet(MakeGrid(12, 12, 0.3)) {
+    sheet.vertices.row(1).array() += 2.5;  // no contact
+    const double x_min = sheet.vertices.row(0).minCoeff(), x_max = sheet.vertices.row(0).maxCoeff();
+    for (int v = 0; v < sheet.num_vertices(); ++v) {
+      const double t = (sheet.vertices(0, v) - x_min) / (x_max - x_min);
+      weights.joint.insert(weights.joint.end(), {0, 1});
+      weights.value.insert(weights.value.end(), {1.0 - t * t, t * t});
+      weights.offsets.push_back(static_cast<int>(weights.joint.size()));
+    }
+    pose.assign(body.skeleton.num_joints(), Eigen::Isometry3d::Identity());
+    pose[1].translation() = Eigen::Vector3d(0.05, 0.0, 0.0);
   }
-  std::vector<Eigen::Isometry3d> pose(body.skeleton.num_joints(), Eigen::Isometry3d::Identity());
-  pose[1].translation() = Eigen::Vector3d(0.05, 0.0, 0.0);
+};
+
+TEST(DrapeSolverTest, SlidesUndoInPlaneSkinningDistortion) {
+  const StretchedSheet s;
+  const SkinnedBody& body = s.body;
+  const TriangleMesh& sheet = s.sheet;
+  const SkinWeights& weights = s.weights;
+  const std::vector<Eigen::Isometry3d>& pose = s.pose;
   double strain[2];
   for (const bool slide : {false, true}) {
     DrapeSolverOptions options;
@@ -118,19 +130,11 @@ TEST(DrapeSolverTest, SlidesUndoInPlaneSkinningDistortion) {
 // The same in-plane stretch undone by each patch's warp alone, re-solved
 // for its (rest) jet by SolveWarps, the rest of the parameters untouched.
 TEST(DrapeSolverTest, SolvedWarpsUndoInPlaneSkinningDistortion) {
-  const SkinnedBody body = MakeProceduralBody();
-  TriangleMesh sheet = MakeGrid(12, 12, 0.3);
-  sheet.vertices.row(1).array() += 2.5;  // no contact
-  const double x_min = sheet.vertices.row(0).minCoeff(), x_max = sheet.vertices.row(0).maxCoeff();
-  SkinWeights weights;
-  for (int v = 0; v < sheet.num_vertices(); ++v) {
-    const double t = (sheet.vertices(0, v) - x_min) / (x_max - x_min);
-    weights.joint.insert(weights.joint.end(), {0, 1});
-    weights.value.insert(weights.value.end(), {1.0 - t * t, t * t});
-    weights.offsets.push_back(static_cast<int>(weights.joint.size()));
-  }
-  std::vector<Eigen::Isometry3d> pose(body.skeleton.num_joints(), Eigen::Isometry3d::Identity());
-  pose[1].translation() = Eigen::Vector3d(0.05, 0.0, 0.0);
+  const StretchedSheet s;
+  const SkinnedBody& body = s.body;
+  const TriangleMesh& sheet = s.sheet;
+  const SkinWeights& weights = s.weights;
+  const std::vector<Eigen::Isometry3d>& pose = s.pose;
   DrapeSolverOptions options;
   options.patching.patch_area = 0.02;
   options.slide.warp_order = 2;
