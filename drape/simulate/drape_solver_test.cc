@@ -131,15 +131,11 @@ TEST(DrapeSolverTest, SlidesUndoInPlaneSkinningDistortion) {
 // for its (rest) jet by SolveWarps, the rest of the parameters untouched.
 TEST(DrapeSolverTest, SolvedWarpsUndoInPlaneSkinningDistortion) {
   const StretchedSheet s;
-  const SkinnedBody& body = s.body;
-  const TriangleMesh& sheet = s.sheet;
-  const SkinWeights& weights = s.weights;
-  const std::vector<Eigen::Isometry3d>& pose = s.pose;
   DrapeSolverOptions options;
   options.patching.patch_area = 0.02;
   options.slide.warp_order = 2;
-  DrapeSolver solver(body, sheet, weights, options);
-  solver.Pose(pose);
+  DrapeSolver solver(s.body, s.sheet, s.weights, options);
+  solver.Pose(s.pose);
   const ClothRest rest = PrepareClothRest(solver.rest_garment());
   const std::vector<double> given = solver.RestPatchParameters();
   const std::vector<double> solved = solver.SolveWarps(given, 20);
@@ -159,8 +155,8 @@ TEST(DrapeSolverTest, SolvedWarpsUndoInPlaneSkinningDistortion) {
   EXPECT_LE(MeasureCloth(rest, solver.PositionsOf(solver.SolveWarps(solved))).edge_strain_percent, after + 1e-3);
   // Without a warp head there is nothing to solve.
   options.slide.warp_order = -1;
-  DrapeSolver no_warps(body, sheet, weights, options);
-  no_warps.Pose(pose);
+  DrapeSolver no_warps(s.body, s.sheet, s.weights, options);
+  no_warps.Pose(s.pose);
   EXPECT_THROW(no_warps.SolveWarps(no_warps.RestPatchParameters()), std::logic_error);
 }
 
