@@ -204,6 +204,27 @@ TEST_F(BodyProximityTest, ARigidMotionOfBodyAndGarmentTogetherChangesNothing) {
   EXPECT_THROW(posed.Pose(JointTransforms(1)), std::invalid_argument);
 }
 
+// Hints carried from frame to frame (the centre probes' nearest samples)
+// change no answer, through a motion and back.
+TEST_F(BodyProximityTest, CentreHintsFromTheFrameBeforeGiveTheSameFeatures) {
+  const int joints = body_.skeleton.num_joints();
+  const Eigen::Vector3d head = body_.skeleton.rest_heads.col(1);
+  PosedBodySamples posed(body_);
+  std::vector<int> hints;
+  for (const double angle : {0.0, 0.3, 0.6, 0.0}) {
+    JointTransforms pose(joints, Eigen::Isometry3d::Identity());
+    pose[1] =
+        Eigen::Translation3d(head) * Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitX()) * Eigen::Translation3d(-head);
+    posed.Pose(pose);
+    Eigen::MatrixXd plain, hinted;
+    BodyProximityFeatures(probes_, pose, posed, &plain);
+    BodyProximityFeatures(probes_, pose, posed, &hinted, &hints);
+    EXPECT_EQ(plain, hinted) << "angle " << angle;
+    ASSERT_EQ(hints.size(), 2u);
+    for (int h : hints) EXPECT_GE(h, 0);
+  }
+}
+
 // The probes placed on patch parameters: on the rest parameters they are
 // the rest probes; elsewhere they follow the jet, and the chain of the
 // distances' derivatives back to alpha, s and T matches central

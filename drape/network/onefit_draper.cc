@@ -98,7 +98,7 @@ std::vector<double> OneFitDraper::Predict(const JointTransforms& before_previous
           .cwiseProduct(body_mask_);
   if (posed_body_) {
     posed_body_->Pose(now);
-    BodyProximityFeatures(probes_, now, *posed_body_, &proximity_);
+    BodyProximityFeatures(probes_, now, *posed_body_, &proximity_, &proximity_hints_);
   }
   const Eigen::MatrixXd outputs =
       precision_ == InferencePrecision::kFloat

@@ -35,6 +35,7 @@ class OutputProximity {
   Eigen::MatrixXd outputs_, features_;
   std::vector<double> parameters_;
   Eigen::Matrix3Xd points_, distance_gradients_;
+  std::vector<int> centre_hints_;  // per patch, from the last Evaluate
 };
 
 }  // namespace polyfit
