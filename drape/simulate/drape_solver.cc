@@ -283,8 +283,15 @@ struct DrapeSolver::Impl {
   void PatchPoints(int p, const double* c, std::vector<Eigen::Vector3d>* x,
                    std::vector<Eigen::Matrix<double, 3, 2, Eigen::RowMajor>>* dx_dslide);
   void SolvePatchWarp(int p, int iterations, double* warp);
-  // seam_targets from the warps in packed.
-  void UpdateSeamTargets(const PolyFitModel& model, const std::vector<double>& packed);
+  // Patches coloured so that no two of a colour share a vertex (greedy):
+  // a colour's patches are solved together, each against the latest
+  // points of the others (Gauss-Seidel by colour).
+  std::vector<std::vector<int>> patches_by_colour;
+  // The seam points where the warps put them (3 by #memberships; seam
+  // memberships only), and seam_targets from them.
+  Eigen::Matrix3Xd seam_points;
+  void UpdateSeamPoints(int p, const double* warp);
+  void UpdateSeamTargets(const PolyFitModel& model);
   // d(Ceres' parameters)/d(packed parameters), Ceres' layout being alpha,
   // s, T per patch, then with warps each membership's slide (a linear map
   // of its patch's warp), built once: Ceres' parameter c is the sum over
@@ -714,6 +721,27 @@ void DrapeSolver::Impl::CollectPatchWarpTerms(const PolyFitModel& model) {
     for (int k : range) seam_members_by_patch[model.membership_patch[k]].push_back(member_index[k]);
   }
   near_members_by_patch.assign(model.num_patches(), {});
+  // Greedy colouring of the patches that share a vertex.
+  std::vector<std::vector<int>> neighbours(model.num_patches());
+  for (int v = 0; v < model.num_vertices(); ++v) {
+    const IndexRange range = model.memberships(v);
+    for (int a : range) {
+      for (int b : range) {
+        if (a != b) neighbours[model.membership_patch[a]].push_back(model.membership_patch[b]);
+      }
+    }
+  }
+  std::vector<int> colour(model.num_patches(), -1);
+  patches_by_colour.clear();
+  for (int p = 0; p < model.num_patches(); ++p) {
+    std::vector<char> taken(patches_by_colour.size() + 1, 0);
+    for (int q : neighbours[p]) {
+      if (colour[q] >= 0) taken[colour[q]] = 1;
+    }
+    colour[p] = static_cast<int>(std::find(taken.begin(), taken.end(), 0) - taken.begin());
+    if (colour[p] == static_cast<int>(patches_by_colour.size())) patches_by_colour.emplace_back();
+    patches_by_colour[colour[p]].push_back(p);
+  }
 }
 
 void DrapeSolver::Impl::PatchPoints(int p, const double* c, std::vector<Eigen::Vector3d>* x,
@@ -805,21 +833,22 @@ double DrapeSolver::Impl::PatchEdgeStrain(int p, const double* c, Eigen::MatrixX
   return cost;
 }
 
-void DrapeSolver::Impl::UpdateSeamTargets(const PolyFitModel& model, const std::vector<double>& packed) {
-  SetPatchParameters(model, packed);
+void DrapeSolver::Impl::UpdateSeamPoints(int p, const double* warp) {
+  thread_local std::vector<Eigen::Vector3d> x;
+  PatchPoints(p, warp, &x, nullptr);
+  for (int i : seam_members_by_patch[p]) seam_points.col(members_by_patch[p][i]) = x[i];
+}
+
+void DrapeSolver::Impl::UpdateSeamTargets(const PolyFitModel& model) {
   seam_targets.resize(3, model.num_memberships());
   for (int v = 0; v < model.num_vertices(); ++v) {
     const IndexRange range = model.memberships(v);
     if (range.size() < 2) continue;
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    for (int k : range) {
-      const int p = model.membership_patch[k];
-      seam_targets.col(k) = points[k].Position(alpha(p), scale(p), translation(p), slide(k));
-      sum += seam_targets.col(k);
-    }
+    for (int k : range) sum += seam_points.col(k);
     // Each point's target: the mean of its vertex's other points.
     const double others = static_cast<double>(range.size() - 1);
-    for (int k : range) seam_targets.col(k) = (sum - seam_targets.col(k)) / others;
+    for (int k : range) seam_targets.col(k) = (sum - seam_points.col(k)) / others;
   }
 }
 
@@ -903,12 +932,19 @@ std::vector<double> DrapeSolver::SolveWarps(const std::vector<double>& patch_par
       }
     }
   }
-  // Jacobi sweeps: every patch against its neighbours' points of the sweep
-  // before.
+  // Gauss-Seidel sweeps by colour: each colour's patches together, against
+  // their neighbours' latest points.
+  m.seam_points.resize(3, model_.num_memberships());
+  for (int p = 0; p < model_.num_patches(); ++p) m.UpdateSeamPoints(p, out.data() + p * stride + begin);
   for (int sweep = 0; sweep < sweeps; ++sweep) {
-    m.UpdateSeamTargets(model_, out);
-    ParallelFor(model_.num_patches(), m.options.num_threads,
-                [&](int, int p) { m.SolvePatchWarp(p, iterations, out.data() + p * stride + begin); });
+    for (const std::vector<int>& patches : m.patches_by_colour) {
+      m.UpdateSeamTargets(model_);
+      ParallelFor(static_cast<int>(patches.size()), m.options.num_threads, [&](int, int i) {
+        double* warp = out.data() + patches[i] * stride + begin;
+        m.SolvePatchWarp(patches[i], iterations, warp);
+        m.UpdateSeamPoints(patches[i], warp);
+      });
+    }
   }
   m.params = m.saved_params;
   m.slides = m.saved_slides;

@@ -233,13 +233,14 @@ class DrapeSolver {
                     std::vector<double>* gradient);
   // The given patch parameters with each patch's warp re-solved for its
   // jet, scale and translation (held), posed as last posed by Pose or
-  // Step (the body too): `sweeps` Jacobi sweeps, each `iterations`
+  // Step (the body too): `sweeps` Gauss-Seidel sweeps (the patches by
+  // colour, no two of a colour sharing a vertex), each `iterations`
   // damped Gauss-Newton steps per patch from its warp, on
   //   sum_e a_e ((l_e - L_e) / L_e)^2                its own edges' strain
   //   + sum_k A_v / h^2 |x_k - mean_(k' != k) x_k'|^2 its seam points against
   //                                                   the other patches' points
-  //                                                   of their vertex (the
-  //                                                   sweep before)
+  //                                                   of their vertex (as
+  //                                                   last solved)
   //   + k_c kappa / (2 k_mi sigma mu) sum_k max(eps_v / 4 - d_k, 0)^2
   // (a_e, A_v: rest areas; h the mean edge; d_k along the normal of the
   // body's point closest to the vertex where the given parameters put it,

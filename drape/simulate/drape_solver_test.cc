@@ -147,10 +147,11 @@ TEST(DrapeSolverTest, SolvedWarpsUndoInPlaneSkinningDistortion) {
   }
   const double before = MeasureCloth(rest, solver.PositionsOf(given)).edge_strain_percent;
   const double after = MeasureCloth(rest, solver.PositionsOf(solved)).edge_strain_percent;
-  // Measured: 8.5% before, 0.8% after twenty sweeps (2.5% after five:
-  // each sweep moves a seam point towards the last sweep's neighbours).
+  // Measured: 8.5% before, 0.3% after twenty sweeps (1.8% after five:
+  // each pass moves a seam point towards its neighbours' latest points;
+  // Jacobi sweeps, every patch at once, took twenty to reach 0.8%).
   EXPECT_GT(before, 5.0);
-  EXPECT_LT(after, 0.25 * before);
+  EXPECT_LT(after, 0.1 * before);
   // More sweeps from there do not undo it.
   EXPECT_LE(MeasureCloth(rest, solver.PositionsOf(solver.SolveWarps(solved))).edge_strain_percent, after + 1e-3);
   // Without a warp head there is nothing to solve.
