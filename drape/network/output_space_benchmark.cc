@@ -23,7 +23,9 @@
 //   there each frame: whether the output space holds a better drape than
 //   the frame-to-frame solve finds. With `network`: MODEL's prediction per
 //   frame and ITERATIONS of L-BFGS from it (KC, EPS, FLOOR, KB as it was
-//   trained with; AREA and WARP its own). `reference` and `network` also
+//   trained with; AREA and WARP its own), then MODEL's prediction with its
+//   warps re-solved per patch (DrapeSolver::SolveWarps), and with its
+//   warps and translations. `reference` and `network` also
 //   split each drape's strain between the edges within a patch (both
 //   vertices owned by it) and those across a seam. With `swap`: the reference drape's
 //   fitted warps F and MODEL's prediction N per frame, and N with each
@@ -198,13 +200,13 @@ std::array<Row, 3> ReferenceAndFittedWarps(DrapeSolver* solver, const polyfit::M
 // The model's prediction per frame (its own frames as the history) and,
 // from it, `iterations` L-BFGS iterations on the loss: whether the
 // network's drape is in the basin of the best the output space holds.
-std::array<Row, 4> NetworkAndPolished(const polyfit::OneFitModel& model, const polyfit::SkinnedBody& body,
+std::array<Row, 5> NetworkAndPolished(const polyfit::OneFitModel& model, const polyfit::SkinnedBody& body,
                                       const polyfit::SkinWeights& weights, DrapeSolver* solver,
                                       const polyfit::MotionRetargeter& clip, int frames, int iterations) {
   const polyfit::OneFitDraper draper(model, *solver, weights, body.skeleton, &body);
   const polyfit::ClothRest rest = polyfit::PrepareClothRest(solver->rest_garment());
   const ceres::GradientProblemSolver::Options options = LbfgsOptions(iterations);
-  std::array<Row, 4> rows;
+  std::array<Row, 5> rows;
   Eigen::Matrix3Xd previous, before_previous;
   const auto pose = [&](int f) { return clip.Pose(std::max(f, 0)); };
   const int warp_begin = polyfit::NumJetCoefficients(model.jet_order) + 4;
@@ -216,12 +218,14 @@ std::array<Row, 4> NetworkAndPolished(const polyfit::OneFitModel& model, const p
     solver->Pose(pose(f), kLeadIn + f);
     rows[0].energy += solver->Evaluate(params, nullptr) / frames;
     Measure(*solver, rest, x, frames, &rows[0]);
-    if (warp_begin < solver->num_patch_parameters()) {
+    for (const bool translations : {false, true}) {
+      if (warp_begin == solver->num_patch_parameters()) break;
+      Row& row = rows[translations ? 4 : 3];
       const auto start = std::chrono::steady_clock::now();
-      const std::vector<double> solved = solver->SolveWarps(params, kWarpSolveSweeps);
-      rows[3].iterations += 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() / frames;
-      rows[3].energy += solver->Evaluate(solved, nullptr) / frames;
-      Measure(*solver, rest, solver->PositionsOf(solved), frames, &rows[3]);
+      const std::vector<double> solved = solver->SolveWarps(params, kWarpSolveSweeps, 2, translations);
+      row.iterations += 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() / frames;
+      row.energy += solver->Evaluate(solved, nullptr) / frames;
+      Measure(*solver, rest, solver->PositionsOf(solved), frames, &row);
     }
     std::vector<double> warped = params;
     SolveAndMeasure(options, solver, rest, frames, &params, &rows[1]);
@@ -337,7 +341,7 @@ void RunConfig(const Config& c, Mode mode, const polyfit::OneFitModel* model, co
   const polyfit::MotionRetargeter& clip = *walk.walk.clip;
   DrapeSolver solver(body, walk.walk.garment, weights, SolverOptions(c, model));
   if (mode == Mode::kNetwork) {
-    const std::array<Row, 4> rows = NetworkAndPolished(*model, body, weights, &solver, clip, frames, c.iterations);
+    const std::array<Row, 5> rows = NetworkAndPolished(*model, body, weights, &solver, clip, frames, c.iterations);
     std::printf(
         "k_c %g, eps %g mm, warp order %d: the network %.2f / %.2f (loss %.0f J); L-BFGS from it %.2f / %.2f "
         "(loss %.0f J, %.0f iterations); over its warps alone %.2f / %.2f (loss %.0f J, %.0f iterations)\n",
@@ -346,8 +350,10 @@ void RunConfig(const Config& c, Mode mode, const polyfit::OneFitModel* model, co
         rows[2].iterations);
     std::printf("  its warps solved per patch on their edges' strain (SolveWarps, %d sweeps): %.2f / %.2f (loss %.0f J, %.2f ms)\n",
                 kWarpSolveSweeps, rows[3].inside, rows[3].strain, rows[3].energy, rows[3].iterations);
-    PrintSplit({"the network", "L-BFGS from it", "over its warps alone", "warps solved"},
-               {rows[0], rows[1], rows[2], rows[3]});
+    std::printf("  its warps and translations solved so (%d sweeps): %.2f / %.2f (loss %.0f J, %.2f ms)\n",
+                kWarpSolveSweeps, rows[4].inside, rows[4].strain, rows[4].energy, rows[4].iterations);
+    PrintSplit({"the network", "L-BFGS from it", "over its warps alone", "warps solved", "warps and translations"},
+               {rows[0], rows[1], rows[2], rows[3], rows[4]});
   } else if (mode == Mode::kSwap) {
     const std::array<Row, 6> rows = SwappedBlocks(*model, body, weights, &solver, clip, frames);
     const char* names[6] = {"fitted warps F",   "network N",      "N with F's jets", "N with F's scale and translation",

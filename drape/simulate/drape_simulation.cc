@@ -216,7 +216,7 @@ void RunNetworkFrames(const DrapeSimulationOptions& options, const DrapeInputs& 
       Eigen::Matrix3Xd positions;
       if (options.warp_sweeps > 0) {
         solver->Pose(now);
-        drape = solver->SolveWarps(params, options.warp_sweeps);
+        drape = solver->SolveWarps(params, options.warp_sweeps, 2, options.warp_translations);
         positions = solver->PositionsOf(drape);
       } else {
         positions = solver->PositionsAt(params, now);
@@ -360,6 +360,7 @@ std::string DrapeSimulationOptions::Validate() const {
   if (warp_sweeps < 0) return "warp_sweeps must be >= 0";
   if (warp_sweeps > 0 && model_path.empty()) return "warp_sweeps needs a model";
   if (warp_sweeps > 0 && refine_iterations > 0) return "warp_sweeps and refine_iterations do not go together";
+  if (warp_translations && warp_sweeps == 0) return "warp_translations needs warp_sweeps";
   if (strain_limit_passes < 0) return "strain_limit_passes must be >= 0";
   if (lead_in_frames < 0 || render_every < 0) return "lead_in_frames and render_every must be >= 0";
   if (render_height < 32) return "render_height must be >= 32";

@@ -66,6 +66,8 @@ struct DrapeSimulationOptions {
   // DrapeSolver::SolveWarps (the body posed for its collision term), timed
   // with the inference; 0: the network's own warps.
   int warp_sweeps = 0;
+  // With warp_sweeps: each patch's translation re-solved with its warp.
+  bool warp_translations = false;
 
   int first_frame = 0;
   int num_frames = -1;  // -1: to the clip's end

@@ -280,9 +280,11 @@ struct DrapeSolver::Impl {
   double PatchEdgeStrain(int p, const double* c, Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr);
   // Patch p's points at its warp c, in its memberships' order: posed, and
   // their derivatives in the slide (3 by 2) when dx_dslide is given.
-  void PatchPoints(int p, const double* c, std::vector<Eigen::Vector3d>* x,
+  void PatchPoints(int p, const double* c, const double* t, std::vector<Eigen::Vector3d>* x,
                    std::vector<Eigen::Matrix<double, 3, 2, Eigen::RowMajor>>* dx_dslide);
-  void SolvePatchWarp(int p, int iterations, double* warp);
+  // translation_out: with warp_solve_translation, the patch's T (packed).
+  void SolvePatchWarp(int p, int iterations, double* warp, double* translation_out);
+  bool warp_solve_translation = false;  // SolveWarps' move_translations
   // Patches coloured so that no two of a colour share a vertex (greedy):
   // a colour's patches are solved together, each against the latest
   // points of the others (Gauss-Seidel by colour).
@@ -290,7 +292,7 @@ struct DrapeSolver::Impl {
   // The seam points where the warps put them (3 by #memberships; seam
   // memberships only), and seam_targets from them.
   Eigen::Matrix3Xd seam_points;
-  void UpdateSeamPoints(int p, const double* warp);
+  void UpdateSeamPoints(int p, const double* warp, const double* t);
   void UpdateSeamTargets(const PolyFitModel& model);
   // d(Ceres' parameters)/d(packed parameters), Ceres' layout being alpha,
   // s, T per patch, then with warps each membership's slide (a linear map
@@ -744,7 +746,7 @@ void DrapeSolver::Impl::CollectPatchWarpTerms(const PolyFitModel& model) {
   }
 }
 
-void DrapeSolver::Impl::PatchPoints(int p, const double* c, std::vector<Eigen::Vector3d>* x,
+void DrapeSolver::Impl::PatchPoints(int p, const double* c, const double* t, std::vector<Eigen::Vector3d>* x,
                                     std::vector<Eigen::Matrix<double, 3, 2, Eigen::RowMajor>>* dx_dslide) {
   const int n = num_warp;
   const std::vector<int>& members = members_by_patch[p];
@@ -759,7 +761,7 @@ void DrapeSolver::Impl::PatchPoints(int p, const double* c, std::vector<Eigen::V
       slid[1] += c[n + j] * phi[j];
     }
     const PatchPointState state = points[k].State(alpha(p), slid);
-    (*x)[i] = points[k].Position(state, scale(p), translation(p));
+    (*x)[i] = points[k].Position(state, scale(p), t);
     if (dx_dslide == nullptr) continue;
     double* jacobians[4] = {nullptr, nullptr, nullptr, (*dx_dslide)[i].data()};
     points[k].Chain<3>(Eigen::Matrix3d::Identity(), state, scale(p), jacobians, 3);
@@ -772,12 +774,13 @@ double DrapeSolver::Impl::PatchEdgeStrain(int p, const double* c, Eigen::MatrixX
   // Each member's point once (buffers kept per thread across calls).
   thread_local std::vector<Eigen::Vector3d> x;
   thread_local std::vector<Eigen::Matrix<double, 3, 2, Eigen::RowMajor>> dx_dslide;
-  PatchPoints(p, c, &x, jtj != nullptr ? &dx_dslide : nullptr);
+  PatchPoints(p, c, warp_solve_translation ? c + 2 * n : translation(p), &x, jtj != nullptr ? &dx_dslide : nullptr);
+  const int size = 2 * n + (warp_solve_translation ? 3 : 0);
   if (jtj != nullptr) {
-    jtj->setZero(2 * n, 2 * n);
-    jtr->setZero(2 * n);
+    jtj->setZero(size, size);
+    jtr->setZero(size);
   }
-  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 2 * kMaxJetCoefficients, 1> row(2 * n);
+  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 2 * kMaxJetCoefficients + 3, 1> row(size);
   // Adds residual r with derivative dr_dx at member i (and -dr_dx at
   // member j >= 0) to the system.
   const auto add = [&](double r, const Eigen::Matrix<double, 1, 3>& dr_dx, int i, int j) {
@@ -789,6 +792,9 @@ double DrapeSolver::Impl::PatchEdgeStrain(int p, const double* c, Eigen::MatrixX
       for (int l = 0; l < n; ++l) {
         row[l] += dr_dslide[0] * phi[l];
         row[n + l] += dr_dslide[1] * phi[l];
+      }
+      if (warp_solve_translation) {
+        row.tail<3>() += sign * (dr_dx * skin_linear[membership_vertex[members[m]]]).transpose();
       }
     }
     jtj->noalias() += row * row.transpose();
@@ -833,9 +839,9 @@ double DrapeSolver::Impl::PatchEdgeStrain(int p, const double* c, Eigen::MatrixX
   return cost;
 }
 
-void DrapeSolver::Impl::UpdateSeamPoints(int p, const double* warp) {
+void DrapeSolver::Impl::UpdateSeamPoints(int p, const double* warp, const double* t) {
   thread_local std::vector<Eigen::Vector3d> x;
-  PatchPoints(p, warp, &x, nullptr);
+  PatchPoints(p, warp, t, &x, nullptr);
   for (int i : seam_members_by_patch[p]) seam_points.col(members_by_patch[p][i]) = x[i];
 }
 
@@ -887,12 +893,14 @@ bool SolveSmallSpd(Eigen::MatrixXd h, const Eigen::VectorXd& b, Eigen::VectorXd*
 
 // Levenberg-Marquardt on the patch's edge strain: the damping scales the
 // system's diagonal, grows on a rejected step and shrinks on an accepted one.
-void DrapeSolver::Impl::SolvePatchWarp(int p, int iterations, double* warp) {
-  const int size = 2 * num_warp;
+void DrapeSolver::Impl::SolvePatchWarp(int p, int iterations, double* warp, double* translation_out) {
+  const int size = 2 * num_warp + (warp_solve_translation ? 3 : 0);
   Eigen::MatrixXd jtj;
   Eigen::VectorXd jtr, step;
-  Eigen::Map<Eigen::VectorXd> c(warp, size);
-  double cost = PatchEdgeStrain(p, warp, &jtj, &jtr), damping = 1e-4;
+  Eigen::VectorXd c(size);
+  c.head(2 * num_warp) = Eigen::Map<const Eigen::VectorXd>(warp, 2 * num_warp);
+  if (warp_solve_translation) c.tail<3>() = Eigen::Map<const Eigen::Vector3d>(translation_out);
+  double cost = PatchEdgeStrain(p, c.data(), &jtj, &jtr), damping = 1e-4;
   for (int it = 0; it < iterations && cost > 0.0; ++it) {
     Eigen::MatrixXd h = jtj;
     h.diagonal() *= 1.0 + damping;
@@ -902,16 +910,20 @@ void DrapeSolver::Impl::SolvePatchWarp(int p, int iterations, double* warp) {
     const double tried_cost = PatchEdgeStrain(p, tried.data(), nullptr, nullptr);
     if (std::isfinite(tried_cost) && tried_cost < cost) {
       c = tried;
-      cost = PatchEdgeStrain(p, warp, &jtj, &jtr);
+      cost = PatchEdgeStrain(p, c.data(), &jtj, &jtr);
       damping = std::max(damping / 3.0, 1e-8);
     } else {
       damping *= 8.0;
     }
   }
+  std::copy(c.data(), c.data() + 2 * num_warp, warp);
+  if (warp_solve_translation) std::copy(c.data() + 2 * num_warp, c.data() + size, translation_out);
 }
 
-std::vector<double> DrapeSolver::SolveWarps(const std::vector<double>& patch_parameters, int sweeps, int iterations) {
+std::vector<double> DrapeSolver::SolveWarps(const std::vector<double>& patch_parameters, int sweeps, int iterations,
+                                            bool move_translations) {
   Impl& m = *impl_;
+  m.warp_solve_translation = move_translations;
   if (m.num_warp == 0) throw std::logic_error("DrapeSolver::SolveWarps: the patches have no warp (warp_order < 0)");
   if (m.edges_by_patch.empty()) m.CollectPatchWarpTerms(model_);
   std::vector<double> out = patch_parameters;
@@ -935,14 +947,17 @@ std::vector<double> DrapeSolver::SolveWarps(const std::vector<double>& patch_par
   // Gauss-Seidel sweeps by colour: each colour's patches together, against
   // their neighbours' latest points.
   m.seam_points.resize(3, model_.num_memberships());
-  for (int p = 0; p < model_.num_patches(); ++p) m.UpdateSeamPoints(p, out.data() + p * stride + begin);
+  const int t_begin = m.num_coefficients + 1;
+  for (int p = 0; p < model_.num_patches(); ++p) {
+    m.UpdateSeamPoints(p, out.data() + p * stride + begin, out.data() + p * stride + t_begin);
+  }
   for (int sweep = 0; sweep < sweeps; ++sweep) {
     for (const std::vector<int>& patches : m.patches_by_colour) {
       m.UpdateSeamTargets(model_);
       ParallelFor(static_cast<int>(patches.size()), m.options.num_threads, [&](int, int i) {
-        double* warp = out.data() + patches[i] * stride + begin;
-        m.SolvePatchWarp(patches[i], iterations, warp);
-        m.UpdateSeamPoints(patches[i], warp);
+        double* patch = out.data() + patches[i] * stride;
+        m.SolvePatchWarp(patches[i], iterations, patch + begin, patch + t_begin);
+        m.UpdateSeamPoints(patches[i], patch + begin, patch + t_begin);
       });
     }
   }

@@ -250,7 +250,12 @@ class DrapeSolver {
   // strain fell half as far). The loss's own agreement and collision
   // weights in units of its stretch. Needs warp_order >= 0 (throws
   // std::logic_error otherwise). Not thread-safe.
-  std::vector<double> SolveWarps(const std::vector<double>& patch_parameters, int sweeps = 5, int iterations = 2);
+  // move_translations: each patch's translation T solved with its warp
+  // (dx/dT the skinning's linear part), so that a patch held off or
+  // pushed into the body moves back to a quarter of the margin, as the
+  // warps alone cannot (they move the material along the patch).
+  std::vector<double> SolveWarps(const std::vector<double>& patch_parameters, int sweeps = 5, int iterations = 2,
+                                 bool move_translations = false);
   int num_patch_parameters() const;
   // The rest patch parameters (the fit; no warp), the current ones (the
   // last Step; warps fitted to the slides by least squares), and the

@@ -152,6 +152,13 @@ TEST(DrapeSolverTest, SolvedWarpsUndoInPlaneSkinningDistortion) {
   // Jacobi sweeps, every patch at once, took twenty to reach 0.8%).
   EXPECT_GT(before, 5.0);
   EXPECT_LT(after, 0.1 * before);
+  // With the translations solved too: as low, the jets and scales held.
+  const std::vector<double> moved = solver.SolveWarps(given, 20, 2, true);
+  for (size_t i = 0; i < given.size(); ++i) {
+    ASSERT_TRUE(std::isfinite(moved[i])) << i;
+    if (static_cast<int>(i) % stride < NumJetCoefficients(4) + 1) EXPECT_EQ(moved[i], given[i]) << i;
+  }
+  EXPECT_LT(MeasureCloth(rest, solver.PositionsOf(moved)).edge_strain_percent, 0.1 * before);
   // More sweeps from there do not undo it.
   EXPECT_LE(MeasureCloth(rest, solver.PositionsOf(solver.SolveWarps(solved))).edge_strain_percent, after + 1e-3);
   // Without a warp head there is nothing to solve.
@@ -359,6 +366,26 @@ TEST_P(DrapeSolverEvaluateTest, GivesTheDistanceToTargetPositionsAndItsGradient)
   EXPECT_THROW(solver.DistanceTo(theta, target.leftCols(3), nullptr), std::invalid_argument);
   target(1, 2) = std::nan("");
   EXPECT_THROW(solver.DistanceTo(theta, target, nullptr), std::invalid_argument);
+}
+
+// The shirt starts 2 mm inside the torso: its warps alone cannot take it
+// out (they move it along itself), its translations solved with them do
+// (measured: 74% of it inside, 68-79% with the warps re-solved, none
+// with the translations too).
+TEST_P(DrapeSolverEvaluateTest, SolvedTranslationsTakeAShirtInsideTheBodyOut) {
+  if (GetParam() < 0) GTEST_SKIP() << "no warp head";
+  DrapeSolver& solver = *solver_;
+  const std::vector<double> given = solver.RestPatchParameters();
+  const auto inside = [&](const std::vector<double>& theta) {
+    const Eigen::VectorXd d = solver.SignedDistances(solver.PositionsOf(theta));
+    return 100.0 * (d.array() < 0.0).count() / d.size();
+  };
+  const double before = inside(given);
+  const double warps = inside(solver.SolveWarps(given));
+  const double moved = inside(solver.SolveWarps(given, 5, 2, true));
+  EXPECT_GT(before, 50.0);
+  EXPECT_GT(warps, 50.0);
+  EXPECT_EQ(moved, 0.0);
 }
 
 INSTANTIATE_TEST_SUITE_P(WarpOrders, DrapeSolverEvaluateTest, ::testing::Values(-1, 0, 1, 2));

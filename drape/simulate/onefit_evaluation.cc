@@ -28,6 +28,7 @@ DrapeSimulationSummary RunDrape(const OneFitEvaluationOptions& options, bool net
   } else {
     o.model_path.clear();
     o.warp_sweeps = 0;
+    o.warp_translations = false;
     o.project_offset = -1.0;
   }
   return RunDrapeSimulation(o);
@@ -170,7 +171,9 @@ OneFitEvaluationSummary EvaluateOneFitModel(const OneFitEvaluationOptions& optio
   summary.reference = Summarize("reference drape", reference, reference_jitter);
   const int refine = options.simulation.refine_iterations, sweeps = options.simulation.warp_sweeps;
   const std::string name = refine > 0   ? "network + " + std::to_string(refine) + " LM iterations"
-                           : sweeps > 0 ? "network + warps re-solved (" + std::to_string(sweeps) + " sweeps)"
+                           : sweeps > 0 ? std::string("network + warps ") +
+                                              (options.simulation.warp_translations ? "and translations " : "") +
+                                              "re-solved (" + std::to_string(sweeps) + " sweeps)"
                                         : std::string("network");
   summary.network = Summarize(name, network, network_jitter);
   summary.network.distance_to_reference_mm = FiniteMean(summary.distance_mm);

@@ -620,6 +620,8 @@ int main(int argc, char** argv) {
       ->add_option("--warp-sweeps", drape.options.warp_sweeps,
                    "re-solve each prediction's warps for its jets with this many sweeps (0: the network's own)")
       ->capture_default_str();
+  drape_command->add_flag("--warp-translations", drape.options.warp_translations,
+                        "with --warp-sweeps: each patch's translation re-solved with its warp");
   SimulateFlags eval;
   eval.options.render_every = 0;
   eval.options.project_offset = polyfit::kNetworkProjectOffset;
@@ -635,6 +637,8 @@ int main(int argc, char** argv) {
       ->add_option("--warp-sweeps", eval.options.warp_sweeps,
                    "re-solve each prediction's warps for its jets with this many sweeps (0: the network's own)")
       ->capture_default_str();
+  eval_command->add_flag("--warp-translations", eval.options.warp_translations,
+                        "with --warp-sweeps: each patch's translation re-solved with its warp");
   TrainFlags train;
   CLI::App* train_command = AddTrainCommand(&app, &train);
   try {
