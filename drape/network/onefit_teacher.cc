@@ -86,7 +86,7 @@ OneFitTeacherDrape OneFitTrainer::ReferenceDrape(int garment, int clip, int thre
 }
 
 double OneFitTrainer::TeacherSampleLoss(const double* weights, const TeacherFrame& frame, int thread,
-                                        double* gradient, bool warps_only) {
+                                        double* gradient, bool warps_only, bool translations) {
   const GarmentData& g = *garments_[frame.garment];
   DrapeSolver& solver = *g.solvers[thread];
   Eigen::MatrixXd outputs;
@@ -101,8 +101,10 @@ double OneFitTrainer::TeacherSampleLoss(const double* weights, const TeacherFram
   if (gradient == nullptr) return distance;
   if (warps_only) {
     const int stride = solver.num_patch_parameters(), warp = network_.num_coefficients() + 4;
+    const int t = network_.num_coefficients() + 1;  // T's first
     for (size_t i = 0; i < d_params.size(); ++i) {
-      if (static_cast<int>(i) % stride < warp) d_params[i] = 0.0;
+      const int j = static_cast<int>(i) % stride;
+      if (j < warp && !(translations && j >= t)) d_params[i] = 0.0;
     }
   }
   BackPropagate(weights, g, outputs, cache, at, d_params, gradient);
@@ -121,7 +123,7 @@ std::vector<OneFitTrainer::TeacherFrame> OneFitTrainer::WarpTargets(const double
         solver.Pose(clips_[s.clip].poses[s.frame], epoch_);  // the body: the warps' collision term
         const std::vector<double> solved =
             solver.SolveWarps(PredictOn(aligned.data(), s.garment, s.clip, s.frame, thread),
-                              options_.warp_target_sweeps);
+                              options_.warp_target_sweeps, 2, options_.warp_target_translations);
         targets[i] = TeacherFrame{s.garment, s.clip, s.frame, solver.PositionsOf(solved)};
         return 0.0;
       },
@@ -138,7 +140,9 @@ double OneFitTrainer::WarpTargetLoss(const double* weights, const std::vector<Te
   const Eigen::VectorXd aligned = Eigen::Map<const Eigen::VectorXd>(weights, num_parameters());
   return MeanOverSamples(
       static_cast<int>(targets.size()),
-      [&](int i, int thread, double* g) { return TeacherSampleLoss(aligned.data(), targets[i], thread, g, true); },
+      [&](int i, int thread, double* g) {
+        return TeacherSampleLoss(aligned.data(), targets[i], thread, g, true, options_.warp_target_translations);
+      },
       gradient);
 }
 

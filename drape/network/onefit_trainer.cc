@@ -99,8 +99,10 @@ std::string OneFitTrainerOptions::Validate() const {
     return "warp_target_weight must be finite and >= 0";
   }
   if (warp_target_sweeps < 1) return "warp_target_sweeps must be >= 1";
-  if (warp_target_weight > 0.0 && (network.warp_order < 0 || optimizer != OneFitOptimizer::kAdam)) {
-    return "warp_target_weight needs a warp head (warp_order >= 0) and the Adam optimiser";
+  // (Whether the network has a warp head is checked by Train: a
+  // fine-tune's comes from its model.)
+  if (warp_target_weight > 0.0 && optimizer != OneFitOptimizer::kAdam) {
+    return "warp_target_weight needs the Adam optimiser";
   }
   return {};
 }
@@ -691,6 +693,9 @@ OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights, int fir
   if (static_cast<int>(weights->size()) != num_parameters()) {
     throw std::invalid_argument("OneFitTrainer::Train: " + std::to_string(weights->size()) +
                                 " weights, the network has " + std::to_string(num_parameters()));
+  }
+  if (options_.warp_target_weight > 0.0 && network_.warp_order() < 0) {
+    throw std::invalid_argument("OneFitTrainer::Train: the warp target needs a network with a warp head");
   }
   OneFitTrainingSummary summary;
   std::mt19937_64 rng(options_.seed);

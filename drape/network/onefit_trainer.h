@@ -206,6 +206,9 @@ struct OneFitTrainerOptions {
   // teacher's. 0: none. Needs a warp head and Adam.
   double warp_target_weight = 0.0;
   int warp_target_sweeps = 3;
+  // The target re-solves each patch's translation with its warp
+  // (SolveWarps' move_translations), and pulls the translation head too.
+  bool warp_target_translations = false;
 
   std::string Validate() const;
 };
@@ -468,9 +471,10 @@ class OneFitTrainer {
   // included) on a thread's solver; its usable frames appended to *out,
   // and what they measure.
   OneFitTeacherDrape ReferenceDrape(int garment, int clip, int thread, std::vector<TeacherFrame>* out);
-  // warps_only: the gradient over each patch's warp alone (the rest held).
+  // warps_only: the gradient over each patch's warp alone (and its
+  // translation with translations; the rest held).
   double TeacherSampleLoss(const double* weights, const TeacherFrame& frame, int thread, double* gradient,
-                           bool warps_only = false);
+                           bool warps_only = false, bool translations = false);
   // The warp target (OneFitTrainerOptions::warp_target_weight): per
   // sample of a batch, the positions of its prediction with the warps
   // re-solved, and the mean distance to them with its gradient.

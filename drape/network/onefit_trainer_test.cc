@@ -974,8 +974,15 @@ TEST_F(OneFitTrainerTest, TheWarpTargetPullsTheWarpHeadToTheWarpsItsJetsAskFor) 
   EXPECT_LT(pulled, 0.5 * alone);
   OneFitTrainerOptions bad = options_;
   bad.warp_target_weight = 1.0;
+  bad.optimizer = OneFitOptimizer::kLbfgs;
+  EXPECT_NE(bad.Validate().find("warp_target_weight needs the Adam optimiser"), std::string::npos);
+  bad = options_;
+  bad.warp_target_weight = 1.0;
   bad.network.warp_order = -1;
-  EXPECT_NE(bad.Validate().find("warp_target_weight needs a warp head"), std::string::npos);
+  bad.drape.slide.warp_order = -1;
+  OneFitTrainer no_warps = ShirtTrainer(body_, bad);
+  std::vector<double> w = no_warps.InitialWeights();
+  EXPECT_THROW(no_warps.Train(&w), std::invalid_argument);
   bad = options_;
   bad.warp_target_sweeps = 0;
   EXPECT_NE(bad.Validate().find("warp_target_sweeps"), std::string::npos);

@@ -467,6 +467,8 @@ void AddTrainTeacherFlags(CLI::App* train, polyfit::OneFitTrainerOptions* option
       ->add_option("--warp-target-sweeps", options->warp_target_sweeps, "the warp target's sweeps")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  train->add_flag("--warp-target-translations", options->warp_target_translations,
+                  "the warp target re-solves and pulls each patch's translation too");
 }
 
 CLI::App* AddTrainCommand(CLI::App* app, TrainFlags* f) {
