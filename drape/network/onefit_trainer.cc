@@ -567,17 +567,16 @@ OneFitBatchSummary OneFitTrainer::AdamBatch(const std::vector<OneFitSample>& bat
     warp_targets = WarpTargets(weights->data(), batch);
     if (teacher_gradient.empty()) teacher_gradient.resize(weights->size());
   }
+  // g += weight times the gradient that `term` writes into the buffer.
+  const auto pull = [&](double weight, double* g, const std::function<void(double*)>& term) {
+    term(teacher_gradient.data());
+    for (size_t i = 0; i < teacher_gradient.size(); ++i) g[i] += weight * teacher_gradient[i];
+  };
   const auto loss = [&](const double* w, double* g) {
     const double value = Loss(w, batch, g);
-    if (teacher_weight > 0.0) {
-      TeacherLoss(w, teacher_batch, teacher_gradient.data());
-      for (size_t i = 0; i < teacher_gradient.size(); ++i) g[i] += teacher_weight * teacher_gradient[i];
-    }
+    if (teacher_weight > 0.0) pull(teacher_weight, g, [&](double* d) { TeacherLoss(w, teacher_batch, d); });
     if (!warp_targets.empty()) {
-      WarpTargetLoss(w, warp_targets, teacher_gradient.data());
-      for (size_t i = 0; i < teacher_gradient.size(); ++i) {
-        g[i] += options_.warp_target_weight * teacher_gradient[i];
-      }
+      pull(options_.warp_target_weight, g, [&](double* d) { WarpTargetLoss(w, warp_targets, d); });
     }
     return value;
   };

@@ -255,12 +255,11 @@ struct DrapeSolver::Impl {
   std::vector<double> PackedPatchParameters(const std::vector<double>& strided) const;
   // Each patch's warp set to the least-squares fit of its points' slides.
   void FitWarpsToSlides(const PolyFitModel& model, std::vector<double>* packed) const;
-  // SolveWarps' parts: each patch's entries of patch_edges (built on
-  // first use), the half squared strain of patch p's edges at its warp c
-  // (a then b, num_warp each) with, when jtj is given, its Gauss-Newton
-  // system (2 num_warp square) and gradient, and one patch's solve.
-  // Per patch: its memberships, and its edges as (edge, i, j), i and j
-  // indices into its memberships.
+  // Membership k's slide (du, dv) under its patch's warp (a then b,
+  // num_warp each).
+  void WarpSlide(int k, const double* warp, double slide[2]) const;
+  // SolveWarps' terms, built on first use. Per patch: its memberships,
+  // and its edges as (edge, i, j), i and j indices into its memberships.
   std::vector<std::vector<int>> members_by_patch;
   std::vector<std::vector<std::array<int, 3>>> edges_by_patch;
   // Per patch (indices into its memberships): those whose vertex other
@@ -273,11 +272,18 @@ struct DrapeSolver::Impl {
   std::vector<std::vector<int>> seam_members_by_patch;
   Eigen::Matrix3Xd seam_targets;
   std::vector<std::vector<int>> near_members_by_patch;
-  std::vector<int> member_index;  // per membership: its index in its patch's
+  std::vector<int> member_index;  // per membership: its index in members_by_patch
   static constexpr double kWarpMarginScale = 0.25;  // SolveWarps (drape_solver.h)
   Eigen::Matrix3Xd warp_positions;  // SolveWarps' scratch, 3 by #V
   void CollectPatchWarpTerms(const PolyFitModel& model);
-  double PatchEdgeStrain(int p, const double* c, Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr);
+  // A patch's unknowns: its warp, then with warp_solve_translation its T
+  // (at most 2 kMaxJetCoefficients + 3: fixed capacity, no allocation).
+  static constexpr int kMaxWarpUnknowns = 2 * kMaxJetCoefficients + 3;
+  using WarpSystem = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxWarpUnknowns, kMaxWarpUnknowns>;
+  using WarpVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxWarpUnknowns, 1>;
+  // Half the squared residuals of patch p's terms at its unknowns c and,
+  // when jtj is given, their Gauss-Newton system and gradient.
+  double PatchEdgeStrain(int p, const double* c, WarpSystem* jtj, WarpVector* jtr);
   // Patch p's points at its warp c, in its memberships' order: posed, and
   // their derivatives in the slide (3 by 2) when dx_dslide is given.
   void PatchPoints(int p, const double* c, const double* t, std::vector<Eigen::Vector3d>* x,
@@ -692,15 +698,16 @@ void DrapeSolver::Impl::SetPatchParameters(const PolyFitModel& model, const std:
     std::copy(in + num_coefficients + 1, in + num_coefficients + 4, translation(p));
   }
   for (int k = 0; k < model.num_memberships(); ++k) {
-    const double* warp = packed.data() + model.membership_patch[k] * stride + num_coefficients + 4;
-    const double* phi = warp_monomials(k);
-    double du = 0.0, dv = 0.0;
-    for (int i = 0; i < num_warp; ++i) {
-      du += warp[i] * phi[i];
-      dv += warp[num_warp + i] * phi[i];
-    }
-    slide(k)[0] = du;
-    slide(k)[1] = dv;
+    WarpSlide(k, packed.data() + model.membership_patch[k] * stride + num_coefficients + 4, slide(k));
+  }
+}
+
+void DrapeSolver::Impl::WarpSlide(int k, const double* warp, double slide[2]) const {
+  const double* phi = warp_monomials(k);
+  slide[0] = slide[1] = 0.0;
+  for (int i = 0; i < num_warp; ++i) {
+    slide[0] += warp[i] * phi[i];
+    slide[1] += warp[num_warp + i] * phi[i];
   }
 }
 
@@ -748,18 +755,13 @@ void DrapeSolver::Impl::CollectPatchWarpTerms(const PolyFitModel& model) {
 
 void DrapeSolver::Impl::PatchPoints(int p, const double* c, const double* t, std::vector<Eigen::Vector3d>* x,
                                     std::vector<Eigen::Matrix<double, 3, 2, Eigen::RowMajor>>* dx_dslide) {
-  const int n = num_warp;
   const std::vector<int>& members = members_by_patch[p];
   x->resize(members.size());
   if (dx_dslide != nullptr) dx_dslide->resize(members.size());
   for (size_t i = 0; i < members.size(); ++i) {
     const int k = members[i];
-    const double* phi = warp_monomials(k);
-    double slid[2] = {0.0, 0.0};
-    for (int j = 0; j < n; ++j) {
-      slid[0] += c[j] * phi[j];
-      slid[1] += c[n + j] * phi[j];
-    }
+    double slid[2];
+    WarpSlide(k, c, slid);
     const PatchPointState state = points[k].State(alpha(p), slid);
     (*x)[i] = points[k].Position(state, scale(p), t);
     if (dx_dslide == nullptr) continue;
@@ -768,7 +770,7 @@ void DrapeSolver::Impl::PatchPoints(int p, const double* c, const double* t, std
   }
 }
 
-double DrapeSolver::Impl::PatchEdgeStrain(int p, const double* c, Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr) {
+double DrapeSolver::Impl::PatchEdgeStrain(int p, const double* c, WarpSystem* jtj, WarpVector* jtr) {
   const int n = num_warp;
   const std::vector<int>& members = members_by_patch[p];
   // Each member's point once (buffers kept per thread across calls).
@@ -780,7 +782,7 @@ double DrapeSolver::Impl::PatchEdgeStrain(int p, const double* c, Eigen::MatrixX
     jtj->setZero(size, size);
     jtr->setZero(size);
   }
-  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 2 * kMaxJetCoefficients + 3, 1> row(size);
+  WarpVector row(size);
   // Adds residual r with derivative dr_dx at member i (and -dr_dx at
   // member j >= 0) to the system.
   const auto add = [&](double r, const Eigen::Matrix<double, 1, 3>& dr_dx, int i, int j) {
@@ -864,7 +866,8 @@ namespace {
 // written out (Eigen's dense decompositions are kept out of code linked
 // with Ceres: cmake/PolyFitHelpers.cmake). False if H is not positive
 // definite.
-bool SolveSmallSpd(Eigen::MatrixXd h, const Eigen::VectorXd& b, Eigen::VectorXd* x) {
+template <typename Matrix, typename Vector>
+bool SolveSmallSpd(Matrix h, const Vector& b, Vector* x) {
   const Eigen::Index n = h.rows();
   for (Eigen::Index j = 0; j < n; ++j) {
     double d = h(j, j);
@@ -895,18 +898,18 @@ bool SolveSmallSpd(Eigen::MatrixXd h, const Eigen::VectorXd& b, Eigen::VectorXd*
 // system's diagonal, grows on a rejected step and shrinks on an accepted one.
 void DrapeSolver::Impl::SolvePatchWarp(int p, int iterations, double* warp, double* translation_out) {
   const int size = 2 * num_warp + (warp_solve_translation ? 3 : 0);
-  Eigen::MatrixXd jtj;
-  Eigen::VectorXd jtr, step;
-  Eigen::VectorXd c(size);
+  WarpSystem jtj;
+  WarpVector jtr, step;
+  WarpVector c(size);
   c.head(2 * num_warp) = Eigen::Map<const Eigen::VectorXd>(warp, 2 * num_warp);
   if (warp_solve_translation) c.tail<3>() = Eigen::Map<const Eigen::Vector3d>(translation_out);
   double cost = PatchEdgeStrain(p, c.data(), &jtj, &jtr), damping = 1e-4;
   for (int it = 0; it < iterations && cost > 0.0; ++it) {
-    Eigen::MatrixXd h = jtj;
+    WarpSystem h = jtj;
     h.diagonal() *= 1.0 + damping;
     h.diagonal().array() += 1e-12 * (1.0 + jtj.diagonal().maxCoeff());
-    if (!SolveSmallSpd(h, -jtr, &step)) break;
-    const Eigen::VectorXd tried = c + step;
+    if (!SolveSmallSpd(h, WarpVector(-jtr), &step)) break;
+    const WarpVector tried = c + step;
     const double tried_cost = PatchEdgeStrain(p, tried.data(), nullptr, nullptr);
     if (std::isfinite(tried_cost) && tried_cost < cost) {
       c = tried;
