@@ -110,7 +110,33 @@ SkinTransferOptions GetSkin(Reader* r) {
   return skin;
 }
 
+void PutLossCollision(const OneFitLossCollision& c, Writer* w) {
+  w->Put<std::int32_t>(c.recorded ? 1 : 0);
+  w->Put<double>(c.weight);
+  w->Put<double>(c.margin);
+  w->Put<double>(c.margin_floor);
+}
+
+OneFitLossCollision GetLossCollision(Reader* r) {
+  OneFitLossCollision c;
+  const int recorded = r->Get<std::int32_t>("the header");
+  if (recorded != 0 && recorded != 1) r->Fail("loss collision flag out of range");
+  c.recorded = recorded == 1;
+  c.weight = r->Get<double>("the header");
+  c.margin = r->Get<double>("the header");
+  c.margin_floor = r->Get<double>("the header");
+  if (std::string problem = c.Problem(); !problem.empty()) r->Fail("the loss's collision settings: " + problem);
+  return c;
+}
+
 }  // namespace
+
+std::string OneFitLossCollision::Problem() const {
+  if (!(std::isfinite(weight) && weight >= 0.0)) return "collision weight not finite and >= 0";
+  if (!(margin > 0.0 && margin <= 1.0)) return "collision margin not in (0, 1] m";
+  if (!(std::isfinite(margin_floor) && margin_floor <= margin)) return "margin floor not finite or above the margin";
+  return {};
+}
 
 std::string OneFitModel::Validate() const {
   if (jet_order < 1 || jet_order > kMaxJetOrder) return "jet order out of range";
@@ -131,6 +157,7 @@ std::string OneFitModel::Validate() const {
   }
   if (!(patch_area > 0.0) || !std::isfinite(patch_area)) return "patch area not positive";
   if (!(max_fit_error > 0.0) || !std::isfinite(max_fit_error)) return "patch fit error not positive";
+  if (std::string problem = loss_collision.Problem(); !problem.empty()) return "the loss's collision: " + problem;
   if (static_cast<int>(weights.size()) != network.num_parameters()) return "the weights do not fit the network";
   for (double w : weights) {
     if (!std::isfinite(w)) return "non-finite weights";
@@ -165,6 +192,7 @@ void SaveOneFitModel(const std::string& path, const OneFitModel& model) {
   w.Put<std::int32_t>(model.network.proximity_probes());
   w.Put<std::int32_t>(model.network.feedback_passes());
   PutSkin(model.skin, &w);
+  PutLossCollision(model.loss_collision, &w);
   PutMlp(model.network.patch_encoder(), &w);
   PutMlp(model.network.body_encoder(), &w);
   PutMlp(model.network.decoder(), &w);
@@ -274,6 +302,7 @@ OneFitModel LoadOneFitModel(const std::string& path) {
     r.Fail("feedback passes out of range or without the proximity");
   }
   if (version >= 14) model.skin = GetSkin(&r);
+  if (version >= 15) model.loss_collision = GetLossCollision(&r);
   if (aligned != 0 && aligned != 1) r.Fail("frame alignment flag out of range");
   if (local_pose != 0 && local_pose != 1) r.Fail("local pose flag out of range");
   model.aligned_frames = aligned == 1;

@@ -23,12 +23,31 @@ namespace polyfit {
 // joint mask's reach, version 10 the warp's slide bound, version 11 whether
 // the decoder reads the body proximity, version 12 its probes per patch,
 // version 13 whether a feedback decoder follows (and, if so, its layout
-// after the decoder's); earlier files still load.
-inline constexpr int kOneFitModelVersion = 14;
+// after the decoder's), version 14 the skinning transfer, version 15 the
+// loss's collision settings; earlier files still load.
+inline constexpr int kOneFitModelVersion = 15;
 
 class OneFitModelError : public Error {
  public:
   explicit OneFitModelError(const std::string& message, ErrorKind kind = ErrorKind::kInput) : Error(kind, message) {}
+};
+
+// The collision settings of the loss a network was trained with
+// (DrapingWeights::collision and collision_margin, DrapePhysicsOptions::
+// margin_floor): a drape that re-solves the network's output for that loss
+// (DrapeSimulationOptions::warp_sweeps) solves under them.
+struct OneFitLossCollision {
+  bool recorded = false;  // before version 15, or a model not from training
+  double weight = 1.0;    // k_c
+  double margin = 4e-3;   // eps, m
+  double margin_floor = -1.0;  // m; < 0: every vertex has `margin`
+
+  // Empty when valid (finite, weight >= 0, margin in (0, 1] m, floor <=
+  // margin), else the problem.
+  std::string Problem() const;
+  bool operator==(const OneFitLossCollision& o) const {
+    return recorded == o.recorded && weight == o.weight && margin == o.margin && margin_floor == o.margin_floor;
+  }
 };
 
 struct OneFitModel {
@@ -57,6 +76,8 @@ struct OneFitModel {
   // The garments' skinning transfer it was trained with (before version
   // 14: the defaults): a garment is skinned alike to be draped.
   SkinTransferOptions skin;
+  // Its loss's collision settings (before version 15: not recorded).
+  OneFitLossCollision loss_collision;
   // How its body features hold the root's rotation (before version 6:
   // kAbsolute).
   RootRotation root_rotation = RootRotation::kHeadingFree;

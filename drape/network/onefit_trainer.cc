@@ -294,6 +294,8 @@ OneFitModel OneFitTrainer::MakeModel(const std::vector<double>& weights) const {
   model.joint_mask_reach = options_.joint_mask_reach;
   model.warp_slide_bound = options_.warp_slide_bound;
   model.skin = options_.skin;
+  model.loss_collision = {true, options_.drape.physics.weights.collision,
+                          options_.drape.physics.weights.collision_margin, options_.drape.physics.margin_floor};
   model.network = network_;
   model.patch_normalizer = patch_normalizer_;
   model.body_normalizer = body_normalizer_;

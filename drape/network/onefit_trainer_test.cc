@@ -1381,7 +1381,7 @@ TEST(OneFitModelTest, OlderVersionsStillLoadAndTheFlagsRoundTrip) {
   SaveOneFitModel(path, model);
   EXPECT_TRUE(LoadOneFitModel(path).curved_faces);
   bytes = FileBytes(path);
-  ASSERT_EQ(bytes[8], 14);  // the version
+  ASSERT_EQ(bytes[8], 15);  // the version
   EXPECT_EQ(LoadOneFitModel(path).joint_mask_reach, 0.0);
   EXPECT_EQ(LoadOneFitModel(path).warp_slide_bound, 0.0);
   EXPECT_TRUE(LoadOneFitModel(path).skin == SkinTransferOptions{});
@@ -1394,10 +1394,13 @@ TEST(OneFitModelTest, OlderVersionsStillLoadAndTheFlagsRoundTrip) {
   model.skin.loose_distance = 0.03;
   model.skin.min_weight = 0.002;
   model.skin.resample_edge_length = 0.02;
+  EXPECT_FALSE(LoadOneFitModel(path).loss_collision.recorded);
+  model.loss_collision = {true, 3.0, 0.01, 0.004};
   SaveOneFitModel(path, model);
   EXPECT_EQ(LoadOneFitModel(path).joint_mask_reach, 0.05);
   EXPECT_EQ(LoadOneFitModel(path).warp_slide_bound, 0.5);
   EXPECT_TRUE(LoadOneFitModel(path).skin == model.skin);
+  EXPECT_TRUE(LoadOneFitModel(path).loss_collision == model.loss_collision);
   bytes = FileBytes(path);
   // `bytes` with byte `at` set to `value` is refused.
   const auto expect_refused = [&bytes](size_t at, char value, const std::string& file) {
@@ -1412,6 +1415,14 @@ TEST(OneFitModelTest, OlderVersionsStillLoadAndTheFlagsRoundTrip) {
     bytes.erase(at, size);
     std::ofstream(file, std::ios::binary) << bytes;
   };
+  const std::string path14 = ::testing::TempDir() + "/onefit_v14_old.pfonefit";
+  expect_refused(136, 2, path14);       // the loss collision flag
+  expect_refused(147, '\xbf', path14);  // a negative collision weight (its sign bit)
+  expect_refused(155, '\x7f', path14);  // the margin's exponent: a margin over 1 m
+  // Version 14: the loss's collision settings not recorded.
+  downgrade(14, 136, 28, path14);
+  EXPECT_FALSE(LoadOneFitModel(path14).loss_collision.recorded);
+  EXPECT_TRUE(LoadOneFitModel(path14).skin == model.skin);
   const std::string path13 = ::testing::TempDir() + "/onefit_v13_old.pfonefit";
   expect_refused(88, 2, path13);        // the smoothing method
   expect_refused(135, '\x40', path13);  // the resample length's exponent: 0.02 * 2^16

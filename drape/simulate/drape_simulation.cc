@@ -344,6 +344,7 @@ void WriteOutputs(const DrapeSimulationOptions& options, const DrapeSimulationSu
                   {"total_time_s", summary.total_time_s}};
   j["per_frame"] = FramesJson(summary.records);
   j["warnings"] = summary.warnings;
+  j["notes"] = summary.notes;
   WriteFileAtomically((out / "metrics.json").string(), [&](std::ostream& stream) { stream << j.dump(2) << '\n'; });
 }
 
@@ -396,11 +397,22 @@ DrapeSimulationSummary RunDrapeSimulation(const DrapeSimulationOptions& options)
     solver_options.solver.solve.max_passes = 1;
   }
   OneFitModel model;
+  std::vector<std::string> notes;
   if (!options.model_path.empty()) {
     model = LoadOneFitModel(options.model_path);
     // The solver lays out the patch parameters as the network predicts them.
     PatchLikeModel(model, &solver_options.solver);
     solver_options.skin = model.skin;
+    if (options.warp_sweeps > 0 && options.collision_from_model && model.loss_collision.recorded) {
+      DrapePhysicsOptions& physics = solver_options.solver.physics;
+      physics.weights.collision = model.loss_collision.weight;
+      physics.weights.collision_margin = model.loss_collision.margin;
+      physics.margin_floor = model.loss_collision.margin_floor;
+      std::ostringstream note;
+      note << "warps re-solved under the model's training collision settings: k_c " << physics.weights.collision
+           << ", eps " << physics.weights.collision_margin << " m, margin floor " << physics.margin_floor << " m";
+      notes.push_back(note.str());
+    }
     if (options.warp_sweeps > 0 && model.network.warp_order() < 0) {
       throw DrapeInputError("onefit: " + options.model_path + " has no warp head: its warps cannot be re-solved",
                             ErrorKind::kInvalidArgument);
@@ -415,6 +427,7 @@ DrapeSimulationSummary RunDrapeSimulation(const DrapeSimulationOptions& options)
   if (!options.model_path.empty())
     draper = std::make_unique<OneFitDraper>(model, *solver, weights, inputs.body.skeleton, &inputs.body);
   DrapeSimulationSummary summary;
+  summary.notes = std::move(notes);
   DescribeGarment(inputs, *solver, &summary);
   CreateOutputFolders(options);
   WriteRestGarment(options, *solver);
@@ -425,7 +438,10 @@ DrapeSimulationSummary RunDrapeSimulation(const DrapeSimulationOptions& options)
   }
   Summarize(&summary);
   summary.total_time_s = Seconds(start);
-  WriteOutputs(options, summary);
+  // The metrics record the physics the drape ran with.
+  DrapeSimulationOptions recorded = options;
+  recorded.solver.physics = solver_options.solver.physics;
+  WriteOutputs(recorded, summary);
   return summary;
 }
 

@@ -68,6 +68,11 @@ struct DrapeSimulationOptions {
   int warp_sweeps = 0;
   // With warp_sweeps: each patch's translation re-solved with its warp.
   bool warp_translations = false;
+  // With warp_sweeps and a model that records its loss's collision settings
+  // (OneFitModel::loss_collision): the re-solve, and the drape's metrics,
+  // use those instead of solver.physics' (the warps it solves for are the
+  // ones the network's loss asks for).
+  bool collision_from_model = true;
 
   int first_frame = 0;
   int num_frames = -1;  // -1: to the clip's end
@@ -144,6 +149,9 @@ struct DrapeSimulationSummary {
   bool all_finite = true;
   double total_time_s = 0.0;
   std::vector<std::string> warnings;
+  // What the run took from elsewhere than its options (the model's
+  // collision settings), for the user to see.
+  std::vector<std::string> notes;
 
   std::string BriefReport() const;
 };

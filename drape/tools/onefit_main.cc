@@ -199,6 +199,7 @@ int RunSimulate(SimulateFlags& f) {
   SayWhatAnEarlierRunLeft(options.out_dir, "metrics.json");
   const polyfit::DrapeSimulationSummary summary = polyfit::RunDrapeSimulation(options);
   for (const std::string& warning : summary.warnings) std::cerr << "warning: " << warning << '\n';
+  for (const std::string& note : summary.notes) std::printf("note: %s\n", note.c_str());
   std::printf("%s\n", summary.BriefReport().c_str());
   std::printf("wrote %s (meshes/, renders/, frames.csv, metrics.json)\n", options.out_dir.c_str());
   return summary.termination_type == polyfit::TerminationType::kFailure ? polyfit::kExitSolverFailure
@@ -604,6 +605,14 @@ int RejectFlagsTheModelSets(const CLI::App& command,
   return polyfit::kExitSuccess;
 }
 
+// The collision flags given on the command line override the ones the
+// model records for its re-solve (--warp-sweeps).
+void CollisionFromModelUnlessGiven(const CLI::App& command, polyfit::DrapeSimulationOptions* options) {
+  for (const char* flag : {"--k-c", "--eps", "--margin-floor"}) {
+    if (command.get_option(flag)->count() > 0) options->collision_from_model = false;
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -620,7 +629,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   drape_command
       ->add_option("--warp-sweeps", drape.options.warp_sweeps,
-                   "re-solve each prediction's warps for its jets with this many sweeps (0: the network's own)")
+                   "re-solve each prediction's warps for its jets with this many sweeps, under the collision settings "
+                   "of the model's training unless --k-c/--eps/--margin-floor are given (0: the network's own)")
       ->capture_default_str();
   drape_command->add_flag("--warp-translations", drape.options.warp_translations,
                         "with --warp-sweeps: each patch's translation re-solved with its warp");
@@ -637,7 +647,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   eval_command
       ->add_option("--warp-sweeps", eval.options.warp_sweeps,
-                   "re-solve each prediction's warps for its jets with this many sweeps (0: the network's own)")
+                   "re-solve each prediction's warps for its jets with this many sweeps, under the collision settings "
+                   "of the model's training unless --k-c/--eps/--margin-floor are given (0: the network's own)")
       ->capture_default_str();
   eval_command->add_flag("--warp-translations", eval.options.warp_translations,
                         "with --warp-sweeps: each patch's translation re-solved with its warp");
@@ -664,10 +675,12 @@ int main(int argc, char** argv) {
           rejected != polyfit::kExitSuccess)
         return rejected;
       if (drape.options.model_path.empty()) drape.options.model_path = ShippedModel();
+      CollisionFromModelUnlessGiven(*drape_command, &drape.options);
       return RunSimulate(drape);
     }
     if (eval_command->parsed()) {
       if (eval.options.model_path.empty()) eval.options.model_path = ShippedModel();
+      CollisionFromModelUnlessGiven(*eval_command, &eval.options);
       return RunEval(eval);
     }
     return RunSimulate(simulate);
