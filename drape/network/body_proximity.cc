@@ -60,13 +60,13 @@ Eigen::Matrix3d GramSchmidt(const Eigen::Matrix3d& b) {
 }  // namespace
 
 void BodyProximityFeatures(const PatchProbes& probes, const JointTransforms& pose, const PosedBodySamples& body,
-                           Eigen::MatrixXd* features, std::vector<int>* centre_hints) {
-  BodyProximityFeatures(probes, probes.rest_points, pose, body, features, nullptr, centre_hints);
+                           Eigen::MatrixXd* features, std::vector<int>* hints) {
+  BodyProximityFeatures(probes, probes.rest_points, pose, body, features, nullptr, hints);
 }
 
 void BodyProximityFeatures(const PatchProbes& probes, const Eigen::Matrix3Xd& points, const JointTransforms& pose,
                            const PosedBodySamples& body, Eigen::MatrixXd* features,
-                           Eigen::Matrix3Xd* distance_gradients, std::vector<int>* centre_hints) {
+                           Eigen::Matrix3Xd* distance_gradients, std::vector<int>* hints) {
   if (points.cols() != probes.rest_points.cols()) {
     throw std::invalid_argument("BodyProximityFeatures: one point per probe is needed");
   }
@@ -77,7 +77,7 @@ void BodyProximityFeatures(const PatchProbes& probes, const Eigen::Matrix3Xd& po
   const int m = probes.probes_per_patch;
   features->resize(ProximitySize(m), probes.num_patches());
   if (distance_gradients != nullptr) distance_gradients->resize(3, points.cols());
-  if (centre_hints != nullptr) centre_hints->resize(probes.num_patches(), -1);
+  if (hints != nullptr) hints->resize(points.cols(), -1);
   for (int p = 0; p < probes.num_patches(); ++p) {
     Eigen::Matrix3d linear = Eigen::Matrix3d::Zero();
     Eigen::Vector3d translation = Eigen::Vector3d::Zero();
@@ -89,14 +89,13 @@ void BodyProximityFeatures(const PatchProbes& probes, const Eigen::Matrix3Xd& po
     }
     const Eigen::Matrix3d frame = GramSchmidt(linear * probes.frames[p]);
     // The patch's other probes lie within its radius of the centre.
-    int centre_face = centre_hints != nullptr ? (*centre_hints)[p] : -1;
+    int centre_face = -1;
     for (int i = 0; i < m; ++i) {
       const Eigen::Vector3d x = linear * points.col(m * p + i) + translation;
-      const SignedDistanceResult hit = body.Query(x, centre_face);
-      if (i == 0) {
-        centre_face = hit.face;
-        if (centre_hints != nullptr) (*centre_hints)[p] = hit.face;
-      }
+      const int last = hints != nullptr ? (*hints)[m * p + i] : -1;
+      const SignedDistanceResult hit = body.Query(x, last >= 0 ? last : centre_face);
+      if (i == 0) centre_face = hit.face;
+      if (hints != nullptr) (*hints)[m * p + i] = hit.face;
       const double scaled = hit.distance / kProximityScale;
       const double d = std::clamp(scaled, -kProximityClamp, kProximityClamp);
       auto out = features->col(p).segment<kProximityValuesPerProbe>(kProximityValuesPerProbe * i);

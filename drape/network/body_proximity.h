@@ -108,12 +108,13 @@ class PosedBodySamples {
 // (resized): per patch, per
 // probe [d, F^T n] as above. pose: one rest-to-posed transform per joint;
 // body: posed by the same pose.
-// centre_hints (may be null; #patches, -1 for none, resized): each patch's
-// nearest sample to its first probe as last found, which starts the next
-// search's bound there (a probe moves little from frame to frame): the
-// same answers (but for ties), found sooner.
+// hints (may be null; one per probe, patch-major, -1 for none, resized):
+// each probe's nearest sample as last found, which starts the next
+// search's bound there (a probe moves little from frame to frame; a probe
+// without one starts from its patch's first probe's): the same answers
+// (but for ties), found sooner.
 void BodyProximityFeatures(const PatchProbes& probes, const JointTransforms& pose, const PosedBodySamples& body,
-                           Eigen::MatrixXd* features, std::vector<int>* centre_hints = nullptr);
+                           Eigen::MatrixXd* features, std::vector<int>* hints = nullptr);
 // The same at other places of the probes (3 by probes_per_patch #patches,
 // in the rest pose: PlaceProbes), and, when distance_gradients is not
 // null, per probe the derivative of its feature d with respect to its
@@ -123,7 +124,7 @@ void BodyProximityFeatures(const PatchProbes& probes, const JointTransforms& pos
 // points; the normals' features piecewise constant).
 void BodyProximityFeatures(const PatchProbes& probes, const Eigen::Matrix3Xd& points, const JointTransforms& pose,
                            const PosedBodySamples& body, Eigen::MatrixXd* features,
-                           Eigen::Matrix3Xd* distance_gradients = nullptr, std::vector<int>* centre_hints = nullptr);
+                           Eigen::Matrix3Xd* distance_gradients = nullptr, std::vector<int>* hints = nullptr);
 
 // The probes on other patch parameters (DrapeSolver's layout: alpha
 // (NumJetCoefficients(jet_order)), s, T first of `stride` per patch):

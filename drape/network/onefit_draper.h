@@ -76,7 +76,7 @@ class OneFitDraper {
   PatchProbes probes_;
   std::unique_ptr<PosedBodySamples> posed_body_;
   mutable Eigen::MatrixXd proximity_;
-  mutable std::vector<int> proximity_hints_;  // BodyProximityFeatures' centre hints
+  mutable std::vector<int> proximity_hints_;  // BodyProximityFeatures' hints
   // With the feedback decoder: its garment half and the proximity at the
   // decoder's patches.
   Eigen::MatrixXd feedback_half_;

@@ -12,7 +12,7 @@ const Eigen::MatrixXd& OutputProximity::Evaluate(const Eigen::MatrixXd& outputs,
   outputs_ = outputs;
   parameters_ = PatchParametersFromOutputs(map_, outputs, NumJetCoefficients(jet_order_));
   PlaceProbes(probes_, parameters_, jet_order_, static_cast<int>(map_.units.rows()), &points_);
-  BodyProximityFeatures(probes_, points_, pose, body, &features_, &distance_gradients_, &centre_hints_);
+  BodyProximityFeatures(probes_, points_, pose, body, &features_, &distance_gradients_, &hints_);
   return features_;
 }
 

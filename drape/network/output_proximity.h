@@ -35,7 +35,7 @@ class OutputProximity {
   Eigen::MatrixXd outputs_, features_;
   std::vector<double> parameters_;
   Eigen::Matrix3Xd points_, distance_gradients_;
-  std::vector<int> centre_hints_;  // per patch, from the last Evaluate
+  std::vector<int> hints_;  // per probe, from the last Evaluate
 };
 
 }  // namespace polyfit

@@ -25,6 +25,16 @@ RefitPointTree::RefitPointTree(const Eigen::Matrix3Xd& points) : order_(points.c
   Build(points, 0, static_cast<int>(points.cols()));
   place_.resize(order_.size());
   for (int i = 0; i < size(); ++i) place_[order_[i]] = i;
+  parent_.assign(nodes_.size(), -1);
+  leaf_.resize(order_.size());
+  for (int n = 0; n < static_cast<int>(nodes_.size()); ++n) {
+    const Node& node = nodes_[n];
+    if (node.left >= 0) {
+      parent_[node.left] = parent_[node.right] = n;
+    } else {
+      for (int i = node.begin; i < node.end; ++i) leaf_[i] = n;
+    }
+  }
   points_.resize(3, points.cols());
   Refit(points);
 }
@@ -90,7 +100,21 @@ int RefitPointTree::Nearest(const Eigen::Vector3d& query, double* squared_distan
       best_d2 = d2;
     }
   }
-  Search(0, query, &best, &best_d2);
+  if (best < 0) {
+    Search(0, query, &best, &best_d2);
+  } else {
+    // Bottom up: the hint's leaf, then each ancestor's other child. Every
+    // leaf is under exactly one of them, and each is pruned by its box.
+    int node = leaf_[best];
+    Search(node, query, &best, &best_d2);
+    for (int parent = parent_[node]; parent >= 0; node = parent, parent = parent_[node]) {
+      const Node& p = nodes_[parent];
+      const int sibling = p.left == node ? p.right : p.left;
+      if (BoxDistance2(nodes_[sibling].lo, nodes_[sibling].hi, query) < best_d2) {
+        Search(sibling, query, &best, &best_d2);
+      }
+    }
+  }
   if (squared_distance) *squared_distance = best_d2;
   return best < 0 ? -1 : order_[best];
 }

@@ -25,8 +25,10 @@ class RefitPointTree {
 
   // Index (into the points as given) of the nearest point to query, and
   // its squared distance. hint: a point likely near (the answer for a
-  // query close by), whose distance starts the search's bound; any index,
-  // or -1 for none, gives the same answer (but for ties).
+  // query close by), whose distance starts the search's bound and whose
+  // leaf starts the search, which then climbs to the root through the
+  // siblings that the bound does not prune; any index, or -1 for none
+  // (from the root down), gives the same answer (but for ties).
   int Nearest(const Eigen::Vector3d& query, double* squared_distance, int hint = -1) const;
 
   int size() const { return static_cast<int>(order_.size()); }
@@ -44,6 +46,8 @@ class RefitPointTree {
   std::vector<int> order_;   // leaf order -> the index as given
   std::vector<int> place_;   // the index as given -> leaf order
   std::vector<Node> nodes_;  // depth first, the root first
+  std::vector<int> parent_;  // per node, -1 for the root
+  std::vector<int> leaf_;    // per point in leaf order, its leaf
 };
 
 }  // namespace polyfit
