@@ -82,7 +82,7 @@ Eigen::MatrixXd OneFitDraper::Outputs(const T* weights, const MatrixX<T>& garmen
   model_.network.ForwardWithGarmentHalf<T>(weights, garment_half, body, &joint_weights_, &proximity_, &outputs, &z_b);
   for (int pass = 0; pass < model_.network.feedback_passes(); ++pass) {
     const Eigen::MatrixXd& output_proximity =
-        output_proximity_->Evaluate(outputs.template cast<double>(), now, *posed_body_);
+        output_proximity_->Evaluate(outputs.template cast<double>(), now, *posed_body_, false);
     model_.network.FeedbackWithGarmentHalf<T>(weights, feedback_half, z_b, body, &joint_weights_, &proximity_,
                                               outputs, output_proximity, &refined);
     outputs.swap(refined);

@@ -811,7 +811,7 @@ TEST_F(OneFitTrainerTest, NineProximityProbesRoundTripAndDrapeAsTraining) {
   EXPECT_THROW(five.StartFrom(loaded), std::invalid_argument);
 
   std::string bytes = FileBytes(path);
-  ASSERT_EQ(bytes[8], 14);
+  ASSERT_EQ(bytes[8], 15);
   ASSERT_EQ(bytes[80], kRimProximityProbes);  // the probes' count
   const std::string damaged = ::testing::TempDir() + "/onefit_rim_probes_damaged.pfonefit";
   for (const char count : {'\x00', '\x05', '\x07'}) {
@@ -824,13 +824,13 @@ TEST_F(OneFitTrainerTest, NineProximityProbesRoundTripAndDrapeAsTraining) {
   // no room.
   std::string v11 = bytes;
   v11[8] = 11;
-  v11.erase(80, 56);  // the count, version 13's feedback flag and version 14's skinning
+  v11.erase(80, 84);  // the count, version 13's feedback flag, 14's skinning and 15's loss collision
   std::ofstream(damaged, std::ios::binary) << v11;
   EXPECT_THROW(LoadOneFitModel(damaged), OneFitModelError);
   SaveOneFitModel(path, five.MakeModel(JiggledWeights(five, 5)));
   v11 = FileBytes(path);
   v11[8] = 11;
-  v11.erase(80, 56);
+  v11.erase(80, 84);
   std::ofstream(damaged, std::ios::binary) << v11;
   EXPECT_EQ(LoadOneFitModel(damaged).network.proximity_probes(), kProximityProbes);
 }
@@ -874,7 +874,7 @@ TEST_F(OneFitTrainerTest, TheFeedbackDecoderHasTheRightGradientRoundTripsAndDrap
                               loaded.network.num_outputs()}));
   ExpectDraperPredictsAsTraining(body_, options_, Sway(body_, 8), loaded, trainer, weights);
   std::string bytes = FileBytes(path);
-  ASSERT_EQ(bytes[8], 14);
+  ASSERT_EQ(bytes[8], 15);
   ASSERT_EQ(bytes[84], 1);  // the feedback flag
   const std::string damaged = ::testing::TempDir() + "/onefit_feedback_damaged.pfonefit";
   for (const char flag : {'\x00', '\x05', '\xff'}) {
@@ -1316,8 +1316,8 @@ TEST_F(OneFitTrainerTest, AModelFileRoundTripsAndTheDraperPredictsAsTraining) {
   wrong_version[8] = kOneFitModelVersion + 1;
   expect_error(wrong_version, "version " + std::to_string(kOneFitModelVersion + 1));
   std::string huge = bytes;
-  huge[136] = '\xff';  // the patch encoder's layer count
-  huge[137] = '\xff';
+  huge[164] = '\xff';  // the patch encoder's layer count
+  huge[165] = '\xff';
   expect_error(huge, "layer sizes");
   EXPECT_THROW(LoadOneFitModel(path + ".absent"), OneFitModelError);
 }

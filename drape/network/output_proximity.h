@@ -21,11 +21,13 @@ class OutputProximity {
   OutputProximity(const PatchOutputMap& map, const PatchProbes& probes, int jet_order);
 
   // The features (ProximitySize by #patches) of the patches `outputs`
-  // (num_outputs by #patches) give, on `body` posed by `pose`.
+  // (num_outputs by #patches) give, on `body` posed by `pose`. Without
+  // for_chain (inference), Chain cannot follow.
   const Eigen::MatrixXd& Evaluate(const Eigen::MatrixXd& outputs, const JointTransforms& pose,
-                                  const PosedBodySamples& body);
+                                  const PosedBodySamples& body, bool for_chain = true);
   // dL/doutputs at the last Evaluate's outputs given dL/dfeatures, through
-  // the probes' distances (the nearest samples held).
+  // the probes' distances (the nearest samples held). Throws
+  // std::logic_error after an Evaluate without for_chain.
   Eigen::MatrixXd Chain(const Eigen::MatrixXd& d_features) const;
 
  private:
@@ -35,6 +37,7 @@ class OutputProximity {
   Eigen::MatrixXd outputs_, features_;
   std::vector<double> parameters_;
   Eigen::Matrix3Xd points_, distance_gradients_;
+  bool chainable_ = false;
   std::vector<int> hints_;  // per probe, from the last Evaluate
 };
 
