@@ -192,6 +192,7 @@ void RunNetworkFrames(const DrapeSimulationOptions& options, const DrapeInputs& 
   const ClothRest rest = PrepareClothRest(solver->rest_garment());
   TriangleMesh posed = in.garment;
   const double fps = options.solver.physics.fps;
+  std::vector<double> correction;  // the last re-solve's change to its prediction
   for (int f = options.first_frame; f < in.last_frame; ++f) {
     const auto pose = [&](int g) { return in.retargeter->Pose(std::max(g, options.first_frame)); };
     const JointTransforms before_previous = pose(f - 2), previous = pose(f - 1), now = pose(f);
@@ -216,7 +217,14 @@ void RunNetworkFrames(const DrapeSimulationOptions& options, const DrapeInputs& 
       Eigen::Matrix3Xd positions;
       if (options.warp_sweeps > 0) {
         solver->Pose(now);
-        drape = solver->SolveWarps(params, options.warp_sweeps, 2, options.warp_translations);
+        std::vector<double> start = params;
+        if (correction.size() == params.size()) {
+          for (size_t i = 0; i < start.size(); ++i) start[i] += options.warp_carry * correction[i];
+        }
+        drape = solver->SolveWarps(start, options.warp_sweeps, 2, options.warp_translations);
+        // SolveWarps holds the jets and scales: only warps and translations differ.
+        correction.resize(params.size());
+        for (size_t i = 0; i < params.size(); ++i) correction[i] = drape[i] - params[i];
         positions = solver->PositionsOf(drape);
       } else {
         positions = solver->PositionsAt(params, now);
@@ -306,7 +314,15 @@ void WriteOutputs(const DrapeSimulationOptions& options, const DrapeSimulationSu
   j["shape"] = options.shape.ToString();
   j["garment"] = options.garment_path;
   j["drape"] = options.model_path.empty() ? "reference" : "network";
-  if (!options.model_path.empty()) j["model"] = options.model_path;
+  if (!options.model_path.empty()) {
+    j["model"] = options.model_path;
+    j["refine_iterations"] = options.refine_iterations;
+    j["warp_sweeps"] = options.warp_sweeps;
+    if (options.warp_sweeps > 0) {
+      j["warp_translations"] = options.warp_translations;
+      j["warp_carry"] = options.warp_carry;
+    }
+  }
   j["motion"] = options.motion_path;
   j["fps"] = physics.fps;
   j["first_frame"] = options.first_frame;
@@ -362,6 +378,7 @@ std::string DrapeSimulationOptions::Validate() const {
   if (warp_sweeps > 0 && model_path.empty()) return "warp_sweeps needs a model";
   if (warp_sweeps > 0 && refine_iterations > 0) return "warp_sweeps and refine_iterations do not go together";
   if (warp_translations && warp_sweeps == 0) return "warp_translations needs warp_sweeps";
+  if (!(warp_carry >= 0.0 && warp_carry <= 1.0)) return "warp_carry must be in [0, 1]";
   if (strain_limit_passes < 0) return "strain_limit_passes must be >= 0";
   if (lead_in_frames < 0 || render_every < 0) return "lead_in_frames and render_every must be >= 0";
   if (render_height < 32) return "render_height must be >= 32";

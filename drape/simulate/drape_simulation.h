@@ -68,6 +68,15 @@ struct DrapeSimulationOptions {
   int warp_sweeps = 0;
   // With warp_sweeps: each patch's translation re-solved with its warp.
   bool warp_translations = false;
+  // With warp_sweeps: each frame's re-solve starts from the network's
+  // prediction plus this fraction of the change the last frame's re-solve
+  // made to its own (warps and translations, in the patches' rest frames:
+  // the correction moves with the body), so that the sweeps go on from
+  // where the last frame's left off. Below 1 the correction's memory is
+  // bounded (1 / (1 - carry) frames): carried whole, what the sweeps leave
+  // unconstrained (patches sliding along one another) drifts over a clip.
+  // 0: each frame from the prediction alone.
+  double warp_carry = 0.95;
   // With warp_sweeps and a model that records its loss's collision settings
   // (OneFitModel::loss_collision): the re-solve, and the drape's metrics,
   // use those instead of solver.physics' (the warps it solves for are the

@@ -207,6 +207,30 @@ TEST_F(SharedDataDrapeTest, GarmentStartingInsideTheBodyIsPushedOut) {
   // Measured: 0.5% after three frames.
   EXPECT_LT(summary.records.back().inside_percent, 2.0);
 }
+
+// The network's warps and translations re-solved each frame (one sweep),
+// the last frame's correction carried into the next or not: carried, the
+// sweeps go on where the last frame's left off, so the suit ends with less
+// strain at no more cost per frame.
+TEST_F(SharedDataDrapeTest, ReSolvedWarpsCarriedFromFrameToFrameLeaveLessStrain) {
+  if (!fs::exists(POLYFIT_SHIPPED_ONEFIT_MODEL)) GTEST_SKIP() << "needs " << POLYFIT_SHIPPED_ONEFIT_MODEL;
+  options_.garment_path = (data_ / "garments" / "makehuman_cc0" / "male_casualsuit02.mhclo").string();
+  options_.motion_path = (data_ / "motion" / "02_01.bvh").string();
+  options_.model_path = POLYFIT_SHIPPED_ONEFIT_MODEL;
+  options_.num_frames = 12;
+  options_.lead_in_frames = 1;
+  options_.warp_sweeps = 1;
+  options_.warp_translations = true;
+  options_.warp_carry = 0.0;
+  const DrapeSimulationSummary cold = RunDrapeSimulation(options_);
+  options_.warp_carry = 0.95;
+  const DrapeSimulationSummary carried = RunDrapeSimulation(options_);
+  ASSERT_TRUE(cold.all_finite && carried.all_finite);
+  EXPECT_LT(carried.records.back().edge_strain_percent, cold.records.back().edge_strain_percent - 0.5);
+  EXPECT_LT(carried.mean_inside_percent, 2.0);
+  options_.warp_carry = 1.5;
+  EXPECT_THROW(RunDrapeSimulation(options_), DrapeInputError);
+}
 #endif
 
 }  // namespace

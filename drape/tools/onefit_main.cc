@@ -634,6 +634,12 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   drape_command->add_flag("--warp-translations", drape.options.warp_translations,
                         "with --warp-sweeps: each patch's translation re-solved with its warp");
+  drape_command
+      ->add_option("--warp-carry", drape.options.warp_carry,
+                   "with --warp-sweeps: each frame's re-solve starts from its prediction plus this fraction of "
+                   "the last frame's correction (0: from the prediction alone)")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   SimulateFlags eval;
   eval.options.render_every = 0;
   eval.options.project_offset = polyfit::kNetworkProjectOffset;
@@ -652,6 +658,12 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   eval_command->add_flag("--warp-translations", eval.options.warp_translations,
                         "with --warp-sweeps: each patch's translation re-solved with its warp");
+  eval_command
+      ->add_option("--warp-carry", eval.options.warp_carry,
+                   "with --warp-sweeps: each frame's re-solve starts from its prediction plus this fraction of "
+                   "the last frame's correction (0: from the prediction alone)")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   TrainFlags train;
   CLI::App* train_command = AddTrainCommand(&app, &train);
   try {
