@@ -205,7 +205,8 @@ TEST_F(BodyProximityTest, ARigidMotionOfBodyAndGarmentTogetherChangesNothing) {
 }
 
 // Hints carried from frame to frame (each probe's nearest sample) change
-// no answer, through a motion and back.
+// no answer, through a motion and back (the procedural body's symmetric
+// samples tie: either is an answer).
 TEST_F(BodyProximityTest, HintsFromTheFrameBeforeGiveTheSameFeatures) {
   const int joints = body_.skeleton.num_joints();
   const Eigen::Vector3d head = body_.skeleton.rest_heads.col(1);
@@ -219,7 +220,8 @@ TEST_F(BodyProximityTest, HintsFromTheFrameBeforeGiveTheSameFeatures) {
     Eigen::MatrixXd plain, hinted;
     BodyProximityFeatures(probes_, pose, posed, &plain);
     BodyProximityFeatures(probes_, pose, posed, &hinted, &hints);
-    EXPECT_EQ(plain, hinted) << "angle " << angle;
+    // Equal but for ties between samples at the same distance (an ulp).
+    EXPECT_LT((plain - hinted).cwiseAbs().maxCoeff(), 1e-12) << "angle " << angle;
     ASSERT_EQ(hints.size(), static_cast<size_t>(probes_.rest_points.cols()));
     for (int h : hints) EXPECT_GE(h, 0);
   }

@@ -10,7 +10,9 @@
 namespace polyfit {
 namespace {
 
-constexpr int kLeafSize = 8;
+// Leaves scanned in one vectorised pass: 32 points measured faster than 8
+// on a body's 2,000 samples (fewer boxes to test per query).
+constexpr int kLeafSize = 32;
 
 double BoxDistance2(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, const Eigen::Vector3d& q) {
   return (lo - q).cwiseMax(q - hi).cwiseMax(0.0).squaredNorm();
@@ -35,7 +37,7 @@ RefitPointTree::RefitPointTree(const Eigen::Matrix3Xd& points) : order_(points.c
       for (int i = node.begin; i < node.end; ++i) leaf_[i] = n;
     }
   }
-  points_.resize(3, points.cols());
+  points_.resize(points.cols(), 3);
   Refit(points);
 }
 
@@ -54,13 +56,13 @@ int RefitPointTree::Build(const Eigen::Matrix3Xd& points, int begin, int end) {
 
 void RefitPointTree::Refit(const Eigen::Matrix3Xd& points) {
   if (points.cols() != size()) throw std::invalid_argument("RefitPointTree::Refit: another number of points");
-  for (int i = 0; i < size(); ++i) points_.col(i) = points.col(order_[i]);
+  for (int i = 0; i < size(); ++i) points_.row(i) = points.col(order_[i]).transpose();
   // Children come after their parents: backwards, every child is done first.
   for (int n = static_cast<int>(nodes_.size()) - 1; n >= 0; --n) {
     Node& node = nodes_[n];
     if (node.left < 0) {
-      node.lo = points_.middleCols(node.begin, node.end - node.begin).rowwise().minCoeff();
-      node.hi = points_.middleCols(node.begin, node.end - node.begin).rowwise().maxCoeff();
+      node.lo = points_.middleRows(node.begin, node.end - node.begin).colwise().minCoeff().transpose();
+      node.hi = points_.middleRows(node.begin, node.end - node.begin).colwise().maxCoeff().transpose();
     } else {
       node.lo = nodes_[node.left].lo.cwiseMin(nodes_[node.right].lo);
       node.hi = nodes_[node.left].hi.cwiseMax(nodes_[node.right].hi);
@@ -71,11 +73,21 @@ void RefitPointTree::Refit(const Eigen::Matrix3Xd& points) {
 void RefitPointTree::Search(int index, const Eigen::Vector3d& q, int* best, double* best_d2) const {
   const Node& node = nodes_[index];
   if (node.left < 0) {
-    for (int i = node.begin; i < node.end; ++i) {
-      const double d2 = (points_.col(i) - q).squaredNorm();
-      if (d2 < *best_d2) {
-        *best_d2 = d2;
-        *best = i;
+    // The leaf's squared distances in one pass over its coordinates, then
+    // the nearest (the first of ties, as one point at a time).
+    const int n = node.end - node.begin;
+    double d2[kLeafSize];
+    const double* x = points_.col(0).data() + node.begin;
+    const double* y = points_.col(1).data() + node.begin;
+    const double* z = points_.col(2).data() + node.begin;
+    for (int i = 0; i < n; ++i) {
+      const double dx = x[i] - q.x(), dy = y[i] - q.y(), dz = z[i] - q.z();
+      d2[i] = dx * dx + dy * dy + dz * dz;
+    }
+    for (int i = 0; i < n; ++i) {
+      if (d2[i] < *best_d2) {
+        *best_d2 = d2[i];
+        *best = node.begin + i;
       }
     }
     return;
@@ -94,7 +106,10 @@ int RefitPointTree::Nearest(const Eigen::Vector3d& query, double* squared_distan
   int best = -1;
   double best_d2 = std::numeric_limits<double>::infinity();
   if (hint >= 0 && hint < size()) {
-    const double d2 = (points_.col(place_[hint]) - query).squaredNorm();
+    const int i = place_[hint];
+    const double dx = points_(i, 0) - query.x(), dy = points_(i, 1) - query.y(), dz = points_(i, 2) - query.z();
+    // As the leaves' scan sums it, so that a hint ties with itself.
+    const double d2 = dx * dx + dy * dy + dz * dz;
     if (d2 < best_d2) {  // false for a NaN
       best = place_[hint];
       best_d2 = d2;

@@ -42,7 +42,8 @@ class RefitPointTree {
   int Build(const Eigen::Matrix3Xd& points, int begin, int end);
   void Search(int node, const Eigen::Vector3d& q, int* best, double* best_d2) const;
 
-  Eigen::Matrix3Xd points_;  // 3 by N, in leaf order
+  // N by 3 (each coordinate contiguous, for the leaves' scans), in leaf order.
+  Eigen::Matrix<double, Eigen::Dynamic, 3> points_;
   std::vector<int> order_;   // leaf order -> the index as given
   std::vector<int> place_;   // the index as given -> leaf order
   std::vector<Node> nodes_;  // depth first, the root first
