@@ -605,6 +605,29 @@ int RejectFlagsTheModelSets(const CLI::App& command,
   return polyfit::kExitSuccess;
 }
 
+// What `drape` and `eval` take beyond `simulate`'s: the model, and what
+// follows each prediction (refinement, or re-solved warps).
+void AddNetworkOptions(CLI::App* command, polyfit::DrapeSimulationOptions* options) {
+  command->add_option("--model", options->model_path, "a model from onefit train (default: the shipped one)");
+  command
+      ->add_option("--refine", options->refine_iterations,
+                   "Levenberg-Marquardt iterations of the reference drape from each prediction (0: none)")
+      ->capture_default_str();
+  command
+      ->add_option("--warp-sweeps", options->warp_sweeps,
+                   "re-solve each prediction's warps for its jets with this many sweeps, under the collision settings "
+                   "of the model's training unless --k-c/--eps/--margin-floor are given (0: the network's own)")
+      ->capture_default_str();
+  command->add_flag("--warp-translations", options->warp_translations,
+                    "with --warp-sweeps: each patch's translation re-solved with its warp");
+  command
+      ->add_option("--warp-carry", options->warp_carry,
+                   "with --warp-sweeps: each frame's re-solve starts from its prediction plus this fraction of "
+                   "the last frame's correction (0: from the prediction alone)")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+}
+
 // The collision flags given on the command line override the ones the
 // model records for its re-solve (--warp-sweeps).
 void CollisionFromModelUnlessGiven(const CLI::App& command, polyfit::DrapeSimulationOptions* options) {
@@ -621,49 +644,14 @@ int main(int argc, char** argv) {
   SimulateFlags simulate, drape;
   AddSimulateCommand(&app, &simulate);
   CLI::App* drape_command = AddSimulateCommand(&app, &drape, "drape", "drape a garment with a trained network");
-  drape_command->add_option("--model", drape.options.model_path,
-                            "a model from onefit train (default: the shipped one)");
-  drape_command
-      ->add_option("--refine", drape.options.refine_iterations,
-                   "Levenberg-Marquardt iterations of the reference drape from each prediction (0: none)")
-      ->capture_default_str();
-  drape_command
-      ->add_option("--warp-sweeps", drape.options.warp_sweeps,
-                   "re-solve each prediction's warps for its jets with this many sweeps, under the collision settings "
-                   "of the model's training unless --k-c/--eps/--margin-floor are given (0: the network's own)")
-      ->capture_default_str();
-  drape_command->add_flag("--warp-translations", drape.options.warp_translations,
-                        "with --warp-sweeps: each patch's translation re-solved with its warp");
-  drape_command
-      ->add_option("--warp-carry", drape.options.warp_carry,
-                   "with --warp-sweeps: each frame's re-solve starts from its prediction plus this fraction of "
-                   "the last frame's correction (0: from the prediction alone)")
-      ->check(CLI::Range(0.0, 1.0))
-      ->capture_default_str();
+  AddNetworkOptions(drape_command, &drape.options);
   SimulateFlags eval;
   eval.options.render_every = 0;
   eval.options.project_offset = polyfit::kNetworkProjectOffset;
   eval.options.strain_limit_passes = polyfit::kNetworkStrainLimitPasses;
   CLI::App* eval_command =
       AddSimulateCommand(&app, &eval, "eval", "compare a trained network with the reference drape on a clip");
-  eval_command->add_option("--model", eval.options.model_path, "a model from onefit train (default: the shipped one)");
-  eval_command
-      ->add_option("--refine", eval.options.refine_iterations,
-                   "Levenberg-Marquardt iterations of the reference drape from each prediction (0: none)")
-      ->capture_default_str();
-  eval_command
-      ->add_option("--warp-sweeps", eval.options.warp_sweeps,
-                   "re-solve each prediction's warps for its jets with this many sweeps, under the collision settings "
-                   "of the model's training unless --k-c/--eps/--margin-floor are given (0: the network's own)")
-      ->capture_default_str();
-  eval_command->add_flag("--warp-translations", eval.options.warp_translations,
-                        "with --warp-sweeps: each patch's translation re-solved with its warp");
-  eval_command
-      ->add_option("--warp-carry", eval.options.warp_carry,
-                   "with --warp-sweeps: each frame's re-solve starts from its prediction plus this fraction of "
-                   "the last frame's correction (0: from the prediction alone)")
-      ->check(CLI::Range(0.0, 1.0))
-      ->capture_default_str();
+  AddNetworkOptions(eval_command, &eval.options);
   TrainFlags train;
   CLI::App* train_command = AddTrainCommand(&app, &train);
   try {
