@@ -80,14 +80,24 @@ double DrapeSolver::Impl::PatchEdgeStrain(int p, const double* c, WarpSystem* jt
   thread_local std::vector<Eigen::Matrix<double, 3, 2, Eigen::RowMajor>> dx_dslide;
   PatchPoints(p, c, warp_solve_translation ? c + 2 * n : translation(p), &x, jtj != nullptr ? &dx_dslide : nullptr);
   const int size = 2 * n + (warp_solve_translation ? 3 : 0);
+  // The residuals' rows, gathered then multiplied out at once (a rank-k
+  // update runs blocked; one row at a time it was most of a sweep).
+  thread_local Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> jacobian;
+  thread_local Eigen::VectorXd residuals;
+  int rows = 0;
   if (jtj != nullptr) {
-    jtj->setZero(size, size);
-    jtr->setZero(size);
+    const int most = static_cast<int>(edges_by_patch[p].size() + 3 * seam_members_by_patch[p].size() +
+                                      near_members_by_patch[p].size());
+    if (jacobian.rows() < most || jacobian.cols() != kMaxWarpUnknowns) {
+      jacobian.resize(2 * most, kMaxWarpUnknowns);  // grown rarely: kept per thread
+      residuals.resize(2 * most);
+    }
   }
-  WarpVector row(size);
   // Adds residual r with derivative dr_dx at member i (and -dr_dx at
   // member j >= 0) to the system.
   const auto add = [&](double r, const Eigen::Matrix<double, 1, 3>& dr_dx, int i, int j) {
+    auto row = jacobian.row(rows).head(size);
+    residuals[rows++] = r;
     row.setZero();
     for (const auto& [m, sign] : {std::pair{i, 1.0}, std::pair{j, -1.0}}) {
       if (m < 0) continue;
@@ -101,8 +111,6 @@ double DrapeSolver::Impl::PatchEdgeStrain(int p, const double* c, WarpSystem* jt
         row.tail<3>() += sign * (dr_dx * skin_linear[membership_vertex[members[m]]]).transpose();
       }
     }
-    jtj->noalias() += row * row.transpose();
-    *jtr += r * row;
   };
   double cost = 0.0;
   for (const auto& [edge, i, j] : edges_by_patch[p]) {
@@ -139,6 +147,13 @@ double DrapeSolver::Impl::PatchEdgeStrain(int p, const double* c, WarpSystem* jt
     const double r = collision_weight * gap;
     cost += 0.5 * r * r;
     if (jtj != nullptr) add(r, -collision_weight * hit.normal.transpose(), i, -1);
+  }
+  if (jtj != nullptr) {
+    const auto j = jacobian.topLeftCorner(rows, size);
+    jtj->setZero(size, size);
+    jtj->selfadjointView<Eigen::Lower>().rankUpdate(j.transpose());
+    jtj->triangularView<Eigen::StrictlyUpper>() = jtj->transpose();
+    jtr->noalias() = j.transpose() * residuals.head(rows);
   }
   return cost;
 }
