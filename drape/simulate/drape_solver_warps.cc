@@ -72,6 +72,44 @@ void DrapeSolver::Impl::PatchPoints(int p, const double* c, const double* t, std
   }
 }
 
+namespace {
+
+// A patch's residuals and their rows over its unknowns, gathered and then
+// multiplied out at once: a rank-k update runs blocked, where one rank-1
+// update per residual was most of a sweep. Kept per thread across calls.
+class WarpRows {
+ public:
+  // Room for `most` rows of `width` values (grown rarely).
+  void Start(int most, int width) {
+    count_ = 0;
+    if (jacobian_.rows() < most || jacobian_.cols() != width) {
+      jacobian_.resize(2 * most, width);
+      residuals_.resize(2 * most);
+    }
+  }
+  // The next row, for residual r (its values to be filled).
+  auto Add(double r) {
+    residuals_[count_] = r;
+    return jacobian_.row(count_++);
+  }
+  // J^T J and J^T r over the first `size` unknowns.
+  template <typename System, typename Vector>
+  void NormalEquations(int size, System* jtj, Vector* jtr) const {
+    const auto j = jacobian_.topLeftCorner(count_, size);
+    jtj->setZero(size, size);
+    jtj->template selfadjointView<Eigen::Lower>().rankUpdate(j.transpose());
+    jtj->template triangularView<Eigen::StrictlyUpper>() = jtj->transpose();
+    jtr->noalias() = j.transpose() * residuals_.head(count_);
+  }
+
+ private:
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> jacobian_;
+  Eigen::VectorXd residuals_;
+  int count_ = 0;
+};
+
+}  // namespace
+
 double DrapeSolver::Impl::PatchEdgeStrain(int p, const double* c, WarpSystem* jtj, WarpVector* jtr) {
   const int n = num_warp;
   const std::vector<int>& members = members_by_patch[p];
@@ -80,24 +118,16 @@ double DrapeSolver::Impl::PatchEdgeStrain(int p, const double* c, WarpSystem* jt
   thread_local std::vector<Eigen::Matrix<double, 3, 2, Eigen::RowMajor>> dx_dslide;
   PatchPoints(p, c, warp_solve_translation ? c + 2 * n : translation(p), &x, jtj != nullptr ? &dx_dslide : nullptr);
   const int size = 2 * n + (warp_solve_translation ? 3 : 0);
-  // The residuals' rows, gathered then multiplied out at once (a rank-k
-  // update runs blocked; one row at a time it was most of a sweep).
-  thread_local Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> jacobian;
-  thread_local Eigen::VectorXd residuals;
-  int rows = 0;
+  thread_local WarpRows rows;
   if (jtj != nullptr) {
-    const int most = static_cast<int>(edges_by_patch[p].size() + 3 * seam_members_by_patch[p].size() +
-                                      near_members_by_patch[p].size());
-    if (jacobian.rows() < most || jacobian.cols() != kMaxWarpUnknowns) {
-      jacobian.resize(2 * most, kMaxWarpUnknowns);  // grown rarely: kept per thread
-      residuals.resize(2 * most);
-    }
+    rows.Start(static_cast<int>(edges_by_patch[p].size() + 3 * seam_members_by_patch[p].size() +
+                                near_members_by_patch[p].size()),
+               kMaxWarpUnknowns);
   }
   // Adds residual r with derivative dr_dx at member i (and -dr_dx at
   // member j >= 0) to the system.
   const auto add = [&](double r, const Eigen::Matrix<double, 1, 3>& dr_dx, int i, int j) {
-    auto row = jacobian.row(rows).head(size);
-    residuals[rows++] = r;
+    auto row = rows.Add(r).head(size);
     row.setZero();
     for (const auto& [m, sign] : {std::pair{i, 1.0}, std::pair{j, -1.0}}) {
       if (m < 0) continue;
@@ -148,13 +178,7 @@ double DrapeSolver::Impl::PatchEdgeStrain(int p, const double* c, WarpSystem* jt
     cost += 0.5 * r * r;
     if (jtj != nullptr) add(r, -collision_weight * hit.normal.transpose(), i, -1);
   }
-  if (jtj != nullptr) {
-    const auto j = jacobian.topLeftCorner(rows, size);
-    jtj->setZero(size, size);
-    jtj->selfadjointView<Eigen::Lower>().rankUpdate(j.transpose());
-    jtj->triangularView<Eigen::StrictlyUpper>() = jtj->transpose();
-    jtr->noalias() = j.transpose() * residuals.head(rows);
-  }
+  if (jtj != nullptr) rows.NormalEquations(size, jtj, jtr);
   return cost;
 }
 
