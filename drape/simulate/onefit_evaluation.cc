@@ -14,6 +14,13 @@
 namespace polyfit {
 namespace {
 
+// The re-solve's carry as the command line takes it (0.95, 0, 1).
+std::string FormatCarry(double carry) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%g", carry);
+  return text;
+}
+
 namespace fs = std::filesystem;
 
 // The reference drape and the network's, each into its own folder, both
@@ -173,7 +180,8 @@ OneFitEvaluationSummary EvaluateOneFitModel(const OneFitEvaluationOptions& optio
   const std::string name = refine > 0   ? "network + " + std::to_string(refine) + " LM iterations"
                            : sweeps > 0 ? std::string("network + warps ") +
                                               (options.simulation.warp_translations ? "and translations " : "") +
-                                              "re-solved (" + std::to_string(sweeps) + " sweeps)"
+                                              "re-solved (" + std::to_string(sweeps) + " sweeps, carry " +
+                                              FormatCarry(options.simulation.warp_carry) + ")"
                                         : std::string("network");
   summary.network = Summarize(name, network, network_jitter);
   summary.network.distance_to_reference_mm = FiniteMean(summary.distance_mm);
