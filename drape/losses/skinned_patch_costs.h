@@ -93,12 +93,9 @@ class SkinnedPatchPoint {
                            const double* slide) const {
     const double u = u_ + (slide != nullptr ? slide[0] : 0.0);
     const double v = v_ + (slide != nullptr ? slide[1] : 0.0);
-    double monomials[kMaxJetCoefficients];
-    JetMonomials(order_, u, v, monomials);
-    PatchPointState state;  // its local point only
-    for (int k = 0; k < num_coefficients_; ++k) state.z += alpha[k] * monomials[k];
-    state.local = Eigen::Vector3d(u, v, state.z);
-    return Position(state, scale, translation);
+    const Eigen::Vector3d local(u, v, EvaluateJetHeight(order_, alpha, u, v));
+    return *skin_linear_ * (scale[0] * (rotation_ * local) + Eigen::Map<const Eigen::Vector3d>(translation)) +
+           *skin_translation_;
   }
 
   // Writes sign dr_dx dx/dblock (row-major) into jacobians[0..2] (alpha, s,

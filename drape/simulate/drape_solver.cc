@@ -409,6 +409,21 @@ void DrapeSolver::Impl::Positions(const PolyFitModel& model, Eigen::Matrix3Xd* o
   }
 }
 
+// As SkinWeights::Blend, each joint's map taken once as a 3 by 4 block
+// (an Isometry3d holds 4 by 4), so that each weight is one short axpy.
+void DrapeSolver::Impl::BlendGarmentSkin(const std::vector<Eigen::Isometry3d>& rest_to_posed) {
+  joint_affine.resize(rest_to_posed.size());
+  for (size_t j = 0; j < rest_to_posed.size(); ++j) joint_affine[j] = rest_to_posed[j].affine();
+  for (int v = 0; v < static_cast<int>(skin_linear.size()); ++v) {
+    Eigen::Matrix<double, 3, 4> blended = Eigen::Matrix<double, 3, 4>::Zero();
+    for (int k = weights.offsets[v]; k < weights.offsets[v + 1]; ++k) {
+      blended += weights.value[k] * joint_affine[weights.joint[k]];
+    }
+    skin_linear[v] = blended.leftCols<3>();
+    skin_translation[v] = blended.col(3);
+  }
+}
+
 int DrapeSolver::Impl::QueryContacts(const Eigen::Matrix3Xd& positions) {
   const int n = static_cast<int>(positions.cols());
   // The last answer bounds the search: a vertex moves little between
@@ -425,9 +440,7 @@ void DrapeSolver::Impl::PoseBodyAndGarment(const std::vector<Eigen::Isometry3d>&
   *body_vertices = SkinVertices(body, rest_to_posed);
   distance.SetVertices(*body_vertices);
   nearest_stale = true;
-  for (int v = 0; v < static_cast<int>(skin_linear.size()); ++v) {
-    weights.Blend(v, rest_to_posed, &skin_linear[v], &skin_translation[v]);
-  }
+  BlendGarmentSkin(rest_to_posed);
 }
 
 // Inertia's target (constant velocity over the last two frames, gravity
@@ -813,9 +826,7 @@ Eigen::Matrix3Xd DrapeSolver::PositionsAt(const std::vector<double>& patch_param
   if (static_cast<int>(rest_to_posed.size()) != m.body.skeleton.num_joints()) {
     throw std::invalid_argument("DrapeSolver::PositionsAt: one transform per joint is needed");
   }
-  for (int v = 0; v < static_cast<int>(m.skin_linear.size()); ++v) {
-    m.weights.Blend(v, rest_to_posed, &m.skin_linear[v], &m.skin_translation[v]);
-  }
+  m.BlendGarmentSkin(rest_to_posed);
   return PositionsOf(patch_parameters);
 }
 

@@ -110,6 +110,9 @@ struct DrapeSolver::Impl {
   ceres::Solver::Options SolverOptions(int pass, int num_vertices) const;
   // Each vertex the mean of its patches' posed points (3 by #V).
   void Positions(const PolyFitModel& model, Eigen::Matrix3Xd* out);
+  // skin_linear and skin_translation blended from the joints' transforms.
+  void BlendGarmentSkin(const std::vector<Eigen::Isometry3d>& rest_to_posed);
+  std::vector<Eigen::Matrix<double, 3, 4>> joint_affine;  // BlendGarmentSkin's scratch
   // Closest body points of `positions`; returns how many are inside.
   int QueryContacts(const Eigen::Matrix3Xd& positions);
   // The public patch-parameter layout (alpha, s, T, warp per patch,
