@@ -217,14 +217,18 @@ void RunNetworkFrames(const DrapeSimulationOptions& options, const DrapeInputs& 
       Eigen::Matrix3Xd positions;
       if (options.warp_sweeps > 0) {
         solver->Pose(now);
-        std::vector<double> start = params;
+        std::vector<double> from = params;
         if (correction.size() == params.size()) {
-          for (size_t i = 0; i < start.size(); ++i) start[i] += options.warp_carry * correction[i];
+          for (size_t i = 0; i < from.size(); ++i) from[i] += options.warp_carry * correction[i];
         }
-        drape = solver->SolveWarps(start, options.warp_sweeps, 2, options.warp_translations);
-        // SolveWarps holds the jets and scales: only warps and translations differ.
+        drape = solver->SolveWarps(from, options.warp_sweeps, 2, options.warp_translations);
+        // SolveWarps holds the jets and scales: only warps and translations
+        // differ. A non-finite one is not carried on.
         correction.resize(params.size());
         for (size_t i = 0; i < params.size(); ++i) correction[i] = drape[i] - params[i];
+        if (!std::all_of(correction.begin(), correction.end(), [](double c) { return std::isfinite(c); })) {
+          correction.clear();
+        }
         positions = solver->PositionsOf(drape);
       } else {
         positions = solver->PositionsAt(params, now);
