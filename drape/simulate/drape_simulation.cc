@@ -381,7 +381,6 @@ std::string DrapeSimulationOptions::Validate() const {
   if (warp_sweeps < 0) return "warp_sweeps must be >= 0";
   if (warp_sweeps > 0 && model_path.empty()) return "warp_sweeps needs a model";
   if (warp_sweeps > 0 && refine_iterations > 0) return "warp_sweeps and refine_iterations do not go together";
-  if (warp_translations && warp_sweeps == 0) return "warp_translations needs warp_sweeps";
   if (!(warp_carry >= 0.0 && warp_carry <= 1.0)) return "warp_carry must be in [0, 1]";
   if (strain_limit_passes < 0) return "strain_limit_passes must be >= 0";
   if (lead_in_frames < 0 || render_every < 0) return "lead_in_frames and render_every must be >= 0";

@@ -66,8 +66,10 @@ struct DrapeSimulationOptions {
   // DrapeSolver::SolveWarps (the body posed for its collision term), timed
   // with the inference; 0: the network's own warps.
   int warp_sweeps = 0;
-  // With warp_sweeps: each patch's translation re-solved with its warp.
-  bool warp_translations = false;
+  // With warp_sweeps: each patch's translation re-solved with its warp (a
+  // patch held off or pushed into the body moves back; better on every
+  // measured clip on both counts than the warps alone: docs/benchmarks.md).
+  bool warp_translations = true;
   // With warp_sweeps: each frame's re-solve starts from the network's
   // prediction plus this fraction of the change the last frame's re-solve
   // made to its own (warps and translations, in the patches' rest frames:

@@ -618,8 +618,9 @@ void AddNetworkOptions(CLI::App* command, polyfit::DrapeSimulationOptions* optio
                    "re-solve each prediction's warps for its jets with this many sweeps, under the collision settings "
                    "of the model's training unless --k-c/--eps/--margin-floor are given (0: the network's own)")
       ->capture_default_str();
-  command->add_flag("--warp-translations", options->warp_translations,
-                    "with --warp-sweeps: each patch's translation re-solved with its warp");
+  command->add_flag("--warp-translations,!--warp-only", options->warp_translations,
+                    "with --warp-sweeps: each patch's translation re-solved with its warp (the default; "
+                    "--warp-only: the warps alone)");
   command
       ->add_option("--warp-carry", options->warp_carry,
                    "with --warp-sweeps: each frame's re-solve starts from its prediction plus this fraction of "
