@@ -409,16 +409,11 @@ void DrapeSolver::Impl::Positions(const PolyFitModel& model, Eigen::Matrix3Xd* o
   }
 }
 
-// As SkinWeights::Blend, each joint's map taken once as a 3 by 4 block
-// (an Isometry3d holds 4 by 4), so that each weight is one short axpy.
 void DrapeSolver::Impl::BlendGarmentSkin(const std::vector<Eigen::Isometry3d>& rest_to_posed) {
   joint_affine.resize(rest_to_posed.size());
   for (size_t j = 0; j < rest_to_posed.size(); ++j) joint_affine[j] = rest_to_posed[j].affine();
   for (int v = 0; v < static_cast<int>(skin_linear.size()); ++v) {
-    Eigen::Matrix<double, 3, 4> blended = Eigen::Matrix<double, 3, 4>::Zero();
-    for (int k = weights.offsets[v]; k < weights.offsets[v + 1]; ++k) {
-      blended += weights.value[k] * joint_affine[weights.joint[k]];
-    }
+    const Eigen::Matrix<double, 3, 4> blended = weights.Blend(v, joint_affine);
     skin_linear[v] = blended.leftCols<3>();
     skin_translation[v] = blended.col(3);
   }
