@@ -67,8 +67,16 @@ class InertiaResidual {
   InertiaResidual(const Eigen::Vector3d& previous, const Eigen::Vector3d& before_previous, double mass, double dt,
                   double weight, double gravity_weight = 0.0, double gravity = 9.81,
                   const Eigen::Vector3d& up = Eigen::Vector3d::UnitY())
-      : predicted_(2.0 * previous - before_previous), scale_(std::sqrt(weight * mass) / dt) {
-    if (gravity_weight > 0.0 && weight > 0.0) predicted_ -= (gravity_weight * gravity * dt * dt / weight) * up;
+      : predicted_(2.0 * previous - before_previous + GravityShift(dt, weight, gravity_weight, gravity, up)),
+        scale_(std::sqrt(weight * mass) / dt) {}
+
+  // How far gravity folded into inertia moves the target x_pred:
+  // -(k_g g dt^2 / k_i) up (zero without either weight). With k_g = k_i,
+  // g dt^2 along gravity: where a free fall is after one more step.
+  static Eigen::Vector3d GravityShift(double dt, double weight, double gravity_weight, double gravity,
+                                     const Eigen::Vector3d& up) {
+    if (!(gravity_weight > 0.0 && weight > 0.0)) return Eigen::Vector3d::Zero();
+    return -(gravity_weight * gravity * dt * dt / weight) * up;
   }
 
   template <typename T>

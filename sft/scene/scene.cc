@@ -240,6 +240,27 @@ void CheckGroundTruth(const SftScene& scene) {
   }
 }
 
+// The optional physics a scene may state (PolySftOptions::gravity_prior
+// reads them): "frame_rate" (frames per second, > 0) and "gravity" (m/s^2,
+// three numbers in the camera frame). Absent: 0 and none.
+void ReadPhysics(const json& root, const std::string& where, SftScene* scene) {
+  if (root.contains("frame_rate")) {
+    const json& rate = root.at("frame_rate");
+    if (!rate.is_number() || !(rate.get<double>() > 0.0) || !std::isfinite(rate.get<double>())) {
+      Fail(where + ": key 'frame_rate' must be a positive number (frames per second)");
+    }
+    scene->frame_rate = rate.get<double>();
+  }
+  if (root.contains("gravity")) {
+    const json& g = root.at("gravity");
+    bool valid = g.is_array() && g.size() == 3;
+    for (size_t k = 0; valid && k < 3; ++k) valid = g[k].is_number() && std::isfinite(g[k].get<double>());
+    if (!valid) Fail(where + ": key 'gravity' must be three finite numbers (m/s^2, camera frame)");
+    scene->gravity = Eigen::Vector3d(g[0].get<double>(), g[1].get<double>(), g[2].get<double>());
+    scene->has_gravity = true;
+  }
+}
+
 }  // namespace
 
 SftScene LoadScene(const std::string& directory, const SceneLoadOptions& options) {
@@ -251,6 +272,7 @@ SftScene LoadScene(const std::string& directory, const SceneLoadOptions& options
   scene.camera = ReadCamera(root, json_path);
   ReadTemplate(root, dir, json_path, &scene);
   ListFrameFiles(root, dir, json_path, &scene);
+  ReadPhysics(root, json_path, &scene);
   if (options.check_images) CheckImages(scene);
   CheckGroundTruth(scene);
   return scene;

@@ -40,6 +40,11 @@ struct SftScene {
   std::vector<std::string> mask_paths;  // empty: no masks
   std::vector<std::string> ground_truth_paths;
   GroundTruthKind ground_truth_kind = GroundTruthKind::kNone;
+  // Optional keys of ours beyond the format (docs/sft.md): frames per
+  // second (0: not given) and gravity in the camera frame (m/s^2).
+  double frame_rate = 0.0;
+  bool has_gravity = false;
+  Eigen::Vector3d gravity = Eigen::Vector3d::Zero();
 
   bool has_masks() const { return !mask_paths.empty(); }
   bool has_ground_truth() const { return ground_truth_kind != GroundTruthKind::kNone; }

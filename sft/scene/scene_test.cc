@@ -90,6 +90,31 @@ TEST_F(SceneTest, IntegersOutOfRangeAreNamed) {
   EXPECT_NE(Error().find("'first_frame' must be in [0, 1e8]"), std::string::npos) << Error();
 }
 
+// Our optional physics keys: read when given, absent otherwise, and a
+// malformed one named.
+TEST_F(SceneTest, ReadsTheOptionalFrameRateAndGravity) {
+  SftScene scene = LoadScene(dir_.path().string());
+  EXPECT_EQ(scene.frame_rate, 0.0);
+  EXPECT_FALSE(scene.has_gravity);
+  EditJson([](nlohmann::json& j) {
+    j["frame_rate"] = 24.0;
+    j["gravity"] = {0.0, 6.3, 7.5};
+  });
+  scene = LoadScene(dir_.path().string());
+  EXPECT_EQ(scene.frame_rate, 24.0);
+  ASSERT_TRUE(scene.has_gravity);
+  EXPECT_EQ(scene.gravity, Eigen::Vector3d(0.0, 6.3, 7.5));
+  EditJson([](nlohmann::json& j) { j["frame_rate"] = -1; });
+  EXPECT_NE(Error().find("'frame_rate' must be a positive number"), std::string::npos) << Error();
+  EditJson([](nlohmann::json& j) {
+    j["frame_rate"] = 30;
+    j["gravity"] = {0.0, 9.81};
+  });
+  EXPECT_NE(Error().find("'gravity' must be three finite numbers"), std::string::npos) << Error();
+  EditJson([](nlohmann::json& j) { j["gravity"] = "down"; });
+  EXPECT_NE(Error().find("'gravity' must be three finite numbers"), std::string::npos) << Error();
+}
+
 TEST_F(SceneTest, MissingFrameIsNamed) {
   fs::remove(dir_.path() / "frames" / "000001.png");
   EXPECT_NE(Error().find("000001.png: missing"), std::string::npos) << Error();

@@ -549,9 +549,11 @@ bool InextensibilityCost::Evaluate(double const* const* parameters, double* resi
 }
 
 TemporalCost::TemporalCost(const JetDeformationModel* model, int patch, double length_scale, double weight, int order,
-                           const std::vector<const Eigen::Matrix3Xd*>& fixed)
+                           const std::vector<const Eigen::Matrix3Xd*>& fixed, const Eigen::Vector3d& shift)
     : model_(model), patch_(patch), scale_(weight / length_scale) {
   if (order != 1 && order != 2) throw std::invalid_argument("TemporalCost: the order must be 1 or 2");
+  if (order != 2 && !shift.isZero()) throw std::invalid_argument("TemporalCost: a shift needs the order 2");
+  if (!shift.allFinite()) throw std::invalid_argument("TemporalCost: the shift must be finite");
   if (fixed.size() > static_cast<size_t>(order))
     throw std::invalid_argument("TemporalCost: more fixed frames than the order");
   coefficients_ = order == 1 ? std::vector<double>{1.0, -1.0} : std::vector<double>{1.0, -2.0, 1.0};
@@ -559,7 +561,9 @@ TemporalCost::TemporalCost(const JetDeformationModel* model, int patch, double l
   for (int i = 0; i < model->num_vertices(); ++i) {
     if (model->patch_of_vertex(i) == patch) vertices_.push_back(i);
   }
-  fixed_sum_ = Eigen::Matrix3Xd::Zero(3, vertices_.size());
+  // The target -sum_{f >= 1} c_f x_f + shift: the shift enters as a
+  // fixed frame would.
+  fixed_sum_ = (-shift).replicate(1, vertices_.size());
   for (size_t f = 0; f < fixed.size(); ++f) {
     const double c = coefficients_[num_free_ + f];
     for (size_t v = 0; v < vertices_.size(); ++v) fixed_sum_.col(v) += c * fixed[f]->col(vertices_[v]);

@@ -304,9 +304,10 @@ double SampleOutsideDistance(const cv::Mat& distance, double x, double y, Eigen:
 // Temporal smoothness of patch p's vertices over the frames before,
 //   order 1: r = (w / L) (x_t - x_t-1)                (the paper's k_tc term,
 //            TemporalConsistencyResidual: consecutive frames close)
-//   order 2: r = (w / L) (x_t - 2 x_t-1 + x_t-2)      (each frame on the line
-//            through the two before: constant velocity, inertia without
-//            the mass and gravity a scene does not give)
+//   order 2: r = (w / L) (x_t - 2 x_t-1 + x_t-2 - s)  (each frame on the line
+//            through the two before, moved by s: constant velocity,
+//            inertia; with s = g dt^2, InertiaResidual's target with
+//            gravity folded in, where a free fall goes)
 // 3 residuals per vertex of the patch. The earlier frames are parameter
 // blocks (patch p's block of frame t-1, then of t-2) except the oldest
 // `fixed.size()` of them, given as data (3 by #V each, the most recent
@@ -315,7 +316,8 @@ double SampleOutsideDistance(const cv::Mat& distance, double x, double y, Eigen:
 class TemporalCost : public ceres::CostFunction {
  public:
   TemporalCost(const JetDeformationModel* model, int patch, double length_scale, double weight, int order,
-               const std::vector<const Eigen::Matrix3Xd*>& fixed);
+               const std::vector<const Eigen::Matrix3Xd*>& fixed,
+               const Eigen::Vector3d& shift = Eigen::Vector3d::Zero());
   // Order 1; `previous` given: the earlier frame is data.
   TemporalCost(const JetDeformationModel* model, int patch, double length_scale, double weight,
                const Eigen::Matrix3Xd* previous = nullptr);

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
+#include "cost_functions/gravity_inertia_residuals.h"
 #include "polyfit/mesh/mesh_topology.h"
 #include "polyfit/mesh/unique_edges.h"
 #include "polyfit/util/scoped_temp_dir.h"
@@ -291,6 +292,43 @@ TEST_F(FrameCostsTest, TheSecondOrderTemporalTermHoldsAFrameToTheLineThroughTheT
   EXPECT_THROW(TemporalCost(model_.get(), 0, 0.3, 1.5, 1, {&x[1], &x[2]}), std::invalid_argument);
 }
 
+// With gravity folded in (the shift g dt^2), the target is InertiaResidual's
+// (k_g = k_i): the residual is the order-2 one less (w / L) g dt^2.
+TEST_F(FrameCostsTest, TheSecondOrderTemporalTermWithGravityHoldsAFrameWhereAFreeFallGoes) {
+  ASSERT_EQ(model_->num_patches(), 1);
+  const Eigen::Vector3d gravity(0.0, 7.5, 6.3);  // camera frame, m/s^2
+  const double dt = 1.0 / 30.0;
+  const Eigen::Vector3d shift = InertiaResidual::GravityShift(dt, 1.0, 1.0, gravity.norm(), -gravity.normalized());
+  EXPECT_LT((shift - gravity * dt * dt).norm(), 1e-15);
+  std::vector<double> frames[3] = {theta_, theta_, theta_};
+  frames[1][3] += 0.01;
+  frames[2][4] -= 0.02;
+  Eigen::Matrix3Xd x[3];
+  for (int f = 0; f < 3; ++f) model_->Evaluate(frames[f].data(), &x[f]);
+  const double scale = 1.5 / 0.3;
+  const TemporalCost both_fixed(model_.get(), 0, 0.3, 1.5, 2, {&x[1], &x[2]}, shift);
+  const TemporalCost last_fixed(model_.get(), 0, 0.3, 1.5, 2, {&x[2]}, shift);
+  Eigen::Matrix3Xd r(3, model_->num_vertices());
+  const double* blocks[2] = {frames[0].data(), frames[1].data()};
+  ASSERT_TRUE(both_fixed.Evaluate(blocks, r.data(), nullptr));
+  Eigen::Matrix3Xd expected = scale * (x[0] - 2.0 * x[1] + x[2]);
+  expected.colwise() -= scale * shift;
+  EXPECT_LT((r - expected).cwiseAbs().maxCoeff(), 1e-12);
+  // Vertex by vertex, InertiaResidual's target (unit mass and weight).
+  for (int v = 0; v < model_->num_vertices(); v += 7) {
+    const InertiaResidual inertia(x[1].col(v), x[2].col(v), 1.0, dt, 1.0, 1.0, gravity.norm(), -gravity.normalized());
+    EXPECT_LT((x[0].col(v) - inertia.predicted() - r.col(v) / scale).norm(), 1e-12);
+  }
+  ASSERT_TRUE(last_fixed.Evaluate(blocks, r.data(), nullptr));
+  EXPECT_LT((r - expected).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LT(RelativeJacobianError(last_fixed, [&] {
+              std::vector<double> both = frames[0];
+              both.insert(both.end(), frames[1].begin(), frames[1].end());
+              return both;
+            }(), 1e-7), 1e-5);
+  EXPECT_THROW(TemporalCost(model_.get(), 0, 0.3, 1.5, 1, {&x[1]}, shift), std::invalid_argument);
+}
+
 // The outline's distance: 0 inside (holes filled), the distance to the
 // nearest inside pixel less half a pixel outside, and straight on beyond
 // the image.
@@ -531,7 +569,9 @@ TEST_F(AtlasCostsTest, TheRenderTermSplitByPatchGroupsIsTheSameProblem) {
     EXPECT_TRUE(std::is_sorted(g.begin(), g.end()));
     for (int p : g) seen[p] = 1;
     for (const std::vector<int>& h : groups.groups) {
-      if (&g != &h) EXPECT_FALSE(std::includes(h.begin(), h.end(), g.begin(), g.end()));
+      if (&g != &h) {
+        EXPECT_FALSE(std::includes(h.begin(), h.end(), g.begin(), g.end()));
+      }
     }
   }
   EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), model_->num_patches());

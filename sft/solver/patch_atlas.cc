@@ -12,6 +12,7 @@ namespace polyfit {
 
 std::string PatchAtlasOptions::Validate() const {
   if (max_patches < 1) return "atlas.max_patches must be >= 1";
+  if (initial_patches < 1) return "atlas.initial_patches must be >= 1";
   if (!(split_ratio >= 1.0)) return "atlas.split_ratio must be >= 1";
   if (!(split_significance > 0.0)) return "atlas.split_significance must be > 0";
   if (!(split_min_step_pixels >= 0.0) || !std::isfinite(split_min_step_pixels)) {

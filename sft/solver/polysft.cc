@@ -9,12 +9,14 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 
 #include <ceres/ceres.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "cost_functions/compressed_cost.h"
+#include "cost_functions/gravity_inertia_residuals.h"
 #include "polyfit/mesh/mesh_io.h"
 #include "polyfit/mesh/unique_edges.h"
 #include "polyfit/util/atomic_file.h"
@@ -214,6 +216,7 @@ class PolySftController {
     ChooseTerms();
     CheckTemplate();
     PrepareTemplateData();
+    SplitInitialPatches();
     atlas_terms_ = GroupAtlasTerms(model_, edges_, rest_lengths_);
     render_groups_ = MakePatchGroups(model_, scene_.template_mesh.faces);
     BuildPyramid();
@@ -261,7 +264,8 @@ class PolySftController {
     use_features_ = use_photometric_ && o.feature_weight > 0.0;
     if (use_features_) summary_.terms.emplace_back("features", o.feature_weight);
     if (use_inextensibility_) summary_.terms.emplace_back("inextensibility", o.inextensibility_weight);
-    if (use_temporal_) summary_.terms.emplace_back("temporal", o.temporal_weight);
+    ChooseGravityPrior();
+    if (use_temporal_) summary_.terms.emplace_back(gravity_shift_ ? "temporal_gravity" : "temporal", o.temporal_weight);
     // Data terms are normalised to about 1 per unit weight: the regularisers
     // far above them decide the shape alone.
     const double data = std::max(use_photometric_ ? o.photometric_weight : 0.0, use_masks_ ? o.silhouette_weight : 0.0);
@@ -276,6 +280,31 @@ class PolySftController {
       throw std::invalid_argument("PolySftOptions: no data term (photometric weight 0 and no masks)");
     }
   }
+
+  // The template in atlas.initial_patches cells from the start.
+  void SplitInitialPatches() {
+    const int k = std::min(options_.atlas.initial_patches, options_.atlas.max_patches);
+    if (k <= 1 || !model_.can_split()) return;
+    const std::vector<int> child = SplitPatchVertices(scene_.template_mesh, model_.vertex_patches(), 0, k);
+    if (!child.empty()) model_.SplitPatch(0, child);
+  }
+
+  // The physics prior where asked for and the scene can have it: the shift
+  // g dt^2 of the second-order temporal term's target.
+  void ChooseGravityPrior() {
+    if (!use_temporal_ || !options_.gravity_prior) return;
+    if (!scene_.has_gravity || !(scene_.frame_rate > 0.0)) {
+      summary_.warnings.emplace_back(
+          "gravity_prior: the scene states no gravity and frame rate (scene.json's 'gravity' and 'frame_rate'): the "
+          "prior is off");
+      return;
+    }
+    const double g = scene_.gravity.norm();
+    gravity_shift_ = g > 0.0 ? InertiaResidual::GravityShift(1.0 / scene_.frame_rate, 1.0, 1.0, g, -scene_.gravity / g)
+                             : Eigen::Vector3d::Zero();
+  }
+
+  int TemporalOrder() const { return gravity_shift_ ? 2 : options_.temporal_order; }
 
   // The deformation chosen, and what may make the result unreliable.
   void CheckTemplate() {
@@ -788,7 +817,7 @@ class PolySftController {
     // Frames before k, most recent first: the window's, then the finalised.
     std::vector<std::vector<double*>> earlier_blocks;
     std::vector<const Eigen::Matrix3Xd*> fixed;
-    for (int back = 1; back <= options_.temporal_order; ++back) {
+    for (int back = 1; back <= TemporalOrder(); ++back) {
       const int j = static_cast<int>(k) - back;
       if (j >= 0) {
         earlier_blocks.push_back(Blocks(window_[j]->theta));
@@ -800,11 +829,14 @@ class PolySftController {
     }
     const int order = static_cast<int>(earlier_blocks.size() + fixed.size());
     if (order == 0) return;
+    // Gravity's shift needs both frames before (a frame with one before
+    // has no velocity to carry on).
+    const Eigen::Vector3d shift = order == 2 && gravity_shift_ ? *gravity_shift_ : Eigen::Vector3d::Zero();
     for (int p = 0; p < model_.num_patches(); ++p) {
       std::vector<double*> frames = {blocks[p]};
       for (const auto& earlier : earlier_blocks) frames.push_back(earlier[p]);
-      problem->AddResidualBlock(new CompressedCost(new TemporalCost(&model_, p, size_, w, order, fixed)), nullptr,
-                                frames);
+      problem->AddResidualBlock(new CompressedCost(new TemporalCost(&model_, p, size_, w, order, fixed, shift)),
+                                nullptr, frames);
     }
   }
 
@@ -1211,6 +1243,7 @@ class PolySftController {
   std::vector<double> failed_ratio_;
   PolySftSummary summary_;
   bool use_masks_ = false, use_temporal_ = false, use_photometric_ = false, use_inextensibility_ = false;
+  std::optional<Eigen::Vector3d> gravity_shift_;  // g dt^2, with the physics prior
   bool use_features_ = false;
   // The template's keypoints on the surface (with use_features_), and the
   // finest level's texture they are rendered with.

@@ -106,6 +106,15 @@ struct PolySftOptions {
   // steadily is not held back, one that changes its motion is). Where
   // fewer frames came before, as many as there are.
   int temporal_order = 1;
+  // The physics prior: inertia under gravity. Where the scene states its
+  // gravity and frame rate (scene.json's optional "gravity" and
+  // "frame_rate", docs/sft.md), the temporal term holds each frame with two
+  // before it to InertiaResidual's target with gravity folded in, the line
+  // through those two moved by g dt^2 (order 2 whatever temporal_order
+  // says): a cloth falling freely is not held back, a surface that stops or
+  // turns is. A scene that states neither gets the temporal term as
+  // configured, and a warning says the prior is off.
+  bool gravity_prior = false;
   // A segmentation's mask is a few pixels off: within this many pixels
   // (of the full-size frame) of the mask's border, the silhouette may
   // cover or not at no cost, so that a mask a little too large or too

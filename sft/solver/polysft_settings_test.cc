@@ -34,6 +34,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.inextensibility_weight = 20.0;
   changed.temporal_weight = 0.3;
   changed.temporal_order = 2;
+  changed.gravity_prior = true;
   changed.silhouette_band = 4.5;
   changed.match_brightness = false;
   changed.predict_motion = true;

@@ -195,6 +195,7 @@ std::vector<Eigen::Matrix3Xd> SimulateClothMotion(const SheetSceneOptions& o, Cl
 
   ClothMotionReport checks;
   checks.thickness = cloth.thickness();
+  checks.gravity = physics.gravity;
   checks.min_self_distance = checks.min_obstacle_distance = std::numeric_limits<double>::infinity();
   std::vector<Eigen::Matrix3Xd> frames;
   for (int t = 0; t < o.frame_count; ++t) {

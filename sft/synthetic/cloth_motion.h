@@ -27,6 +27,7 @@ struct ClothMotionReport {
   double min_self_distance = 0.0;
   double min_obstacle_distance = 0.0;
   double thickness = 0.0;
+  Eigen::Vector3d gravity = Eigen::Vector3d::Zero();  // m/s^2, camera frame
 };
 
 // frame_count frames of 3 by #V (the grid of MakeSheetMesh). Throws

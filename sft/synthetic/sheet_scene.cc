@@ -458,6 +458,9 @@ void WriteSceneJson(const SheetSceneOptions& o, const ClothMotionReport& simulat
                             {"moving_background", f.moving_background}}}};
   if (o.write_masks) scene["masks"] = "masks/%06d.png";
   if (IsSimulatedMotion(o.motion)) {
+    // What a physics prior may read (docs/sft.md: optional keys).
+    scene["frame_rate"] = o.frame_rate;
+    scene["gravity"] = {simulation.gravity.x(), simulation.gravity.y(), simulation.gravity.z()};
     const auto mm = [](double metres) {
       return std::isfinite(metres) ? nlohmann::json(1e3 * metres) : nlohmann::json();
     };
