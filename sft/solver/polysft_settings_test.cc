@@ -35,6 +35,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.temporal_weight = 0.3;
   changed.temporal_order = 2;
   changed.gravity_prior = true;
+  changed.atlas.initial_patches = 4;
   changed.silhouette_band = 4.5;
   changed.match_brightness = false;
   changed.predict_motion = true;
