@@ -1,5 +1,6 @@
 #include "drape/network/onefit_network.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -450,7 +451,7 @@ void ChainWarpComponent(const double* u, const double* y, int n, double slide_bo
 }
 
 std::vector<double> PatchParametersFromOutputs(const PatchOutputMap& map, const Eigen::MatrixXd& outputs,
-                                               int num_coefficients) {
+                                               int num_coefficients, bool with_warps) {
   const int num_patches = static_cast<int>(outputs.cols());
   const int stride = static_cast<int>(outputs.rows());
   const int k = num_coefficients;
@@ -471,6 +472,10 @@ std::vector<double> PatchParametersFromOutputs(const PatchOutputMap& map, const 
     Eigen::Map<Eigen::Vector3d>(out + k + 1) = Eigen::Map<const Eigen::Vector3d>(r + k + 1) + map.frames[p] * d;
     for (int half = 0; half < 2 * w; half += w) {
       const int c0 = k + 4 + half;
+      if (!with_warps) {
+        std::copy(r + c0, r + c0 + w, out + c0);
+        continue;
+      }
       BoundWarpComponent(u + c0, outputs.col(p).data() + c0, w, map.warp_slide_bound, out + c0);
       for (int c = c0; c < c0 + w; ++c) out[c] += r[c];
     }

@@ -261,8 +261,10 @@ void ChainWarpComponent(const double* u, const double* y, int n, double slide_bo
 // alpha, s, T (and the warp) per patch, packed as DrapeSolver's patch
 // parameters, from the network's outputs (num_outputs() by #patches, the
 // first num_coefficients of each column alpha's).
+// Without with_warps, the warps are left at rest (for what reads only the
+// jets, scales and centres: OutputProximity's probes).
 std::vector<double> PatchParametersFromOutputs(const PatchOutputMap& map, const Eigen::MatrixXd& outputs,
-                                               int num_coefficients);
+                                               int num_coefficients, bool with_warps = true);
 // dL/doutputs from dL/d(patch parameters) at those outputs.
 Eigen::MatrixXd ChainPatchParameterGradient(const PatchOutputMap& map, const Eigen::MatrixXd& outputs,
                                             int num_coefficients, const std::vector<double>& gradient);

@@ -13,7 +13,8 @@ const Eigen::MatrixXd& OutputProximity::Evaluate(const Eigen::MatrixXd& outputs,
                                                  const PosedBodySamples& body, bool for_chain) {
   chainable_ = for_chain;
   if (for_chain) outputs_ = outputs;
-  parameters_ = PatchParametersFromOutputs(map_, outputs, NumJetCoefficients(jet_order_));
+  // The probes sit at fixed (u, v): the warps do not move them.
+  parameters_ = PatchParametersFromOutputs(map_, outputs, NumJetCoefficients(jet_order_), false);
   PlaceProbes(probes_, parameters_, jet_order_, static_cast<int>(map_.units.rows()), &points_);
   BodyProximityFeatures(probes_, points_, pose, body, &features_, for_chain ? &distance_gradients_ : nullptr,
                         &hints_);
