@@ -370,6 +370,15 @@ double BoundSlope(double y, double c) {
   return 1.0 - t * t;
 }
 
+// b(y) over `count` rows of outputs from `row`, all patches at once:
+// tanh(x) = 1 - 2 / (exp(2x) + 1), whose exp Eigen vectorises (its tanh
+// is scalar in double); within 1e-16 of c tanh(y / c) (+-c where exp
+// overflows, NaN for NaN).
+Eigen::ArrayXXd BoundRows(const Eigen::MatrixXd& outputs, int row, int count, double c) {
+  const Eigen::ArrayXXd e = (outputs.middleRows(row, count).array() * (2.0 / c)).exp();
+  return c - (2.0 * c) / (e + 1.0);
+}
+
 }  // namespace
 
 Eigen::VectorXd PatchOutputUnits(int jet_order, int warp_order, double s0, double area, double warp_radius,
@@ -461,14 +470,17 @@ std::vector<double> PatchParametersFromOutputs(const PatchOutputMap& map, const 
   }
   const int w = (stride - k - 4) / 2;
   std::vector<double> params(map.rest.size());
+  const Eigen::ArrayXXd alpha = BoundRows(outputs, 0, k, kOutputBoundAlpha);
+  const Eigen::ArrayXXd scale = BoundRows(outputs, k, 1, kOutputBoundLogScale).exp();
+  const Eigen::ArrayXXd centre = BoundRows(outputs, k + 1, 3, kOutputBoundTranslation);
   for (int p = 0; p < num_patches; ++p) {
     const double* r = map.rest.data() + p * stride;
     const double* u = map.units.col(p).data();
     double* out = params.data() + p * stride;
-    for (int c = 0; c < k; ++c) out[c] = r[c] + u[c] * Bound(outputs(c, p), kOutputBoundAlpha);
-    out[k] = r[k] * std::exp(Bound(outputs(k, p), kOutputBoundLogScale));
+    for (int c = 0; c < k; ++c) out[c] = r[c] + u[c] * alpha(c, p);
+    out[k] = r[k] * scale(0, p);
     Eigen::Vector3d d;
-    for (int c = 0; c < 3; ++c) d[c] = u[k + 1 + c] * Bound(outputs(k + 1 + c, p), kOutputBoundTranslation);
+    for (int c = 0; c < 3; ++c) d[c] = u[k + 1 + c] * centre(c, p);
     Eigen::Map<Eigen::Vector3d>(out + k + 1) = Eigen::Map<const Eigen::Vector3d>(r + k + 1) + map.frames[p] * d;
     for (int half = 0; half < 2 * w; half += w) {
       const int c0 = k + 4 + half;
