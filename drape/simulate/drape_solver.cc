@@ -397,15 +397,51 @@ void DrapeSolver::Impl::AddPriors(const PolyFitModel& model) {
   }
 }
 
-void DrapeSolver::Impl::Positions(const PolyFitModel& model, Eigen::Matrix3Xd* out) {
+namespace {
+
+// Each vertex the mean of its memberships' points, point(k) giving each.
+template <typename Point>
+void MeanOverMemberships(const PolyFitModel& model, const Point& point, Eigen::Matrix3Xd* out) {
   for (int v = 0; v < out->cols(); ++v) {
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     const IndexRange range = model.memberships(v);
-    for (int k : range) {
-      const int p = model.membership_patch[k];
-      sum += points[k].Position(alpha(p), scale(p), translation(p), slide(k));
-    }
+    for (int k : range) sum += point(k);
     out->col(v) = sum / range.size();
+  }
+}
+
+}  // namespace
+
+void DrapeSolver::Impl::Positions(const PolyFitModel& model, Eigen::Matrix3Xd* out) {
+  MeanOverMemberships(
+      model,
+      [&](int k) {
+        const int p = model.membership_patch[k];
+        return points[k].Position(alpha(p), scale(p), translation(p), slide(k));
+      },
+      out);
+}
+
+void DrapeSolver::Impl::PositionsOfPacked(const PolyFitModel& model, const std::vector<double>& packed,
+                                          Eigen::Matrix3Xd* out) const {
+  CheckPackedSize(packed);
+  const int stride = packed_stride();
+  MeanOverMemberships(
+      model,
+      [&](int k) {
+        const double* in = packed.data() + model.membership_patch[k] * stride;
+        double slide[2];
+        WarpSlide(k, in + num_coefficients + 4, slide);
+        return points[k].Position(in, in + num_coefficients, in + num_coefficients + 1, slide);
+      },
+      out);
+}
+
+void DrapeSolver::Impl::CheckPackedSize(const std::vector<double>& packed) const {
+  const size_t expected = params.size() / kStride * packed_stride();
+  if (packed.size() != expected) {
+    throw std::invalid_argument("DrapeSolver: " + std::to_string(packed.size()) + " patch parameters, expected " +
+                                std::to_string(expected));
   }
 }
 
@@ -504,12 +540,9 @@ ceres::Solver::Options DrapeSolver::Impl::SolverOptions(int pass, int num_vertic
 }
 
 void DrapeSolver::Impl::SetPatchParameters(const PolyFitModel& model, const std::vector<double>& packed) {
+  CheckPackedSize(packed);
   const int stride = packed_stride();
   const int num_patches = static_cast<int>(params.size() / kStride);
-  if (static_cast<int>(packed.size()) != num_patches * stride) {
-    throw std::invalid_argument("DrapeSolver: " + std::to_string(packed.size()) + " patch parameters, expected " +
-                                std::to_string(num_patches * stride));
-  }
   for (int p = 0; p < num_patches; ++p) {
     const double* in = packed.data() + p * stride;
     std::copy(in, in + num_coefficients, alpha(p));
@@ -736,16 +769,9 @@ void DrapeSolver::SetHistory(const Eigen::Matrix3Xd& previous, const Eigen::Matr
   impl_->history2 = before_previous;
 }
 
-Eigen::Matrix3Xd DrapeSolver::PositionsOf(const std::vector<double>& patch_parameters) {
-  Impl& m = *impl_;
-  // The state is kept aside in buffers sized once: this is inference's path.
-  m.saved_params = m.params;
-  m.saved_slides = m.slides;
-  m.SetPatchParameters(model_, patch_parameters);
+Eigen::Matrix3Xd DrapeSolver::PositionsOf(const std::vector<double>& patch_parameters) const {
   Eigen::Matrix3Xd x(3, positions_.cols());
-  m.Positions(model_, &x);
-  m.params = m.saved_params;
-  m.slides = m.saved_slides;
+  impl_->PositionsOfPacked(model_, patch_parameters, &x);
   return x;
 }
 

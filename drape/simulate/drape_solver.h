@@ -267,7 +267,7 @@ class DrapeSolver {
   // rest |(u, v)| (the warp's radius, DrapeSlideOptions).
   std::vector<double> PatchRestAreas() const;
   const std::vector<double>& WarpRadii() const;
-  Eigen::Matrix3Xd PositionsOf(const std::vector<double>& patch_parameters);
+  Eigen::Matrix3Xd PositionsOf(const std::vector<double>& patch_parameters) const;
   // The same with the garment's skinning posed by `rest_to_posed` (and left
   // there; the body is not posed: cheap, for a history of frames or the
   // network's inference). Pose() or Step() poses both again.

@@ -32,7 +32,7 @@ struct DrapeSolver::Impl {
   std::vector<double> params, previous_params, rest_params;
   // Per membership: its point's slide (du, dv) along its patch.
   std::vector<double> slides, previous_slides;
-  std::vector<double> saved_params, saved_slides;  // PositionsOf's scratch
+  std::vector<double> saved_params, saved_slides;  // the state kept aside (DistanceTo, SolveWarps)
   // The warps' monomials per direction (DrapeSlideOptions::warp_order),
   // and their values at each membership's rest (u, v) (num_warp each).
   int num_warp = 0;
@@ -110,6 +110,11 @@ struct DrapeSolver::Impl {
   ceres::Solver::Options SolverOptions(int pass, int num_vertices) const;
   // Each vertex the mean of its patches' posed points (3 by #V).
   void Positions(const PolyFitModel& model, Eigen::Matrix3Xd* out);
+  // The same for packed patch parameters (SetPatchParameters' layout),
+  // the solver's own state untouched: inference's path, which copies
+  // nothing.
+  void PositionsOfPacked(const PolyFitModel& model, const std::vector<double>& packed, Eigen::Matrix3Xd* out) const;
+  void CheckPackedSize(const std::vector<double>& packed) const;
   // skin_linear and skin_translation blended from the joints' transforms.
   void BlendGarmentSkin(const std::vector<Eigen::Isometry3d>& rest_to_posed);
   std::vector<Eigen::Matrix<double, 3, 4>> joint_affine;  // BlendGarmentSkin's scratch
