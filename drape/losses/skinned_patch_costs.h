@@ -88,14 +88,20 @@ class SkinnedPatchPoint {
   Eigen::Vector3d Position(const PatchPointState& state, const double* scale, const double* translation) const {
     return *skin_linear_ * Canonical(state, scale, translation) + *skin_translation_;
   }
+  // The canonical point alone (no slopes), before skinning. kOrder: the
+  // jet's order when known at compile time (the loops unrolled), or -1.
+  template <int kOrder = -1>
+  Eigen::Vector3d CanonicalOf(const double* alpha, const double* scale, const double* translation,
+                              const double* slide) const {
+    const double u = u_ + (slide != nullptr ? slide[0] : 0.0);
+    const double v = v_ + (slide != nullptr ? slide[1] : 0.0);
+    const Eigen::Vector3d local(u, v, EvaluateJetHeight(kOrder < 0 ? order_ : kOrder, alpha, u, v));
+    return scale[0] * (rotation_ * local) + Eigen::Map<const Eigen::Vector3d>(translation);
+  }
   // The posed point alone (no slopes: what drawing a frame needs).
   Eigen::Vector3d Position(const double* alpha, const double* scale, const double* translation,
                            const double* slide) const {
-    const double u = u_ + (slide != nullptr ? slide[0] : 0.0);
-    const double v = v_ + (slide != nullptr ? slide[1] : 0.0);
-    const Eigen::Vector3d local(u, v, EvaluateJetHeight(order_, alpha, u, v));
-    return *skin_linear_ * (scale[0] * (rotation_ * local) + Eigen::Map<const Eigen::Vector3d>(translation)) +
-           *skin_translation_;
+    return *skin_linear_ * CanonicalOf(alpha, scale, translation, slide) + *skin_translation_;
   }
 
   // Writes sign dr_dx dx/dblock (row-major) into jacobians[0..2] (alpha, s,

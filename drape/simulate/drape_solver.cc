@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
+#include <type_traits>
 #include <vector>
 
 #include <ceres/autodiff_cost_function.h>
@@ -426,15 +427,31 @@ void DrapeSolver::Impl::PositionsOfPacked(const PolyFitModel& model, const std::
                                           Eigen::Matrix3Xd* out) const {
   CheckPackedSize(packed);
   const int stride = packed_stride();
-  MeanOverMemberships(
-      model,
-      [&](int k) {
+  // Skinning is affine and each vertex's own: its memberships' canonical
+  // points are averaged first and skinned once, M mean(X) + b = mean(M X
+  // + b), with the jet's order a compile-time constant.
+  const auto canonical_means = [&](auto order) {
+    constexpr int kOrder = decltype(order)::value;
+    for (int v = 0; v < out->cols(); ++v) {
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      const IndexRange range = model.memberships(v);
+      for (int k : range) {
         const double* in = packed.data() + model.membership_patch[k] * stride;
         double slide[2];
         WarpSlide(k, in + num_coefficients + 4, slide);
-        return points[k].Position(in, in + num_coefficients, in + num_coefficients + 1, slide);
-      },
-      out);
+        sum += points[k].CanonicalOf<kOrder>(in, in + num_coefficients, in + num_coefficients + 1, slide);
+      }
+      out->col(v) = skin_linear[v] * (sum / range.size()) + skin_translation[v];
+    }
+  };
+  switch (options.patching.jet_order) {
+    case 2: canonical_means(std::integral_constant<int, 2>{}); break;
+    case 3: canonical_means(std::integral_constant<int, 3>{}); break;
+    case 4: canonical_means(std::integral_constant<int, 4>{}); break;
+    case 5: canonical_means(std::integral_constant<int, 5>{}); break;
+    case 6: canonical_means(std::integral_constant<int, 6>{}); break;
+    default: canonical_means(std::integral_constant<int, -1>{}); break;
+  }
 }
 
 void DrapeSolver::Impl::CheckPackedSize(const std::vector<double>& packed) const {

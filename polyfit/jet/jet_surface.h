@@ -19,16 +19,22 @@ struct JetHeightDerivatives {
   T z_uu, z_uv, z_vv;  // Hessian
 };
 
-// z(u, v) for the coefficients alpha (NumJetCoefficients(order) values).
+// z(u, v) for the coefficients alpha (NumJetCoefficients(order) values),
+// by Horner's scheme: z = sum_b v^b p_b(u), p_b(u) = sum_a alpha_(a+b, b)
+// u^a, each nested in turn (alpha_(d, b), of u^(d-b) v^b, at index
+// d (d + 1) / 2 + b). No array of powers: with the order known at compile
+// time the whole sum stays in registers (an array written a lane at a
+// time and read as a vector stalled the store forwarding).
 template <typename T>
 inline T EvaluateJetHeight(int order, const T* alpha, const T& u, const T& v) {
-  T u_pow[kMaxJetOrder + 1];
-  T v_pow[kMaxJetOrder + 1];
-  JetPowers(order, u, v, u_pow, v_pow);
   T z(0.0);
-  int k = 0;
-  for (int d = 0; d <= order; ++d) {
-    for (int b = 0; b <= d; ++b) z += alpha[k++] * u_pow[d - b] * v_pow[b];
+  for (int b = order; b >= 0; --b) {
+    T p(0.0);
+    for (int a = order - b; a >= 0; --a) {
+      const int d = a + b;
+      p = p * u + alpha[d * (d + 1) / 2 + b];
+    }
+    z = z * v + p;
   }
   return z;
 }
