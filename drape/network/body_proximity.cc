@@ -11,6 +11,7 @@
 
 #include "polyfit/eval/mesh_metrics.h"
 #include "polyfit/jet/jet_basis.h"
+#include "polyfit/jet/jet_surface.h"
 
 namespace polyfit {
 
@@ -149,12 +150,11 @@ void PlaceProbes(const PatchProbes& probes, const std::vector<double>& patch_par
   const int k = CheckedCoefficients(probes, patch_parameters, jet_order, stride, "PlaceProbes");
   const int m = probes.probes_per_patch;
   points->resize(3, probes.uv.cols());
-  double monomials[kMaxJetCoefficients];
   for (int p = 0; p < probes.num_patches(); ++p) {
     const PatchView patch = ViewPatch(patch_parameters, stride, k, p);
     for (int i = 0; i < m; ++i) {
       const double u = probes.uv(0, m * p + i), v = probes.uv(1, m * p + i);
-      const double z = JetHeight(jet_order, k, patch.alpha, u, v, monomials);
+      const double z = EvaluateJetHeight(jet_order, patch.alpha, u, v);
       points->col(m * p + i) = patch.s * (probes.frames[p] * Eigen::Vector3d(u, v, z)) + patch.t;
     }
   }
