@@ -84,10 +84,18 @@ void RefitPointTree::Search(int index, const Eigen::Vector3d& q, int* best, doub
       const double dx = x[i] - q.x(), dy = y[i] - q.y(), dz = z[i] - q.z();
       d2[i] = dx * dx + dy * dy + dz * dz;
     }
+    // The leaf's least distance by a branch-free (vectorised) pass, NaNs
+    // skipped as by comparison; only a leaf that beats the bound is
+    // searched for the first index holding it (the same answer as
+    // comparing one point at a time, whose branches mispredicted).
+    double least = *best_d2;
+    for (int i = 0; i < n; ++i) least = d2[i] < least ? d2[i] : least;
+    if (!(least < *best_d2)) return;
     for (int i = 0; i < n; ++i) {
-      if (d2[i] < *best_d2) {
-        *best_d2 = d2[i];
+      if (d2[i] == least) {
+        *best_d2 = least;
         *best = node.begin + i;
+        return;
       }
     }
     return;
