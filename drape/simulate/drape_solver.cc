@@ -8,8 +8,8 @@
 #include <numeric>
 #include <stdexcept>
 #include <string>
-#include <unordered_map>
 #include <type_traits>
+#include <unordered_map>
 #include <vector>
 
 #include <ceres/autodiff_cost_function.h>
@@ -398,29 +398,16 @@ void DrapeSolver::Impl::AddPriors(const PolyFitModel& model) {
   }
 }
 
-namespace {
-
-// Each vertex the mean of its memberships' points, point(k) giving each.
-template <typename Point>
-void MeanOverMemberships(const PolyFitModel& model, const Point& point, Eigen::Matrix3Xd* out) {
+void DrapeSolver::Impl::Positions(const PolyFitModel& model, Eigen::Matrix3Xd* out) {
   for (int v = 0; v < out->cols(); ++v) {
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     const IndexRange range = model.memberships(v);
-    for (int k : range) sum += point(k);
+    for (int k : range) {
+      const int p = model.membership_patch[k];
+      sum += points[k].Position(alpha(p), scale(p), translation(p), slide(k));
+    }
     out->col(v) = sum / range.size();
   }
-}
-
-}  // namespace
-
-void DrapeSolver::Impl::Positions(const PolyFitModel& model, Eigen::Matrix3Xd* out) {
-  MeanOverMemberships(
-      model,
-      [&](int k) {
-        const int p = model.membership_patch[k];
-        return points[k].Position(alpha(p), scale(p), translation(p), slide(k));
-      },
-      out);
 }
 
 void DrapeSolver::Impl::PositionsOfPacked(const PolyFitModel& model, const std::vector<double>& packed,
