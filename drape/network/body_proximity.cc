@@ -15,6 +15,21 @@
 
 namespace polyfit {
 
+void PatchProbes::SetJointWeights(const Eigen::MatrixXd& weights) {
+  joint_weights = weights;
+  joint_begin.assign(1, 0);
+  joint.clear();
+  weight.clear();
+  for (int p = 0; p < weights.cols(); ++p) {
+    for (int j = 0; j < weights.rows(); ++j) {
+      if (weights(j, p) == 0.0) continue;
+      joint.push_back(j);
+      weight.push_back(weights(j, p));
+    }
+    joint_begin.push_back(static_cast<int>(joint.size()));
+  }
+}
+
 PatchProbes MakePatchProbes(const PolyFitModel& model, const std::vector<double>& areas,
                             const Eigen::MatrixXd& joint_weights, int probes_per_patch) {
   const int n = model.num_patches(), m = probes_per_patch;
@@ -30,7 +45,7 @@ PatchProbes MakePatchProbes(const PolyFitModel& model, const std::vector<double>
   probes.probes_per_patch = m;
   probes.rest_points.resize(3, m * n);
   probes.uv.resize(2, m * n);
-  probes.joint_weights = joint_weights;
+  probes.SetJointWeights(joint_weights);
   for (int p = 0; p < n; ++p) {
     const JetPatch& patch = model.patches[p];
     probes.frames.push_back(patch.frame.rotation);
@@ -75,6 +90,9 @@ void BodyProximityFeatures(const PatchProbes& probes, const Eigen::Matrix3Xd& po
   if (static_cast<int>(pose.size()) != num_joints) {
     throw std::invalid_argument("BodyProximityFeatures: one transform per joint of the patches' weights is needed");
   }
+  if (static_cast<int>(probes.joint_begin.size()) != probes.num_patches() + 1) {
+    throw std::invalid_argument("BodyProximityFeatures: the probes' joint weights were not set (SetJointWeights)");
+  }
   const int m = probes.probes_per_patch;
   features->resize(ProximitySize(m), probes.num_patches());
   if (distance_gradients != nullptr) distance_gradients->resize(3, points.cols());
@@ -82,9 +100,9 @@ void BodyProximityFeatures(const PatchProbes& probes, const Eigen::Matrix3Xd& po
   for (int p = 0; p < probes.num_patches(); ++p) {
     Eigen::Matrix3d linear = Eigen::Matrix3d::Zero();
     Eigen::Vector3d translation = Eigen::Vector3d::Zero();
-    for (int j = 0; j < num_joints; ++j) {
-      const double w = probes.joint_weights(j, p);
-      if (w == 0.0) continue;
+    for (int e = probes.joint_begin[p]; e < probes.joint_begin[p + 1]; ++e) {
+      const double w = probes.weight[e];
+      const int j = probes.joint[e];
       linear += w * pose[j].linear();
       translation += w * pose[j].translation();
     }

@@ -59,6 +59,13 @@ struct PatchProbes {
   Eigen::Matrix2Xd uv;                  // their (u, v) in their patches' frame units, alike
   std::vector<Eigen::Matrix3d> frames;  // R_0 per patch
   Eigen::MatrixXd joint_weights;        // #joints by #patches (PatchJointWeights)
+  // Its non-zero entries per patch (joints ascending), what posing reads:
+  // patch p's are [joint_begin[p], joint_begin[p + 1]) of joint, weight.
+  std::vector<int> joint_begin, joint;
+  std::vector<double> weight;
+
+  // Sets joint_weights and its non-zero entries together.
+  void SetJointWeights(const Eigen::MatrixXd& weights);
 
   int num_patches() const { return static_cast<int>(frames.size()); }
 };

@@ -68,9 +68,9 @@ TEST(PatchProbesTest, TheRimLayoutAddsFourDiagonalProbesOnTheAreasRadius) {
   // The features: four values a probe.
   const SkinnedBody body = MakeProceduralBody();
   const PosedBodySamples samples(body, 0.05);
-  PatchProbes on_body =
-      MakePatchProbes(patch, {area}, Eigen::MatrixXd::Zero(body.skeleton.num_joints(), 1), kRimProximityProbes);
-  on_body.joint_weights(0, 0) = 1.0;
+  Eigen::MatrixXd root_only = Eigen::MatrixXd::Zero(body.skeleton.num_joints(), 1);
+  root_only(0, 0) = 1.0;
+  const PatchProbes on_body = MakePatchProbes(patch, {area}, root_only, kRimProximityProbes);
   Eigen::MatrixXd features;
   BodyProximityFeatures(on_body, JointTransforms(body.skeleton.num_joints(), Eigen::Isometry3d::Identity()), samples,
                         &features);
@@ -92,10 +92,11 @@ class BodyProximityTest : public ::testing::Test {
     const int joints = body_.skeleton.num_joints();
     // Two patches on the torso's joint (1), one blended with the root:
     // probes a little outside, inside and far from the body.
-    probes_.joint_weights = Eigen::MatrixXd::Zero(joints, 2);
-    probes_.joint_weights(1, 0) = 1.0;
-    probes_.joint_weights(1, 1) = 0.6;
-    probes_.joint_weights(0, 1) = 0.4;
+    Eigen::MatrixXd weights = Eigen::MatrixXd::Zero(joints, 2);
+    weights(1, 0) = 1.0;
+    weights(1, 1) = 0.6;
+    weights(0, 1) = 0.4;
+    probes_.SetJointWeights(weights);
     probes_.frames = {Eigen::Matrix3d::Identity(), Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY()).toRotationMatrix()};
     probes_.rest_points.resize(3, 2 * kProximityProbes);
     const Eigen::Vector3d centre = body_.skeleton.rest_heads.col(1);
