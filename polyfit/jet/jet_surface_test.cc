@@ -1,5 +1,6 @@
 #include "polyfit/jet/jet_surface.h"
 
+#include <cmath>
 #include <random>
 
 #include <ceres/jet.h>
@@ -42,6 +43,28 @@ TEST(JetSurface, HeightMatchesExplicitPolynomial) {
   alpha[JetCoefficientIndex(1, 2)] = 3.0;
   const double u = 0.3, v = -0.7;
   EXPECT_NEAR(EvaluateJetHeight(3, alpha, u, v), 1 + 2 * u - v + 0.5 * u * u + 3 * u * v * v, 1e-15);
+}
+
+// Horner's scheme (EvaluateJetHeight) against the sum of alpha times the
+// monomials, at every order, far from the origin too.
+TEST(JetSurface, HornersHeightIsTheMonomialSum) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> coordinate(-2.0, 2.0);
+  for (int order = 1; order <= kMaxJetOrder; ++order) {
+    const std::vector<double> alpha = RandomCoefficients(order, 100 + order);
+    for (int trial = 0; trial < 20; ++trial) {
+      const double u = coordinate(rng), v = coordinate(rng);
+      double m[kMaxJetCoefficients];
+      JetMonomials(order, u, v, m);
+      double sum = 0.0, scale = 0.0;
+      for (int c = 0; c < NumJetCoefficients(order); ++c) {
+        sum += alpha[c] * m[c];
+        scale += std::abs(alpha[c] * m[c]);
+      }
+      EXPECT_NEAR(EvaluateJetHeight(order, alpha.data(), u, v), sum, 1e-14 * scale) << order;
+      EXPECT_NEAR(EvaluateJetDerivatives(order, alpha.data(), u, v).z, sum, 1e-14 * scale) << order;
+    }
+  }
 }
 
 TEST(JetSurface, DerivativesMatchAutodiffAndFiniteDifferences) {
