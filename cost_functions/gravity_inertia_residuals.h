@@ -74,7 +74,7 @@ class InertiaResidual {
   // -(k_g g dt^2 / k_i) up (zero without either weight). With k_g = k_i,
   // g dt^2 along gravity: where a free fall is after one more step.
   static Eigen::Vector3d GravityShift(double dt, double weight, double gravity_weight, double gravity,
-                                     const Eigen::Vector3d& up) {
+                                      const Eigen::Vector3d& up) {
     if (!(gravity_weight > 0.0 && weight > 0.0)) return Eigen::Vector3d::Zero();
     return -(gravity_weight * gravity * dt * dt / weight) * up;
   }

@@ -137,16 +137,16 @@ int main(int argc, char** argv) {
           }
           std::nth_element(ms.begin(), ms.begin() + ms.size() / 2, ms.end());
           std::nth_element(positions_ms.begin(), positions_ms.begin() + positions_ms.size() / 2, positions_ms.end());
-          std::printf("| %d | %d | %d | %s | %s | %s | %d | %s | %.3f | %.3f |\n", tube.num_vertices(), solver.num_patches(),
-                      width, inputs.warp_order < 0 ? "none" : "order 2", inputs.local_pose ? "yes" : "no",
-                      inputs.proximity_probes == 0
-                          ? "no"
-                          : (std::to_string(inputs.proximity_probes) + " probes" +
-                             (inputs.feedback ? ", feedback x" + std::to_string(inputs.feedback_passes) : ""))
-                                .c_str(),
-                      model.network.num_parameters(),
-                      precision == polyfit::InferencePrecision::kFloat ? "float" : "double", ms[ms.size() / 2],
-                      positions_ms[positions_ms.size() / 2]);
+          std::printf(
+              "| %d | %d | %d | %s | %s | %s | %d | %s | %.3f | %.3f |\n", tube.num_vertices(), solver.num_patches(),
+              width, inputs.warp_order < 0 ? "none" : "order 2", inputs.local_pose ? "yes" : "no",
+              inputs.proximity_probes == 0
+                  ? "no"
+                  : (std::to_string(inputs.proximity_probes) + " probes" +
+                     (inputs.feedback ? ", feedback x" + std::to_string(inputs.feedback_passes) : ""))
+                        .c_str(),
+              model.network.num_parameters(), precision == polyfit::InferencePrecision::kFloat ? "float" : "double",
+              ms[ms.size() / 2], positions_ms[positions_ms.size() / 2]);
           if (!std::isfinite(checksum)) return 1;
         }
       }

@@ -155,7 +155,6 @@ std::string DrapeStepSummary::BriefReport() const {
   return line;
 }
 
-
 void DrapeSolver::Impl::InitializeParameters(const PolyFitModel& model) {
   num_coefficients = NumJetCoefficients(options.patching.jet_order);
   params.assign(static_cast<size_t>(model.num_patches()) * kStride, 0.0);
@@ -566,7 +565,6 @@ void DrapeSolver::Impl::WarpSlide(int k, const double* warp, double slide[2]) co
     slide[1] += warp[num_warp + i] * phi[i];
   }
 }
-
 
 std::vector<double> DrapeSolver::Impl::PackedPatchParameters(const std::vector<double>& strided) const {
   const int stride = packed_stride();

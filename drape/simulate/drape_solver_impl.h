@@ -8,8 +8,8 @@
 #include <memory>
 #include <vector>
 
-#include <Eigen/Core>
 #include <ceres/ceres.h>
+#include <Eigen/Core>
 
 #include "drape/collision/signed_distance.h"
 #include "drape/losses/skinned_patch_costs.h"
@@ -144,9 +144,9 @@ struct DrapeSolver::Impl {
   std::vector<std::vector<int>> seam_members_by_patch;
   Eigen::Matrix3Xd seam_targets;
   std::vector<std::vector<int>> near_members_by_patch;
-  std::vector<int> member_index;  // per membership: its index in members_by_patch
+  std::vector<int> member_index;                    // per membership: its index in members_by_patch
   static constexpr double kWarpMarginScale = 0.25;  // SolveWarps (drape_solver.h)
-  Eigen::Matrix3Xd warp_positions;  // SolveWarps' scratch, 3 by #V
+  Eigen::Matrix3Xd warp_positions;                  // SolveWarps' scratch, 3 by #V
   void CollectPatchWarpTerms(const PolyFitModel& model);
   // A patch's unknowns: its warp, then with warp_solve_translation its T
   // (at most 2 kMaxJetCoefficients + 3: fixed capacity, no allocation).

@@ -321,11 +321,9 @@ TEST_F(FrameCostsTest, TheSecondOrderTemporalTermWithGravityHoldsAFrameWhereAFre
   }
   ASSERT_TRUE(last_fixed.Evaluate(blocks, r.data(), nullptr));
   EXPECT_LT((r - expected).cwiseAbs().maxCoeff(), 1e-12);
-  EXPECT_LT(RelativeJacobianError(last_fixed, [&] {
-              std::vector<double> both = frames[0];
-              both.insert(both.end(), frames[1].begin(), frames[1].end());
-              return both;
-            }(), 1e-7), 1e-5);
+  std::vector<double> both = frames[0];
+  both.insert(both.end(), frames[1].begin(), frames[1].end());
+  EXPECT_LT(RelativeJacobianError(last_fixed, both, 1e-7), 1e-5);
   EXPECT_THROW(TemporalCost(model_.get(), 0, 0.3, 1.5, 1, {&x[1]}, shift), std::invalid_argument);
 }
 
