@@ -12,17 +12,6 @@
 
 namespace polyfit {
 
-void SkinWeights::Blend(int v, const std::vector<Eigen::Isometry3d>& transforms, Eigen::Matrix3d* linear,
-                        Eigen::Vector3d* translation) const {
-  linear->setZero();
-  translation->setZero();
-  for (int k = offsets[v]; k < offsets[v + 1]; ++k) {
-    const Eigen::Isometry3d& t = transforms[joint[k]];
-    *linear += value[k] * t.linear();
-    *translation += value[k] * t.translation();
-  }
-}
-
 double SkinDiffusionTime(double length) { return length * length / 8.0; }
 
 int SkinSmoothingSteps(const TriangleMesh& garment, const SkinTransferOptions& options) {
@@ -167,11 +156,11 @@ Eigen::Matrix3Xd SkinPoints(const SkinWeights& weights, const Eigen::Matrix3Xd& 
   if (weights.num_vertices() != rest.cols())
     throw std::invalid_argument("SkinPoints: one weight row per point is needed");
   Eigen::Matrix3Xd posed(3, rest.cols());
-  Eigen::Matrix3d linear;
-  Eigen::Vector3d translation;
+  std::vector<Eigen::Matrix<double, 3, 4>> maps;
+  JointMaps(transforms, &maps);
   for (int v = 0; v < weights.num_vertices(); ++v) {
-    weights.Blend(v, transforms, &linear, &translation);
-    posed.col(v) = linear * rest.col(v) + translation;
+    const Eigen::Matrix<double, 3, 4> blended = weights.Blend(v, maps);
+    posed.col(v) = blended.leftCols<3>() * rest.col(v) + blended.col(3);
   }
   return posed;
 }

@@ -27,17 +27,23 @@ struct SkinWeights {
   std::vector<double> value;
 
   int num_vertices() const { return static_cast<int>(offsets.size()) - 1; }
-  // The blended map sum_j w_vj T_j: linear part and translation.
-  void Blend(int v, const std::vector<Eigen::Isometry3d>& transforms, Eigen::Matrix3d* linear,
-             Eigen::Vector3d* translation) const;
-  // The same from each joint's map as a 3 by 4 block [linear | translation]
-  // (taken once per pose: an Isometry3d holds 4 by 4), one short axpy a weight.
+  // The blended map sum_j w_vj T_j as a 3 by 4 block [linear |
+  // translation], from each joint's map in that form (JointMaps, once per
+  // pose: an Isometry3d holds 4 by 4), one short axpy a weight.
   Eigen::Matrix<double, 3, 4> Blend(int v, const std::vector<Eigen::Matrix<double, 3, 4>>& maps) const {
     Eigen::Matrix<double, 3, 4> blended = Eigen::Matrix<double, 3, 4>::Zero();
     for (int k = offsets[v]; k < offsets[v + 1]; ++k) blended += value[k] * maps[joint[k]];
     return blended;
   }
 };
+
+// Each transform's 3 by 4 block [linear | translation], into *maps
+// (resized; a buffer kept across poses allocates once).
+inline void JointMaps(const std::vector<Eigen::Isometry3d>& transforms,
+                      std::vector<Eigen::Matrix<double, 3, 4>>* maps) {
+  maps->resize(transforms.size());
+  for (size_t j = 0; j < transforms.size(); ++j) (*maps)[j] = transforms[j].affine();
+}
 
 // Every vertex bound to one joint with weight 1 (a rigid garment, tests).
 SkinWeights SingleJointWeights(int num_vertices, int joint);

@@ -16,7 +16,7 @@
 namespace polyfit {
 
 void PatchProbes::SetJointWeights(const Eigen::MatrixXd& weights) {
-  joint_weights = weights;
+  num_joints = static_cast<int>(weights.rows());
   joint_begin.assign(1, 0);
   joint.clear();
   weight.clear();
@@ -86,8 +86,7 @@ void BodyProximityFeatures(const PatchProbes& probes, const Eigen::Matrix3Xd& po
   if (points.cols() != probes.rest_points.cols()) {
     throw std::invalid_argument("BodyProximityFeatures: one point per probe is needed");
   }
-  const int num_joints = static_cast<int>(probes.joint_weights.rows());
-  if (static_cast<int>(pose.size()) != num_joints) {
+  if (static_cast<int>(pose.size()) != probes.num_joints) {
     throw std::invalid_argument("BodyProximityFeatures: one transform per joint of the patches' weights is needed");
   }
   if (static_cast<int>(probes.joint_begin.size()) != probes.num_patches() + 1) {

@@ -58,13 +58,15 @@ struct PatchProbes {
   Eigen::Matrix3Xd rest_points;         // 3 by probes_per_patch #patches, patch-major
   Eigen::Matrix2Xd uv;                  // their (u, v) in their patches' frame units, alike
   std::vector<Eigen::Matrix3d> frames;  // R_0 per patch
-  Eigen::MatrixXd joint_weights;        // #joints by #patches (PatchJointWeights)
-  // Its non-zero entries per patch (joints ascending), what posing reads:
-  // patch p's are [joint_begin[p], joint_begin[p + 1]) of joint, weight.
+  // The patches' joint weights (PatchJointWeights, #joints by #patches) as
+  // posing reads them: the rig's joint count, and per patch its non-zero
+  // entries (joints ascending), [joint_begin[p], joint_begin[p + 1]) of
+  // joint and weight.
+  int num_joints = 0;
   std::vector<int> joint_begin, joint;
   std::vector<double> weight;
 
-  // Sets joint_weights and its non-zero entries together.
+  // Sets the above from #joints by #patches weights.
   void SetJointWeights(const Eigen::MatrixXd& weights);
 
   int num_patches() const { return static_cast<int>(frames.size()); }

@@ -449,8 +449,7 @@ void DrapeSolver::Impl::CheckPackedSize(const std::vector<double>& packed) const
 }
 
 void DrapeSolver::Impl::BlendGarmentSkin(const std::vector<Eigen::Isometry3d>& rest_to_posed) {
-  joint_affine.resize(rest_to_posed.size());
-  for (size_t j = 0; j < rest_to_posed.size(); ++j) joint_affine[j] = rest_to_posed[j].affine();
+  JointMaps(rest_to_posed, &joint_affine);
   for (int v = 0; v < static_cast<int>(skin_linear.size()); ++v) {
     const Eigen::Matrix<double, 3, 4> blended = weights.Blend(v, joint_affine);
     skin_linear[v] = blended.leftCols<3>();

@@ -36,7 +36,8 @@ namespace polyfit {
 struct PatchAtlasOptions {
   // 1: the paper's single patch, never split.
   int max_patches = 16;
-  // Patches at frame 0 (ACVD cells of the template), before any split.
+  // Patches at frame 0 (ACVD cells of the template), before any split;
+  // at most max_patches, and min_vertices a cell on average.
   int initial_patches = 1;
   // A patch is a candidate when its residual per pixel exceeds this many
   // times its first-frame floor; the worst candidate splits when one

@@ -281,9 +281,11 @@ class PolySftController {
     }
   }
 
-  // The template in atlas.initial_patches cells from the start.
+  // The template in atlas.initial_patches cells from the start, as many as
+  // the atlas's own rule allows (each cell min_vertices on average).
   void SplitInitialPatches() {
-    const int k = std::min(options_.atlas.initial_patches, options_.atlas.max_patches);
+    const PatchAtlasOptions& atlas = options_.atlas;
+    const int k = std::min({atlas.initial_patches, atlas.max_patches, model_.num_vertices() / atlas.min_vertices});
     if (k <= 1 || !model_.can_split()) return;
     const std::vector<int> child = SplitPatchVertices(scene_.template_mesh, model_.vertex_patches(), 0, k);
     if (!child.empty()) model_.SplitPatch(0, child);
