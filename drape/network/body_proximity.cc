@@ -15,6 +15,8 @@
 
 namespace polyfit {
 
+static_assert(kRimProximityProbes <= RefitPointTree::kMaxGroup, "a patch's probes are queried as one group");
+
 void PatchProbes::SetJointWeights(const Eigen::MatrixXd& weights) {
   num_joints = static_cast<int>(weights.rows());
   joint_begin.assign(1, 0);
@@ -96,6 +98,8 @@ void BodyProximityFeatures(const PatchProbes& probes, const Eigen::Matrix3Xd& po
   features->resize(ProximitySize(m), probes.num_patches());
   if (distance_gradients != nullptr) distance_gradients->resize(3, points.cols());
   if (hints != nullptr) hints->resize(points.cols(), -1);
+  Eigen::Matrix3Xd posed(3, m);
+  SignedDistanceResult hits[kRimProximityProbes];
   for (int p = 0; p < probes.num_patches(); ++p) {
     Eigen::Matrix3d linear = Eigen::Matrix3d::Zero();
     Eigen::Vector3d translation = Eigen::Vector3d::Zero();
@@ -106,13 +110,12 @@ void BodyProximityFeatures(const PatchProbes& probes, const Eigen::Matrix3Xd& po
       translation += w * pose[j].translation();
     }
     const Eigen::Matrix3d frame = GramSchmidt(linear * probes.frames[p]);
-    // The patch's other probes lie within its radius of the centre.
-    int centre_face = -1;
+    // The patch's probes lie within its radius of each other: one walk of
+    // the body's tree for them all.
+    posed = (linear * points.middleCols(m * p, m)).colwise() + translation;
+    body.QueryGroup(posed, hints != nullptr ? hints->data() + m * p : nullptr, hits);
     for (int i = 0; i < m; ++i) {
-      const Eigen::Vector3d x = linear * points.col(m * p + i) + translation;
-      const int last = hints != nullptr ? (*hints)[m * p + i] : -1;
-      const SignedDistanceResult hit = body.Query(x, last >= 0 ? last : centre_face);
-      if (i == 0) centre_face = hit.face;
+      const SignedDistanceResult& hit = hits[i];
       if (hints != nullptr) (*hints)[m * p + i] = hit.face;
       const double scaled = hit.distance / kProximityScale;
       const double d = std::clamp(scaled, -kProximityClamp, kProximityClamp);
@@ -262,10 +265,9 @@ void PosedBodySamples::Pose(const JointTransforms& pose) {
   tree_->Refit(points_);
 }
 
-SignedDistanceResult PosedBodySamples::Query(const Eigen::Vector3d& point, int hint) const {
-  double d2 = 0.0;
+SignedDistanceResult PosedBodySamples::Result(const Eigen::Vector3d& point, int nearest) const {
   SignedDistanceResult r;
-  r.face = tree_->Nearest(point, &d2, hint);
+  r.face = nearest;
   if (r.face < 0) {  // a point with a NaN: no sample is nearest
     r.distance = std::numeric_limits<double>::quiet_NaN();
     r.normal.setZero();
@@ -275,6 +277,19 @@ SignedDistanceResult PosedBodySamples::Query(const Eigen::Vector3d& point, int h
   r.normal = normals_.col(r.face);
   r.distance = (point - r.closest).dot(r.normal);
   return r;
+}
+
+SignedDistanceResult PosedBodySamples::Query(const Eigen::Vector3d& point, int hint) const {
+  double d2 = 0.0;
+  return Result(point, tree_->Nearest(point, &d2, hint));
+}
+
+void PosedBodySamples::QueryGroup(const Eigen::Matrix3Xd& points, const int* hints,
+                                  SignedDistanceResult* results) const {
+  int nearest[RefitPointTree::kMaxGroup];
+  double d2[RefitPointTree::kMaxGroup];
+  tree_->NearestGroup(points, hints, nearest, d2);
+  for (int i = 0; i < points.cols(); ++i) results[i] = Result(points.col(i), nearest[i]);
 }
 
 }  // namespace polyfit

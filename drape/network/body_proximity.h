@@ -99,6 +99,10 @@ class PosedBodySamples {
   // hint: a sample likely nearest (a nearby query's face), or -1; the
   // answer is the same either way.
   SignedDistanceResult Query(const Eigen::Vector3d& point, int hint = -1) const;
+  // Query for each of a group of points close together (3 by at most
+  // RefitPointTree::kMaxGroup), in one walk of the tree (NearestGroup):
+  // results[i] as Query(points.col(i), hints[i]); hints may be null.
+  void QueryGroup(const Eigen::Matrix3Xd& points, const int* hints, SignedDistanceResult* results) const;
   int num_samples() const { return static_cast<int>(rest_points_.cols()); }
   const Eigen::Matrix3Xd& points() const { return points_; }
 
@@ -111,6 +115,9 @@ class PosedBodySamples {
   std::vector<int> offset_, joint_;
   std::vector<double> weight_;
   std::unique_ptr<RefitPointTree> tree_;  // built once, refitted per pose
+
+  // The answer for point given its nearest sample (-1: none).
+  SignedDistanceResult Result(const Eigen::Vector3d& point, int nearest) const;
 };
 
 // ProximitySize(probes.probes_per_patch) by #patches into *features

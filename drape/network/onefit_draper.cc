@@ -74,17 +74,17 @@ OneFitDraper::OneFitDraper(const OneFitModel& model, const DrapeSolver& solver, 
 // The network's outputs (num_outputs by #patches, double) from the
 // frame's normalised body features, in T.
 template <typename T>
-Eigen::MatrixXd OneFitDraper::Outputs(const T* weights, const MatrixX<T>& garment_half,
-                                      const MatrixX<T>& feedback_half, const JointTransforms& now,
-                                      const Eigen::VectorXd& body) const {
-  MatrixX<T> outputs, refined;
+Eigen::MatrixXd OneFitDraper::Outputs(const T* weights, const MatrixX<T>& garment_half, const MatrixX<T>& feedback_half,
+                                      const JointTransforms& now, const Eigen::VectorXd& body) const {
+  MatrixX<T> outputs, refined, patch_inputs;
   VectorX<T> z_b;
-  model_.network.ForwardWithGarmentHalf<T>(weights, garment_half, body, &joint_weights_, &proximity_, &outputs, &z_b);
+  model_.network.ForwardWithGarmentHalf<T>(weights, garment_half, body, &joint_weights_, &proximity_, &outputs, &z_b,
+                                           &patch_inputs);
   for (int pass = 0; pass < model_.network.feedback_passes(); ++pass) {
     const Eigen::MatrixXd& output_proximity =
         output_proximity_->Evaluate(outputs.template cast<double>(), now, *posed_body_, false);
-    model_.network.FeedbackWithGarmentHalf<T>(weights, feedback_half, z_b, body, &joint_weights_, &proximity_,
-                                              outputs, output_proximity, &refined);
+    model_.network.FeedbackWithGarmentHalf<T>(weights, feedback_half, z_b, patch_inputs, outputs, output_proximity,
+                                              &refined);
     outputs.swap(refined);
   }
   return outputs.template cast<double>();

@@ -248,32 +248,35 @@ template <typename T>
 void OneFitNetwork::ForwardWithGarmentHalf(const T* weights, const MatrixX<T>& garment_half,
                                            const Eigen::VectorXd& body_features, const Eigen::MatrixXd* joint_weights,
                                            const Eigen::MatrixXd* proximity, MatrixX<T>* outputs,
-                                           VectorX<T>* body_embedding) const {
+                                           VectorX<T>* body_embedding, MatrixX<T>* patch_inputs) const {
   const MatrixX<T> z_b = body_encoder_.ForwardT<T>(weights + body_encoder_offset(), body_features.template cast<T>());
   if (body_embedding != nullptr) *body_embedding = z_b.col(0);
   const T* d = weights + decoder_offset();
   const int width = decoder_.sizes()[1], e_t = patch_encoder_.output_size();
+  const Eigen::Index n = garment_half.cols();
   const Eigen::Map<const MatrixX<T>> w(d + decoder_.weight_offset(0), width, decoder_.input_size());
   MatrixX<T> a = garment_half;
   a.colwise() += w.middleCols(e_t, z_b.rows()) * z_b.col(0);
-  if (local_size_ > 0) {
-    a.noalias() +=
-        w.middleCols(e_t + z_b.rows(), local_size_) * LocalPose(body_features, joint_weights, a.cols()).template cast<T>();
-  }
+  // x_k and p_k stacked: their weights' columns are adjacent, so one
+  // product (a is read and written once, not once per input).
+  MatrixX<T> local_inputs(local_size_ + proximity_size_, n);
+  if (local_size_ > 0)
+    local_inputs.topRows(local_size_) = LocalPose(body_features, joint_weights, n).template cast<T>();
   if (proximity_size_ > 0) {
-    a.noalias() += w.rightCols(proximity_size_) * Proximity(proximity, proximity_size_, a.cols()).template cast<T>();
+    local_inputs.bottomRows(proximity_size_) = Proximity(proximity, proximity_size_, n).template cast<T>();
   }
+  if (local_inputs.rows() > 0) a.noalias() += w.rightCols(local_inputs.rows()) * local_inputs;
+  if (patch_inputs != nullptr) *patch_inputs = std::move(local_inputs);
   FinishFromFirstLayer<T>(decoder_, decoder_tail_, d, std::move(a), outputs);
 }
 
 template void OneFitNetwork::ForwardWithGarmentHalf<double>(const double*, const Eigen::MatrixXd&,
                                                             const Eigen::VectorXd&, const Eigen::MatrixXd*,
-                                                            const Eigen::MatrixXd*, Eigen::MatrixXd*,
-                                                            Eigen::VectorXd*) const;
-template void OneFitNetwork::ForwardWithGarmentHalf<float>(const float*, const Eigen::MatrixXf&,
-                                                           const Eigen::VectorXd&, const Eigen::MatrixXd*,
-                                                           const Eigen::MatrixXd*, Eigen::MatrixXf*,
-                                                           Eigen::VectorXf*) const;
+                                                            const Eigen::MatrixXd*, Eigen::MatrixXd*, Eigen::VectorXd*,
+                                                            Eigen::MatrixXd*) const;
+template void OneFitNetwork::ForwardWithGarmentHalf<float>(const float*, const Eigen::MatrixXf&, const Eigen::VectorXd&,
+                                                           const Eigen::MatrixXd*, const Eigen::MatrixXd*,
+                                                           Eigen::MatrixXf*, Eigen::VectorXf*, Eigen::MatrixXf*) const;
 
 Eigen::MatrixXd OneFitNetwork::FeedbackGarmentHalf(const double* weights, const Eigen::MatrixXd& patch_features) const {
   if (!feedback()) throw std::invalid_argument("OneFitNetwork: the network has no feedback decoder");
@@ -284,40 +287,39 @@ Eigen::MatrixXd OneFitNetwork::FeedbackGarmentHalf(const double* weights, const 
 
 template <typename T>
 void OneFitNetwork::FeedbackWithGarmentHalf(const T* weights, const MatrixX<T>& feedback_half,
-                                            const VectorX<T>& body_embedding, const Eigen::VectorXd& body_features,
-                                            const Eigen::MatrixXd* joint_weights, const Eigen::MatrixXd* proximity,
+                                            const VectorX<T>& body_embedding, const MatrixX<T>& patch_inputs,
                                             const MatrixX<T>& outputs, const Eigen::MatrixXd& output_proximity,
                                             MatrixX<T>* refined) const {
   const T* f = weights + feedback_offset();
   const int width = feedback_.sizes()[1], e_t = patch_encoder_.output_size();
-  const int e_b = static_cast<int>(body_embedding.size()), joint = decoder_.input_size();
+  const int e_b = static_cast<int>(body_embedding.size());
   const Eigen::Index n = feedback_half.cols();
-  if (!feedback() || e_b != body_encoder_.output_size() || outputs.rows() != num_outputs() || outputs.cols() != n ||
+  if (!feedback() || e_b != body_encoder_.output_size() || patch_inputs.rows() != local_size_ + proximity_size_ ||
+      patch_inputs.cols() != n || outputs.rows() != num_outputs() || outputs.cols() != n ||
       output_proximity.rows() != proximity_size_ || output_proximity.cols() != n) {
     throw std::invalid_argument("OneFitNetwork::FeedbackWithGarmentHalf: inputs of the wrong size");
   }
   const Eigen::Map<const MatrixX<T>> w(f + feedback_.weight_offset(0), width, feedback_.input_size());
   MatrixX<T> a = feedback_half;
   a.colwise() += w.middleCols(e_t, e_b) * body_embedding;
-  if (local_size_ > 0) {
-    a.noalias() += w.middleCols(e_t + e_b, local_size_) * LocalPose(body_features, joint_weights, n).template cast<T>();
-  }
-  a.noalias() +=
-      w.middleCols(joint - proximity_size_, proximity_size_) * Proximity(proximity, proximity_size_, n).template cast<T>();
-  a.noalias() += w.middleCols(joint, num_outputs()) * outputs;
-  a.noalias() += w.rightCols(proximity_size_) * output_proximity.template cast<T>();
+  // [x_k; p_k; D's outputs; the proximity at them]: adjacent columns of
+  // F's first layer, one product.
+  const Eigen::Index k = patch_inputs.rows();
+  MatrixX<T> x(k + outputs.rows() + proximity_size_, n);
+  x.topRows(k) = patch_inputs;
+  x.middleRows(k, outputs.rows()) = outputs;
+  x.bottomRows(proximity_size_) = output_proximity.template cast<T>();
+  a.noalias() += w.rightCols(x.rows()) * x;
   FinishFromFirstLayer<T>(feedback_, feedback_tail_, f, std::move(a), refined);
   *refined += outputs;
 }
 
 template void OneFitNetwork::FeedbackWithGarmentHalf<double>(const double*, const Eigen::MatrixXd&,
-                                                             const Eigen::VectorXd&, const Eigen::VectorXd&,
-                                                             const Eigen::MatrixXd*, const Eigen::MatrixXd*,
+                                                             const Eigen::VectorXd&, const Eigen::MatrixXd&,
                                                              const Eigen::MatrixXd&, const Eigen::MatrixXd&,
                                                              Eigen::MatrixXd*) const;
 template void OneFitNetwork::FeedbackWithGarmentHalf<float>(const float*, const Eigen::MatrixXf&,
-                                                            const Eigen::VectorXf&, const Eigen::VectorXd&,
-                                                            const Eigen::MatrixXd*, const Eigen::MatrixXd*,
+                                                            const Eigen::VectorXf&, const Eigen::MatrixXf&,
                                                             const Eigen::MatrixXf&, const Eigen::MatrixXd&,
                                                             Eigen::MatrixXf*) const;
 

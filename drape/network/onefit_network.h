@@ -155,11 +155,14 @@ class OneFitNetwork {
   // (inference: twice the SIMD lanes; weights and garment half cast once
   // per garment, OneFitDraper); the inputs read from the body stay double.
   Eigen::MatrixXd GarmentHalf(const double* weights, const Eigen::MatrixXd& patch_features) const;
-  // body_embedding (may be null): z_B, for FeedbackWithGarmentHalf.
+  // body_embedding, patch_inputs (may be null): z_B, and [x_k; p_k] (the
+  // local pose's and proximity's rows by #patches, in T), for
+  // FeedbackWithGarmentHalf.
   template <typename T>
   void ForwardWithGarmentHalf(const T* weights, const MatrixX<T>& garment_half, const Eigen::VectorXd& body_features,
                               const Eigen::MatrixXd* joint_weights, const Eigen::MatrixXd* proximity,
-                              MatrixX<T>* outputs, VectorX<T>* body_embedding = nullptr) const;
+                              MatrixX<T>* outputs, VectorX<T>* body_embedding = nullptr,
+                              MatrixX<T>* patch_inputs = nullptr) const;
   // Adds dL/dweights to gradient given dL/doutputs, and, when given,
   // dL/d(decoder input) that reached it otherwise (FeedbackBackward's).
   void Backward(const double* weights, const Cache& cache, const Eigen::MatrixXd& d_outputs, double* gradient,
@@ -185,13 +188,13 @@ class OneFitNetwork {
   // Inference with the feedback decoder's garment half precomputed, as
   // the decoder's: FeedbackGarmentHalf is W_F,T z_T + b_F (F's first-layer
   // width by #patches, once per garment); FeedbackWithGarmentHalf gives
-  // Feedback's refined outputs from the frame's z_B (ForwardWithGarmentHalf's
-  // body_embedding), its x_k and p_k, D's outputs and the proximity at them.
+  // Feedback's refined outputs from the frame's z_B and [x_k; p_k]
+  // (ForwardWithGarmentHalf's body_embedding and patch_inputs), D's outputs
+  // and the proximity at them.
   Eigen::MatrixXd FeedbackGarmentHalf(const double* weights, const Eigen::MatrixXd& patch_features) const;
   template <typename T>
   void FeedbackWithGarmentHalf(const T* weights, const MatrixX<T>& feedback_half, const VectorX<T>& body_embedding,
-                               const Eigen::VectorXd& body_features, const Eigen::MatrixXd* joint_weights,
-                               const Eigen::MatrixXd* proximity, const MatrixX<T>& outputs,
+                               const MatrixX<T>& patch_inputs, const MatrixX<T>& outputs,
                                const Eigen::MatrixXd& output_proximity, MatrixX<T>* refined) const;
 
  private:

@@ -1,6 +1,7 @@
 #include "polyfit/eval/refit_point_tree.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <numeric>
 #include <stdexcept>
@@ -13,6 +14,7 @@ namespace {
 // Leaves scanned in one vectorised pass: 32 points measured faster than 8
 // on a body's 2,000 samples (fewer boxes to test per query).
 constexpr int kLeafSize = 32;
+static_assert(kLeafSize % 8 == 0, "leaves are scanned in lanes of 8");
 
 double BoxDistance2(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, const Eigen::Vector3d& q) {
   return (lo - q).cwiseMax(q - hi).cwiseMax(0.0).squaredNorm();
@@ -70,34 +72,48 @@ void RefitPointTree::Refit(const Eigen::Matrix3Xd& points) {
   }
 }
 
+void RefitPointTree::ScanLeaf(const Node& node, const Eigen::Vector3d& q, int* best, double* best_d2) const {
+  // The leaf's squared distances in one pass over its coordinates, then
+  // the nearest (the first of ties, as one point at a time).
+  const int n = node.end - node.begin;
+  double d2[kLeafSize];
+  const double* x = points_.col(0).data() + node.begin;
+  const double* y = points_.col(1).data() + node.begin;
+  const double* z = points_.col(2).data() + node.begin;
+  for (int i = 0; i < n; ++i) {
+    const double dx = x[i] - q.x(), dy = y[i] - q.y(), dz = z[i] - q.z();
+    d2[i] = dx * dx + dy * dy + dz * dz;
+  }
+  // The leaf's least distance by a branch-free pass in 8 independent lanes
+  // (a < b ? a : b per lane is the vector min; one running minimum was a
+  // chain of dependent scalar mins), NaNs skipped as by comparison; only a
+  // leaf that beats the bound is searched for the first index holding it
+  // (the same answer as comparing one point at a time, whose branches
+  // mispredicted).
+  for (int i = n; i < kLeafSize; ++i) d2[i] = std::numeric_limits<double>::infinity();
+  double lanes[8];
+  for (int j = 0; j < 8; ++j) lanes[j] = *best_d2;
+  for (int i = 0; i < kLeafSize; i += 8) {
+    for (int j = 0; j < 8; ++j) lanes[j] = d2[i + j] < lanes[j] ? d2[i + j] : lanes[j];
+  }
+  for (int width = 4; width > 0; width /= 2) {
+    for (int j = 0; j < width; ++j) lanes[j] = lanes[j + width] < lanes[j] ? lanes[j + width] : lanes[j];
+  }
+  const double least = lanes[0];
+  if (!(least < *best_d2)) return;
+  for (int i = 0; i < n; ++i) {
+    if (d2[i] == least) {
+      *best_d2 = least;
+      *best = node.begin + i;
+      return;
+    }
+  }
+}
+
 void RefitPointTree::Search(int index, const Eigen::Vector3d& q, int* best, double* best_d2) const {
   const Node& node = nodes_[index];
   if (node.left < 0) {
-    // The leaf's squared distances in one pass over its coordinates, then
-    // the nearest (the first of ties, as one point at a time).
-    const int n = node.end - node.begin;
-    double d2[kLeafSize];
-    const double* x = points_.col(0).data() + node.begin;
-    const double* y = points_.col(1).data() + node.begin;
-    const double* z = points_.col(2).data() + node.begin;
-    for (int i = 0; i < n; ++i) {
-      const double dx = x[i] - q.x(), dy = y[i] - q.y(), dz = z[i] - q.z();
-      d2[i] = dx * dx + dy * dy + dz * dz;
-    }
-    // The leaf's least distance by a branch-free (vectorised) pass, NaNs
-    // skipped as by comparison; only a leaf that beats the bound is
-    // searched for the first index holding it (the same answer as
-    // comparing one point at a time, whose branches mispredicted).
-    double least = *best_d2;
-    for (int i = 0; i < n; ++i) least = d2[i] < least ? d2[i] : least;
-    if (!(least < *best_d2)) return;
-    for (int i = 0; i < n; ++i) {
-      if (d2[i] == least) {
-        *best_d2 = least;
-        *best = node.begin + i;
-        return;
-      }
-    }
+    ScanLeaf(node, q, best, best_d2);
     return;
   }
   const Node& left = nodes_[node.left];
@@ -140,6 +156,82 @@ int RefitPointTree::Nearest(const Eigen::Vector3d& query, double* squared_distan
   }
   if (squared_distance) *squared_distance = best_d2;
   return best < 0 ? -1 : order_[best];
+}
+
+struct RefitPointTree::Group {
+  int count = 0;
+  Eigen::Vector3d query[kMaxGroup];
+  int best[kMaxGroup];  // leaf order, -1 for none yet
+  double best_d2[kMaxGroup];
+  double offset[kMaxGroup];  // |query - centre|
+  Eigen::Vector3d centre;
+  // max over the queries of offset + sqrt(best_d2): a node whose box is as
+  // far from the centre holds no point nearer to any query than its best.
+  double reach = 0.0;
+
+  void UpdateReach() {
+    reach = 0.0;
+    for (int i = 0; i < count; ++i) reach = std::max(reach, offset[i] + std::sqrt(best_d2[i]));
+  }
+};
+
+void RefitPointTree::SearchGroup(int index, Group* group) const {
+  const Node& node = nodes_[index];
+  if (node.left < 0) {
+    for (int i = 0; i < group->count; ++i) {
+      if (BoxDistance2(node.lo, node.hi, group->query[i]) < group->best_d2[i]) {
+        ScanLeaf(node, group->query[i], &group->best[i], &group->best_d2[i]);
+      }
+    }
+    group->UpdateReach();
+    return;
+  }
+  const Node& left = nodes_[node.left];
+  const Node& right = nodes_[node.right];
+  const double dl = BoxDistance2(left.lo, left.hi, group->centre), dr = BoxDistance2(right.lo, right.hi, group->centre);
+  const bool left_first = dl <= dr;
+  const int near = left_first ? node.left : node.right, far = left_first ? node.right : node.left;
+  const double d_near = left_first ? dl : dr, d_far = left_first ? dr : dl;
+  if (d_near < group->reach * group->reach) SearchGroup(near, group);
+  if (d_far < group->reach * group->reach) SearchGroup(far, group);
+}
+
+void RefitPointTree::NearestGroup(const Eigen::Matrix3Xd& queries, const int* hints, int* nearest,
+                                  double* squared_distances) const {
+  const int count = static_cast<int>(queries.cols());
+  if (count > kMaxGroup) throw std::invalid_argument("RefitPointTree::NearestGroup: more than kMaxGroup queries");
+  if (count == 0) return;
+  if (!queries.allFinite()) {  // as Nearest answers a point with a NaN, one at a time
+    for (int i = 0; i < count; ++i) nearest[i] = Nearest(queries.col(i), &squared_distances[i], hints ? hints[i] : -1);
+    return;
+  }
+  Group group;
+  group.count = count;
+  group.centre = queries.rowwise().mean();
+  int shared = -1;  // a hint for the queries without one
+  for (int i = 0; i < count && shared < 0; ++i) {
+    if (hints != nullptr && hints[i] >= 0 && hints[i] < size()) shared = hints[i];
+  }
+  if (shared < 0) {
+    double d2;
+    shared = Nearest(queries.col(0), &d2);
+  }
+  for (int i = 0; i < count; ++i) {
+    const Eigen::Vector3d q = queries.col(i);
+    group.query[i] = q;
+    group.offset[i] = (q - group.centre).norm();
+    const int hint = hints != nullptr && hints[i] >= 0 && hints[i] < size() ? hints[i] : shared;
+    const int b = place_[hint];
+    const double dx = points_(b, 0) - q.x(), dy = points_(b, 1) - q.y(), dz = points_(b, 2) - q.z();
+    group.best[i] = b;
+    group.best_d2[i] = dx * dx + dy * dy + dz * dz;  // as the leaves' scan sums it
+  }
+  group.UpdateReach();
+  SearchGroup(0, &group);
+  for (int i = 0; i < count; ++i) {
+    nearest[i] = order_[group.best[i]];
+    squared_distances[i] = group.best_d2[i];
+  }
 }
 
 }  // namespace polyfit

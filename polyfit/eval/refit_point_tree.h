@@ -31,6 +31,19 @@ class RefitPointTree {
   // (from the root down), gives the same answer (but for ties).
   int Nearest(const Eigen::Vector3d& query, double* squared_distance, int hint = -1) const;
 
+  // Nearest for a group of queries close together (a patch's probes):
+  // queries 3 by count; hints (may be null) count indices as Nearest's, or
+  // -1; nearest and squared_distances count each. One descent for the
+  // group, pruned by a ball around the queries' centroid, each leaf it
+  // reaches scanned for every query: the same answers as Nearest one query
+  // at a time (but for ties), with one tree walk instead of count. Every
+  // hint bounds every query (any point is an upper bound), so a query
+  // without one is bounded by its neighbours'. count <= kMaxGroup (throws
+  // std::invalid_argument otherwise).
+  void NearestGroup(const Eigen::Matrix3Xd& queries, const int* hints, int* nearest, double* squared_distances) const;
+
+  static constexpr int kMaxGroup = 16;
+
   int size() const { return static_cast<int>(order_.size()); }
 
  private:
@@ -41,6 +54,11 @@ class RefitPointTree {
   };
   int Build(const Eigen::Matrix3Xd& points, int begin, int end);
   void Search(int node, const Eigen::Vector3d& q, int* best, double* best_d2) const;
+  // A leaf's points against q: *best (leaf order) and *best_d2 updated when
+  // one is nearer.
+  void ScanLeaf(const Node& leaf, const Eigen::Vector3d& q, int* best, double* best_d2) const;
+  struct Group;
+  void SearchGroup(int node, Group* group) const;
 
   // N by 3 (each coordinate contiguous, for the leaves' scans), in leaf order.
   Eigen::Matrix<double, Eigen::Dynamic, 3> points_;

@@ -29,6 +29,35 @@ void ExpectMatchesBruteForce(const RefitPointTree& tree, const Eigen::Matrix3Xd&
       EXPECT_EQ(hinted_d2, d2);
     }
   }
+  // Groups of 9 queries about a centre (a patch's probes), with hints good,
+  // bad, partly missing or none: each answer is brute force's.
+  std::uniform_real_distribution<double> near(-0.2 * spread, 0.2 * spread);
+  for (int group = 0; group < 60; ++group) {
+    const Eigen::Vector3d centre(g(*rng), g(*rng), g(*rng));
+    Eigen::Matrix3Xd queries(3, 9);
+    for (int i = 0; i < 9; ++i) queries.col(i) = centre + Eigen::Vector3d(near(*rng), near(*rng), near(*rng));
+    int expected[9];
+    double expected_d2[9];
+    for (int i = 0; i < 9; ++i) {
+      expected_d2[i] = (points.colwise() - queries.col(i)).colwise().squaredNorm().minCoeff(&expected[i]);
+    }
+    int hints[9];
+    for (int variant = 0; variant < 4; ++variant) {
+      for (int i = 0; i < 9; ++i) {
+        hints[i] = variant == 0                 ? expected[i]
+                   : variant == 1               ? (expected[i] + 7 * i + 1) % static_cast<int>(points.cols())
+                   : variant == 2 && i % 3 != 0 ? expected[i]
+                                                : -1;
+      }
+      int nearest[9];
+      double d2[9];
+      tree.NearestGroup(queries, variant == 3 && group % 2 == 0 ? nullptr : hints, nearest, d2);
+      for (int i = 0; i < 9; ++i) {
+        ASSERT_EQ(nearest[i], expected[i]) << "group " << group << " variant " << variant << " query " << i;
+        EXPECT_DOUBLE_EQ(d2[i], expected_d2[i]);
+      }
+    }
+  }
 }
 
 TEST(RefitPointTree, MatchesBruteForceAsBuiltAndAfterTheLayoutIsTornApart) {
@@ -69,6 +98,17 @@ TEST(RefitPointTree, BadInput) {
   EXPECT_EQ(tree.Nearest(Eigen::Vector3d(std::nan(""), 0, 0), &d2), -1);
   EXPECT_TRUE(std::isinf(d2));
   EXPECT_EQ(tree.Nearest(Eigen::Vector3d(std::nan(""), 0, 0), &d2, 3), -1);
+  // In a group, only the query with the NaN finds nothing.
+  Eigen::Matrix3Xd queries = Eigen::Matrix3Xd::Random(3, 3);
+  queries(1, 1) = std::nan("");
+  int nearest[3];
+  double group_d2[3];
+  tree.NearestGroup(queries, nullptr, nearest, group_d2);
+  EXPECT_EQ(nearest[1], -1);
+  EXPECT_GE(nearest[0], 0);
+  EXPECT_EQ(nearest[2], tree.Nearest(queries.col(2), &d2));
+  EXPECT_THROW(tree.NearestGroup(Eigen::Matrix3Xd::Zero(3, RefitPointTree::kMaxGroup + 1), nullptr, nearest, group_d2),
+               std::invalid_argument);
   // One point: a leaf as the root.
   const RefitPointTree one(Eigen::Matrix3Xd::Zero(3, 1));
   EXPECT_EQ(one.Nearest(Eigen::Vector3d(1, 2, 3), &d2), 0);
