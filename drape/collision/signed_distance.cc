@@ -168,23 +168,41 @@ SignedDistanceResult BodySignedDistance::QueryPiece(const Impl& m, size_t piece,
 
 Eigen::VectorXd BodySignedDistance::SignedDistances(const Eigen::Matrix3Xd& points, int num_threads) const {
   Eigen::VectorXd d(points.cols());
-  ParallelFor(
-      static_cast<int>(points.cols()), num_threads, [&](int, int i) { d[i] = Query(points.col(i)).distance; }, 256);
+  // In runs of consecutive points, each hinted by the one before: a mesh's
+  // consecutive vertices are mostly near each other, and the hint only
+  // bounds the search (the same distances).
+  constexpr int kRun = 64;
+  const int n = static_cast<int>(points.cols());
+  ParallelFor((n + kRun - 1) / kRun, num_threads,
+              [&](int, int run) {
+                int hint = -1;
+                for (int i = run * kRun; i < std::min(n, (run + 1) * kRun); ++i) {
+                  const SignedDistanceResult r = Query(points.col(i), hint);
+                  d[i] = r.distance;
+                  hint = r.face;
+                }
+              },
+              4);
   return d;
 }
 
-NearestVertexDistance::NearestVertexDistance(const TriangleMesh& body) : body_(body) { SetVertices(body.vertices); }
+NearestVertexDistance::NearestVertexDistance(const TriangleMesh& body)
+    : body_(body), normals_(VertexNormals(body)), tree_(std::make_unique<RefitPointTree>(body.vertices)) {}
 
 void NearestVertexDistance::SetVertices(const Eigen::Matrix3Xd& vertices) {
+  if (vertices.cols() != body_.vertices.cols()) {
+    throw std::invalid_argument("NearestVertexDistance::SetVertices: another number of vertices");
+  }
   body_.vertices = vertices;
   normals_ = VertexNormals(body_);
-  tree_ = std::make_unique<KdTree3>(body_.vertices);
+  tree_->Refit(body_.vertices);
 }
 
-SignedDistanceResult NearestVertexDistance::Query(const Eigen::Vector3d& p) const {
+SignedDistanceResult NearestVertexDistance::Query(const Eigen::Vector3d& p, int hint) const {
   double d2;
-  const int v = tree_->Nearest(p, &d2);
+  const int v = tree_->Nearest(p, &d2, hint);
   SignedDistanceResult r;
+  r.face = v;  // the vertex: a hint for a query close by
   r.closest = body_.vertices.col(v);
   r.normal = normals_.col(v);
   r.distance = (p - r.closest).dot(r.normal);

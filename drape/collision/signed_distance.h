@@ -17,7 +17,7 @@
 
 #include <Eigen/Core>
 
-#include "polyfit/eval/kd_tree.h"
+#include "polyfit/eval/refit_point_tree.h"
 #include "polyfit/mesh/triangle_mesh.h"
 
 namespace polyfit {
@@ -52,14 +52,18 @@ class BodySignedDistance {
 
 class NearestVertexDistance {
  public:
+  // The body's vertices in a tree built once and refitted per pose.
   explicit NearestVertexDistance(const TriangleMesh& body);
+  // Throws std::invalid_argument on another number of vertices.
   void SetVertices(const Eigen::Matrix3Xd& vertices);
-  SignedDistanceResult Query(const Eigen::Vector3d& point) const;
+  // face: the nearest vertex (not a face). hint: the answer for a point
+  // close by, or -1; it only makes the query faster.
+  SignedDistanceResult Query(const Eigen::Vector3d& point, int hint = -1) const;
 
  private:
   TriangleMesh body_;
   Eigen::Matrix3Xd normals_;
-  std::unique_ptr<KdTree3> tree_;
+  std::unique_ptr<RefitPointTree> tree_;
 };
 
 }  // namespace polyfit

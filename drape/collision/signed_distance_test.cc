@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <random>
+#include <stdexcept>
 
 #include <gtest/gtest.h>
 
@@ -72,6 +73,39 @@ TEST(BodySignedDistanceTest, FollowsANewPose) {
   EXPECT_LT(approximate.Query(Eigen::Vector3d(5.5, 0, 0)).distance, 0.0);
   const Eigen::VectorXd many = exact.SignedDistances(moved * 1.0, 2);
   EXPECT_LT(many.cwiseAbs().maxCoeff(), 1e-12);  // the vertices themselves
+  EXPECT_THROW(approximate.SetVertices(moved.leftCols(5)), std::invalid_argument);
+}
+
+TEST(BodySignedDistanceTest, HintsChangeNoAnswer) {
+  // SignedDistances hints each point by the one before it, and
+  // NearestVertexDistance takes a hint: near, far or none, the same
+  // distances as queries from scratch.
+  const TriangleMesh sphere = MakeIcosphere(4);
+  const BodySignedDistance exact(sphere);
+  NearestVertexDistance approximate(sphere);
+  Eigen::Matrix3Xd moved = sphere.vertices;
+  moved.row(2) *= 1.3;  // a pose: the tree refitted, not rebuilt
+  approximate.SetVertices(moved);
+  std::mt19937 rng(5);
+  std::normal_distribution<double> gauss;
+  Eigen::Matrix3Xd points(3, 500);
+  for (int i = 0; i < points.cols(); ++i) {
+    // A walk over the surface, as a garment's consecutive vertices.
+    const double angle = 0.02 * i;
+    points.col(i) = (1.0 + 0.05 * gauss(rng)) * Eigen::Vector3d(std::cos(angle), std::sin(angle), 0.1 * gauss(rng));
+  }
+  const Eigen::VectorXd all = exact.SignedDistances(points, 2);
+  const NearestVertexDistance built(TriangleMesh{moved, sphere.faces, {}});  // at the pose from the start
+  int hint = -1;
+  for (int i = 0; i < points.cols(); ++i) {
+    EXPECT_EQ(all[i], exact.Query(points.col(i)).distance) << i;
+    const SignedDistanceResult fresh = built.Query(points.col(i));
+    const SignedDistanceResult hinted = approximate.Query(points.col(i), hint);
+    EXPECT_EQ(hinted.face, fresh.face) << i;
+    EXPECT_EQ(hinted.distance, fresh.distance) << i;
+    EXPECT_EQ(approximate.Query(points.col(i), (hinted.face + 97) % sphere.num_vertices()).face, fresh.face);
+    hint = hinted.face;
+  }
 }
 
 }  // namespace

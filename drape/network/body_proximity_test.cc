@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "drape/body/procedural_body.h"
+#include "polyfit/eval/kd_tree.h"
 #include "polyfit/eval/mesh_metrics.h"
 
 namespace polyfit {

@@ -1086,7 +1086,12 @@ Eigen::VectorXd DrapeSolver::NearestVertexDistances(const Eigen::Matrix3Xd& poin
   }
   m.nearest_stale = false;
   Eigen::VectorXd d(points.cols());
-  for (int v = 0; v < points.cols(); ++v) d[v] = m.nearest->Query(points.col(v)).distance;
+  int hint = -1;  // consecutive points are mostly neighbours
+  for (int v = 0; v < points.cols(); ++v) {
+    const SignedDistanceResult r = m.nearest->Query(points.col(v), hint);
+    d[v] = r.distance;
+    hint = r.face;
+  }
   return d;
 }
 

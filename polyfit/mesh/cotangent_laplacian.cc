@@ -6,6 +6,7 @@
 #include <utility>
 
 #include <Eigen/Geometry>
+#include <suitesparse/cholmod.h>
 
 namespace polyfit {
 
@@ -79,79 +80,102 @@ namespace {
 // One implicit step for all columns: solves (M + tau C L) x = M b.
 // Free vertices (rate > 0) form the symmetric positive definite system
 // (M / rate + tau L) x = M b / rate, held ones keep b's values (their
-// coupling moves to the right side).
+// coupling moves to the right side). The free block is factored once by
+// CHOLMOD (sparse Cholesky, fill-reducing order) and every step and column
+// reuses the factor: conjugate gradients took hundreds of products per
+// column and step on a finely split garment (1.5 s for a suit's skinning).
 class ImplicitStep {
  public:
   ImplicitStep(const CotangentLaplacian& laplacian, const Eigen::VectorXd& mass, const std::vector<double>& rate,
                double tau)
-      : laplacian_(laplacian), tau_(tau), held_(mass.size(), false), scaled_mass_(mass.size()), diagonal_(mass.size()) {
-    for (int i = 0; i < mass.size(); ++i) {
-      held_[i] = !(rate[i] > 0.0) || laplacian.offsets[i] == laplacian.offsets[i + 1];
-      scaled_mass_[i] = held_[i] ? mass[i] : mass[i] / rate[i];
-      double sum = 0.0;
-      for (int k = laplacian.offsets[i]; k < laplacian.offsets[i + 1]; ++k) sum += laplacian.weight[k];
-      diagonal_[i] = scaled_mass_[i] + tau * sum;
-    }
-  }
-
-  // x = A b for one column; held rows give b.
-  void Solve(const Eigen::VectorXd& b, Eigen::VectorXd* x) const {
-    const int n = static_cast<int>(b.size());
-    // Right side over the free vertices, the held ones' coupling folded in.
-    Eigen::VectorXd rhs(n);
+      : laplacian_(laplacian), tau_(tau), row_(mass.size(), -1), scaled_mass_(mass.size()) {
+    cholmod_start(&common_);
+    const int n = static_cast<int>(mass.size());
     for (int i = 0; i < n; ++i) {
-      if (held_[i]) {
-        rhs[i] = 0.0;
-        continue;
+      const bool held = !(rate[i] > 0.0) || laplacian.offsets[i] == laplacian.offsets[i + 1];
+      scaled_mass_[i] = held ? mass[i] : mass[i] / rate[i];
+      if (!held) {
+        row_[i] = static_cast<int>(vertex_.size());
+        vertex_.push_back(i);
       }
-      rhs[i] = scaled_mass_[i] * b[i];
+    }
+    if (vertex_.empty()) return;
+    // The lower triangle, column by column (CHOLMOD's compressed columns).
+    const size_t m = vertex_.size();
+    cholmod_sparse* system =
+        cholmod_allocate_sparse(m, m, m + laplacian.weight.size() / 2 + 1, 1, 1, -1, CHOLMOD_REAL, &common_);
+    if (system == nullptr) throw std::runtime_error("DiffuseHeat: out of memory for the implicit step");
+    int* column_start = static_cast<int*>(system->p);
+    int* row = static_cast<int*>(system->i);
+    double* value = static_cast<double*>(system->x);
+    int nonzeros = 0;
+    std::vector<std::pair<int, double>> below;
+    for (size_t c = 0; c < m; ++c) {
+      const int i = vertex_[c];
+      column_start[c] = nonzeros;
+      double sum = 0.0;
+      below.clear();
+      for (int k = laplacian.offsets[i]; k < laplacian.offsets[i + 1]; ++k) {
+        sum += laplacian.weight[k];
+        const int r = row_[laplacian.neighbour[k]];
+        if (r > static_cast<int>(c)) below.emplace_back(r, -tau * laplacian.weight[k]);
+      }
+      std::sort(below.begin(), below.end());
+      row[nonzeros] = static_cast<int>(c);
+      value[nonzeros++] = scaled_mass_[i] + tau * sum;
+      for (const auto& [r, w] : below) {
+        row[nonzeros] = r;
+        value[nonzeros++] = w;
+      }
+    }
+    column_start[m] = nonzeros;
+    factor_ = cholmod_analyze(system, &common_);
+    const bool factored = factor_ != nullptr && cholmod_factorize(system, factor_, &common_) &&
+                          common_.status == CHOLMOD_OK && factor_->minor == factor_->n;
+    cholmod_free_sparse(&system, &common_);
+    if (!factored) throw std::runtime_error("DiffuseHeat: the implicit step's system could not be factored");
+  }
+  ~ImplicitStep() {
+    if (factor_ != nullptr) cholmod_free_factor(&factor_, &common_);
+    cholmod_finish(&common_);
+  }
+  ImplicitStep(const ImplicitStep&) = delete;
+  ImplicitStep& operator=(const ImplicitStep&) = delete;
+
+  // x = A b for every column (#V by k); held rows give b.
+  void Solve(const Eigen::MatrixXd& b, Eigen::MatrixXd* x) {
+    *x = b;
+    if (vertex_.empty()) return;
+    const size_t m = vertex_.size();
+    cholmod_dense* rhs = cholmod_allocate_dense(m, b.cols(), m, CHOLMOD_REAL, &common_);
+    if (rhs == nullptr) throw std::runtime_error("DiffuseHeat: out of memory for the implicit step");
+    // Right side over the free vertices, the held ones' coupling folded in.
+    Eigen::Map<Eigen::MatrixXd> right(static_cast<double*>(rhs->x), static_cast<Eigen::Index>(m), b.cols());
+    for (size_t r = 0; r < m; ++r) {
+      const int i = vertex_[r];
+      right.row(r) = scaled_mass_[i] * b.row(i);
       for (int k = laplacian_.offsets[i]; k < laplacian_.offsets[i + 1]; ++k) {
-        if (held_[laplacian_.neighbour[k]]) rhs[i] += tau_ * laplacian_.weight[k] * b[laplacian_.neighbour[k]];
+        const int j = laplacian_.neighbour[k];
+        if (row_[j] < 0) right.row(r) += tau_ * laplacian_.weight[k] * b.row(j);
       }
     }
-    *x = b;  // the start, and the held values
-    Eigen::VectorXd r = rhs - Multiply(*x), z(n), p(n), q(n);
-    // 1e-8 of the right side: weights below 1e-3 are dropped anyway.
-    const double stop = 1e-16 * std::max(rhs.squaredNorm(), 1e-300);
-    z = r.cwiseQuotient(diagonal_);
-    p = z;
-    double rz = r.dot(z);
-    for (int it = 0; it < 10 * n + 100 && r.squaredNorm() > stop; ++it) {
-      q = Multiply(p);
-      const double alpha = rz / p.dot(q);
-      *x += alpha * p;
-      r -= alpha * q;
-      z = r.cwiseQuotient(diagonal_);
-      const double next = r.dot(z);
-      p = z + (next / rz) * p;
-      rz = next;
-    }
+    cholmod_dense* solved = cholmod_solve(CHOLMOD_A, factor_, rhs, &common_);
+    cholmod_free_dense(&rhs, &common_);
+    if (solved == nullptr) throw std::runtime_error("DiffuseHeat: the implicit step could not be solved");
+    const Eigen::Map<const Eigen::MatrixXd> out(static_cast<const double*>(solved->x), static_cast<Eigen::Index>(m),
+                                                b.cols());
+    for (size_t r = 0; r < m; ++r) x->row(vertex_[r]) = out.row(r);
+    cholmod_free_dense(&solved, &common_);
   }
 
  private:
-  // The free block of the system times v; held rows and columns are zero
-  // (v's held entries are ignored, x's held entries stay put).
-  Eigen::VectorXd Multiply(const Eigen::VectorXd& v) const {
-    const int n = static_cast<int>(v.size());
-    Eigen::VectorXd out(n);
-    for (int i = 0; i < n; ++i) {
-      if (held_[i]) {
-        out[i] = 0.0;
-        continue;
-      }
-      double sum = diagonal_[i] * v[i];
-      for (int k = laplacian_.offsets[i]; k < laplacian_.offsets[i + 1]; ++k) {
-        if (!held_[laplacian_.neighbour[k]]) sum -= tau_ * laplacian_.weight[k] * v[laplacian_.neighbour[k]];
-      }
-      out[i] = sum;
-    }
-    return out;
-  }
-
   const CotangentLaplacian& laplacian_;
   double tau_;
-  std::vector<bool> held_;
-  Eigen::VectorXd scaled_mass_, diagonal_;
+  std::vector<int> row_;     // per vertex, its row in the system, -1 if held
+  std::vector<int> vertex_;  // per row, its vertex
+  Eigen::VectorXd scaled_mass_;
+  cholmod_common common_;
+  cholmod_factor* factor_ = nullptr;
 };
 
 }  // namespace
@@ -169,18 +193,21 @@ Eigen::MatrixXd DiffuseHeat(const TriangleMesh& mesh, const Eigen::MatrixXd& fie
   if (n == 0 || t == 0.0) return fields;
   const CotangentLaplacian laplacian = MakeCotangentLaplacian(mesh);
   const Eigen::VectorXd mass = VertexAreas(mesh);
-  const ImplicitStep step(laplacian, mass, rate.empty() ? std::vector<double>(n, 1.0) : rate, t / substeps);
-  Eigen::MatrixXd out = fields;
-  Eigen::VectorXd column(n), next(n);
+  ImplicitStep step(laplacian, mass, rate.empty() ? std::vector<double>(n, 1.0) : rate, t / substeps);
+  // Most joints touch no garment: only the non-zero fields are diffused.
+  std::vector<Eigen::Index> live;
   for (Eigen::Index c = 0; c < fields.cols(); ++c) {
-    if (fields.col(c).cwiseAbs().maxCoeff() == 0.0) continue;  // most joints touch no garment
-    column = fields.col(c);
-    for (int s = 0; s < substeps; ++s) {
-      step.Solve(column, &next);
-      column.swap(next);
-    }
-    out.col(c) = column;
+    if (fields.col(c).cwiseAbs().maxCoeff() != 0.0) live.push_back(c);
   }
+  Eigen::MatrixXd out = fields;
+  if (live.empty()) return out;
+  Eigen::MatrixXd columns(n, static_cast<Eigen::Index>(live.size())), next;
+  for (size_t c = 0; c < live.size(); ++c) columns.col(c) = fields.col(live[c]);
+  for (int s = 0; s < substeps; ++s) {
+    step.Solve(columns, &next);
+    columns.swap(next);
+  }
+  for (size_t c = 0; c < live.size(); ++c) out.col(live[c]) = columns.col(c);
   return out;
 }
 

@@ -4,11 +4,12 @@
 // whatever the meshing, which a count of umbrella steps does not do (it
 // reaches a distance in proportion to the edge length).
 //
-// Plain CSR arrays and a conjugate-gradient solve, not Eigen's sparse
-// module: Eigen's sparse templates are weak symbols that the statically
-// linked Ceres (built for baseline x86-64) instantiates too, and a copy
-// built for the host CPU replaced Ceres' own in binaries that link both
-// (the drape solver's Cholesky then freed memory it had not allocated).
+// Plain CSR arrays and CHOLMOD's C interface (SuiteSparse, which Ceres
+// brings), not Eigen's sparse module: Eigen's sparse templates are weak
+// symbols that the statically linked Ceres (built for baseline x86-64)
+// instantiates too, and a copy built for the host CPU replaced Ceres' own
+// in binaries that link both (the drape solver's Cholesky then freed
+// memory it had not allocated).
 #ifndef POLYFIT_MESH_COTANGENT_LAPLACIAN_H_
 #define POLYFIT_MESH_COTANGENT_LAPLACIAN_H_
 
@@ -47,14 +48,15 @@ CotangentLaplacian MakeCotangentLaplacian(const TriangleMesh& mesh, bool clamp_n
 
 // Heat diffusion of fields over the mesh's surface for time t (m^2):
 // df/dt = -rate M^-1 L f, in `substeps` implicit Euler steps
-// (M + tau diag(rate) L) f' = M f, tau = t / substeps, each solved by
-// Jacobi-preconditioned conjugate gradients (symmetric once a row is
-// divided by its rate). A step is spread over about sqrt(2 t) whatever
+// (M + tau diag(rate) L) f' = M f, tau = t / substeps, all solved with one
+// sparse Cholesky factorisation (symmetric once a row is divided by its
+// rate). A step is spread over about sqrt(2 t) whatever
 // the meshing; the boundary is insulated. fields: #V by k (one field per
 // column). rate: #V, each vertex's diffusivity (1 everywhere if empty; 0
 // holds a vertex's values). Vertices on no face keep their values.
 // Throws std::invalid_argument on sizes that do not match, a negative t
-// or rate, or substeps < 1.
+// or rate, or substeps < 1; std::runtime_error where the system cannot be
+// factored (out of memory).
 Eigen::MatrixXd DiffuseHeat(const TriangleMesh& mesh, const Eigen::MatrixXd& fields, double t,
                             const std::vector<double>& rate = {}, int substeps = 8);
 
