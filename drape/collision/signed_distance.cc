@@ -168,21 +168,8 @@ SignedDistanceResult BodySignedDistance::QueryPiece(const Impl& m, size_t piece,
 
 Eigen::VectorXd BodySignedDistance::SignedDistances(const Eigen::Matrix3Xd& points, int num_threads) const {
   Eigen::VectorXd d(points.cols());
-  // In runs of consecutive points, each hinted by the one before: a mesh's
-  // consecutive vertices are mostly near each other, and the hint only
-  // bounds the search (the same distances).
-  constexpr int kRun = 64;
-  const int n = static_cast<int>(points.cols());
-  ParallelFor((n + kRun - 1) / kRun, num_threads,
-              [&](int, int run) {
-                int hint = -1;
-                for (int i = run * kRun; i < std::min(n, (run + 1) * kRun); ++i) {
-                  const SignedDistanceResult r = Query(points.col(i), hint);
-                  d[i] = r.distance;
-                  hint = r.face;
-                }
-              },
-              4);
+  ParallelFor(
+      static_cast<int>(points.cols()), num_threads, [&](int, int i) { d[i] = Query(points.col(i)).distance; }, 256);
   return d;
 }
 

@@ -77,9 +77,9 @@ TEST(BodySignedDistanceTest, FollowsANewPose) {
 }
 
 TEST(BodySignedDistanceTest, HintsChangeNoAnswer) {
-  // SignedDistances hints each point by the one before it, and
-  // NearestVertexDistance takes a hint: near, far or none, the same
-  // distances as queries from scratch.
+  // Hints, near, far or none, give the same answers as queries from
+  // scratch; NearestVertexDistance refitted to a pose answers as one built
+  // at it.
   const TriangleMesh sphere = MakeIcosphere(4);
   const BodySignedDistance exact(sphere);
   NearestVertexDistance approximate(sphere);
@@ -95,10 +95,13 @@ TEST(BodySignedDistanceTest, HintsChangeNoAnswer) {
     points.col(i) = (1.0 + 0.05 * gauss(rng)) * Eigen::Vector3d(std::cos(angle), std::sin(angle), 0.1 * gauss(rng));
   }
   const Eigen::VectorXd all = exact.SignedDistances(points, 2);
+  int face = -1;
   const NearestVertexDistance built(TriangleMesh{moved, sphere.faces, {}});  // at the pose from the start
   int hint = -1;
   for (int i = 0; i < points.cols(); ++i) {
-    EXPECT_EQ(all[i], exact.Query(points.col(i)).distance) << i;
+    const SignedDistanceResult e = exact.Query(points.col(i), face);
+    EXPECT_EQ(all[i], e.distance) << i;
+    face = e.face;
     const SignedDistanceResult fresh = built.Query(points.col(i));
     const SignedDistanceResult hinted = approximate.Query(points.col(i), hint);
     EXPECT_EQ(hinted.face, fresh.face) << i;
