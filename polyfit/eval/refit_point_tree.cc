@@ -172,6 +172,7 @@ struct RefitPointTree::Group {
   void UpdateReach() {
     reach = 0.0;
     for (int i = 0; i < count; ++i) reach = std::max(reach, offset[i] + std::sqrt(best_d2[i]));
+    reach *= 1.0 + 1e-12;  // rounding in the sums never prunes a nearer point
   }
 };
 
@@ -223,13 +224,15 @@ void RefitPointTree::NearestGroup(const Eigen::Matrix3Xd& queries, const int* hi
     const int hint = hints != nullptr && hints[i] >= 0 && hints[i] < size() ? hints[i] : shared;
     const int b = place_[hint];
     const double dx = points_(b, 0) - q.x(), dy = points_(b, 1) - q.y(), dz = points_(b, 2) - q.z();
-    group.best[i] = b;
-    group.best_d2[i] = dx * dx + dy * dy + dz * dz;  // as the leaves' scan sums it
+    const double d2 = dx * dx + dy * dy + dz * dz;                      // as the leaves' scan sums it
+    const bool bounded = d2 < std::numeric_limits<double>::infinity();  // false for a point with a NaN
+    group.best[i] = bounded ? b : -1;
+    group.best_d2[i] = bounded ? d2 : std::numeric_limits<double>::infinity();
   }
   group.UpdateReach();
   SearchGroup(0, &group);
   for (int i = 0; i < count; ++i) {
-    nearest[i] = order_[group.best[i]];
+    nearest[i] = group.best[i] < 0 ? -1 : order_[group.best[i]];
     squared_distances[i] = group.best_d2[i];
   }
 }

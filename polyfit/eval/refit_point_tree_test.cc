@@ -109,6 +109,19 @@ TEST(RefitPointTree, BadInput) {
   EXPECT_EQ(nearest[2], tree.Nearest(queries.col(2), &d2));
   EXPECT_THROW(tree.NearestGroup(Eigen::Matrix3Xd::Zero(3, RefitPointTree::kMaxGroup + 1), nullptr, nearest, group_d2),
                std::invalid_argument);
+  // A hint at a point with a NaN bounds nothing: the group finds what
+  // Nearest finds among the others.
+  Eigen::Matrix3Xd points = Eigen::Matrix3Xd::Random(3, 200);
+  points(0, 7) = std::nan("");
+  const RefitPointTree broken(points);
+  const Eigen::Matrix3Xd near = Eigen::Matrix3Xd::Random(3, 3) * 0.1;
+  const int hints[3] = {7, 7, -1};
+  broken.NearestGroup(near, hints, nearest, group_d2);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(nearest[i], broken.Nearest(near.col(i), &d2)) << i;
+    EXPECT_EQ(group_d2[i], d2);
+    EXPECT_NE(nearest[i], 7);
+  }
   // One point: a leaf as the root.
   const RefitPointTree one(Eigen::Matrix3Xd::Zero(3, 1));
   EXPECT_EQ(one.Nearest(Eigen::Vector3d(1, 2, 3), &d2), 0);
