@@ -260,8 +260,9 @@ void OneFitNetwork::ForwardWithGarmentHalf(const T* weights, const MatrixX<T>& g
   // x_k and p_k stacked: their weights' columns are adjacent, so one
   // product (a is read and written once, not once per input).
   MatrixX<T> local_inputs(local_size_ + proximity_size_, n);
-  if (local_size_ > 0)
+  if (local_size_ > 0) {
     local_inputs.topRows(local_size_) = LocalPose(body_features, joint_weights, n).template cast<T>();
+  }
   if (proximity_size_ > 0) {
     local_inputs.bottomRows(proximity_size_) = Proximity(proximity, proximity_size_, n).template cast<T>();
   }
