@@ -104,7 +104,7 @@ class ImplicitStep {
     const size_t m = vertex_.size();
     cholmod_sparse* system =
         cholmod_allocate_sparse(m, m, m + laplacian.weight.size() / 2 + 1, 1, 1, -1, CHOLMOD_REAL, &common_);
-    if (system == nullptr) throw std::runtime_error("DiffuseHeat: out of memory for the implicit step");
+    if (system == nullptr) Fail("DiffuseHeat: out of memory for the implicit step");
     int* column_start = static_cast<int*>(system->p);
     int* row = static_cast<int*>(system->i);
     double* value = static_cast<double*>(system->x);
@@ -133,12 +133,9 @@ class ImplicitStep {
     const bool factored = factor_ != nullptr && cholmod_factorize(system, factor_, &common_) &&
                           common_.status == CHOLMOD_OK && factor_->minor == factor_->n;
     cholmod_free_sparse(&system, &common_);
-    if (!factored) throw std::runtime_error("DiffuseHeat: the implicit step's system could not be factored");
+    if (!factored) Fail("DiffuseHeat: the implicit step's system could not be factored");
   }
-  ~ImplicitStep() {
-    if (factor_ != nullptr) cholmod_free_factor(&factor_, &common_);
-    cholmod_finish(&common_);
-  }
+  ~ImplicitStep() { Release(); }
   ImplicitStep(const ImplicitStep&) = delete;
   ImplicitStep& operator=(const ImplicitStep&) = delete;
 
@@ -169,6 +166,16 @@ class ImplicitStep {
   }
 
  private:
+  void Release() {
+    if (factor_ != nullptr) cholmod_free_factor(&factor_, &common_);
+    cholmod_finish(&common_);
+  }
+  // A constructor that throws runs no destructor: CHOLMOD's memory first.
+  [[noreturn]] void Fail(const char* message) {
+    Release();
+    throw std::runtime_error(message);
+  }
+
   const CotangentLaplacian& laplacian_;
   double tau_;
   std::vector<int> row_;     // per vertex, its row in the system, -1 if held
