@@ -122,6 +122,34 @@ TEST(DiffuseHeatTest, MatchesTheExactDiffusionOfAStepAndConservesItsIntegral) {
   }
 }
 
+TEST(DiffuseHeatTest, OneStepSolvesItsSystemAndColumnsStayApart) {
+  // One implicit step is (M + t L) x = M b to rounding; fields given
+  // together come out as each alone; a zero field stays zero; a vertex on
+  // no face keeps its value.
+  TriangleMesh grid = MakeGrid(12, 9, 1.0);
+  grid.vertices.conservativeResize(3, grid.num_vertices() + 1);
+  grid.vertices.col(grid.num_vertices() - 1) = Eigen::Vector3d(5, 5, 5);  // on no face
+  const int n = grid.num_vertices();
+  Eigen::MatrixXd fields(n, 3);
+  fields.col(0) = grid.vertices.row(0).transpose().array().sin().matrix();
+  fields.col(1).setZero();
+  fields.col(2) = grid.vertices.row(1).transpose().array().square().matrix();
+  const double t = 0.02;
+  const Eigen::MatrixXd together = DiffuseHeat(grid, fields, t, {}, 1);
+  const Eigen::MatrixXd dense = MakeCotangentLaplacian(grid).ToDense();
+  const Eigen::VectorXd mass = VertexAreas(grid);
+  for (const int c : {0, 2}) {
+    const Eigen::VectorXd residual =
+        (mass.asDiagonal() * together.col(c) + t * dense * together.col(c)) - mass.asDiagonal() * fields.col(c);
+    EXPECT_LT(residual.cwiseAbs().maxCoeff(), 1e-14) << c;
+    const Eigen::MatrixXd alone = DiffuseHeat(grid, fields.col(c), t, {}, 1);
+    EXPECT_LT((alone.col(0) - together.col(c)).cwiseAbs().maxCoeff(), 1e-14) << c;
+  }
+  EXPECT_EQ(together.col(1).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ(together(n - 1, 0), fields(n - 1, 0));
+  EXPECT_GT((together.col(0) - fields.col(0)).cwiseAbs().maxCoeff(), 1e-4);
+}
+
 TEST(DiffuseHeatTest, HeldVerticesKeepTheirValuesAndBadInputThrows) {
   const TriangleMesh grid = MakeGrid(10, 10, 1.0);
   Eigen::MatrixXd field = grid.vertices.row(0).transpose().array().square().matrix();
