@@ -90,6 +90,9 @@ class ImplicitStep {
                double tau)
       : laplacian_(laplacian), tau_(tau), row_(mass.size(), -1), scaled_mass_(mass.size()) {
     cholmod_start(&common_);
+    // Simplicial LDL^T: no BLAS, so the same weights whatever BLAS and
+    // threads a machine has (as fast as supernodal at these sizes).
+    common_.supernodal = CHOLMOD_SIMPLICIAL;
     const int n = static_cast<int>(mass.size());
     for (int i = 0; i < n; ++i) {
       const bool held = !(rate[i] > 0.0) || laplacian.offsets[i] == laplacian.offsets[i + 1];
