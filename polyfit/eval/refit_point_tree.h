@@ -36,10 +36,10 @@ class RefitPointTree {
   // -1; nearest and squared_distances count each. One descent for the
   // group, pruned by a ball around the queries' centroid, each leaf it
   // reaches scanned for every query: the same answers as Nearest one query
-  // at a time (but for ties), with one tree walk instead of count. Every
-  // hint bounds every query (any point is an upper bound), so a query
-  // without one is bounded by its neighbours'. count <= kMaxGroup (throws
-  // std::invalid_argument otherwise).
+  // at a time (but for ties), with one tree walk instead of count. A
+  // query without a hint starts bounded by the group's first one (any
+  // point bounds any query; with none at all, the first query's nearest).
+  // count <= kMaxGroup (throws std::invalid_argument otherwise).
   void NearestGroup(const Eigen::Matrix3Xd& queries, const int* hints, int* nearest, double* squared_distances) const;
 
   static constexpr int kMaxGroup = 16;
