@@ -427,7 +427,15 @@ void DrapeSolver::Impl::PositionsOfPacked(const PolyFitModel& model, const std::
         WarpSlide(k, in + num_coefficients + 4, slide);
         sum += points[k].CanonicalOf<kOrder>(in, in + num_coefficients, in + num_coefficients + 1, slide);
       }
-      out->col(v) = skin_linear[v] * (sum / range.size()) + skin_translation[v];
+      // One division a vertex, not one a coordinate (the three divisions'
+      // latency was most of this loop), in scalars: Eigen's expression here
+      // is not always inlined.
+      const double inverse = 1.0 / range.size();
+      const double x = inverse * sum[0], y = inverse * sum[1], z = inverse * sum[2];
+      const Eigen::Matrix3d& m = skin_linear[v];
+      const Eigen::Vector3d& b = skin_translation[v];
+      double* o = out->col(v).data();
+      for (int r = 0; r < 3; ++r) o[r] = m(r, 0) * x + m(r, 1) * y + m(r, 2) * z + b[r];
     }
   };
   switch (options.patching.jet_order) {
