@@ -189,7 +189,11 @@ SignedDistanceResult NearestVertexDistance::Query(const Eigen::Vector3d& p, int 
   double d2;
   const int v = tree_->Nearest(p, &d2, hint);
   SignedDistanceResult r;
-  r.face = v;  // the vertex: a hint for a query close by
+  r.face = v;   // the vertex: a hint for a query close by
+  if (v < 0) {  // a point with a NaN: no vertex is nearest
+    r.distance = std::numeric_limits<double>::quiet_NaN();
+    return r;
+  }
   r.closest = body_.vertices.col(v);
   r.normal = normals_.col(v);
   r.distance = (p - r.closest).dot(r.normal);

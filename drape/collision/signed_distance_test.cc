@@ -74,6 +74,10 @@ TEST(BodySignedDistanceTest, FollowsANewPose) {
   const Eigen::VectorXd many = exact.SignedDistances(moved * 1.0, 2);
   EXPECT_LT(many.cwiseAbs().maxCoeff(), 1e-12);  // the vertices themselves
   EXPECT_THROW(approximate.SetVertices(moved.leftCols(5)), std::invalid_argument);
+  // A point with a NaN: no vertex, a NaN distance, no crash.
+  const SignedDistanceResult lost = approximate.Query(Eigen::Vector3d(std::nan(""), 0, 0));
+  EXPECT_EQ(lost.face, -1);
+  EXPECT_TRUE(std::isnan(lost.distance));
 }
 
 TEST(BodySignedDistanceTest, HintsChangeNoAnswer) {
