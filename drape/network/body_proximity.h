@@ -126,8 +126,9 @@ class PosedBodySamples {
 // body: posed by the same pose.
 // hints (may be null; one per probe, patch-major, -1 for none, resized):
 // each probe's nearest sample as last found, which starts the next
-// search's bound there (a probe moves little from frame to frame; a probe
-// without one starts from its patch's first probe's): the same answers
+// search's bound there (a probe moves little from frame to frame). A
+// patch's probes are searched as one group (QueryGroup); a probe without
+// a hint starts from the first of its patch's hints. The same answers
 // (but for ties), found sooner.
 void BodyProximityFeatures(const PatchProbes& probes, const JointTransforms& pose, const PosedBodySamples& body,
                            Eigen::MatrixXd* features, std::vector<int>* hints = nullptr);
