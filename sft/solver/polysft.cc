@@ -311,6 +311,10 @@ class PolySftController {
   // The deformation chosen, and what may make the result unreliable.
   void CheckTemplate() {
     summary_.deformation = model_.texture_space() ? "texture_space" : "patch_jet";
+    if (options_.start_from_ground_truth && scene_.ground_truth_kind != GroundTruthKind::kVertices) {
+      summary_.warnings.emplace_back(
+          "start_from_ground_truth: the scene has no per-vertex ground truth; frames start from the frame before");
+    }
     if (model_.texture_space() && !options_.deformation.texture_space) {
       summary_.warnings.emplace_back(
           "the template is not a height field over one plane: it is deformed by a texture-space field instead of "
@@ -566,6 +570,37 @@ class PolySftController {
     }
     data->theta = WarmStart(*data);
     window_.push_back(std::move(data));
+    if (options_.start_from_ground_truth) StartFromGroundTruth();
+  }
+
+  // PolySftOptions::start_from_ground_truth: the newest frame's parameters
+  // fitted to its ground truth under the regularisers (the window's other
+  // frames held), each vertex pulled to its point by
+  //   r = (w / L) (X_i - G_i),  w^2 = 10 / #V,  L the template's mean edge,
+  // the temporal term's order-1 residual against the ground truth as data.
+  void StartFromGroundTruth() {
+    FrameData& frame = *window_.back();
+    const Eigen::Matrix3Xd& truth = frame.frame.ground_truth;
+    if (scene_.ground_truth_kind != GroundTruthKind::kVertices || truth.cols() != model_.num_vertices()) return;
+    ceres::Problem::Options problem_options;
+    problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+    ceres::Problem problem(problem_options);
+    const std::vector<double*> blocks = Blocks(frame.theta);
+    const double w = std::sqrt(10.0 / model_.num_vertices());
+    for (int p = 0; p < model_.num_patches(); ++p) {
+      problem.AddResidualBlock(new CompressedCost(new TemporalCost(&model_, p, mean_edge_, w, &truth)), nullptr,
+                               blocks[p]);
+    }
+    AddRegularizers(window_.size() - 1, false, &problem);
+    for (size_t k = 0; k + 1 < window_.size(); ++k) {
+      for (double* block : Blocks(window_[k]->theta)) {
+        if (problem.HasParameterBlock(block)) problem.SetParameterBlockConstant(block);
+      }
+    }
+    ceres::Solver::Options solver = LevelSolverOptions();
+    solver.max_num_iterations = 30;
+    ceres::Solver::Summary result;
+    ceres::Solve(solver, &problem, &result);
   }
 
   // The template's keypoints (TextureFeatures), from the template rendered

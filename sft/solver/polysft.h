@@ -180,6 +180,12 @@ struct PolySftOptions {
   // simulated flag it re-solved 26 frames and ended worse (docs/
   // benchmarks.md).
   bool recover_lost_frames = false;
+  // A diagnostic: each frame starts from the model fitted to its ground
+  // truth (per-vertex ground truth only; ignored otherwise) under the
+  // regularisers, instead of from the frame before. The error left is
+  // what the cost itself holds the surface to when tracking is perfect:
+  // the part of a scene's error that better tracking cannot remove.
+  bool start_from_ground_truth = false;
   // Per-pixel robust loss of the photometric residual (real video).
   RobustLoss robust_loss = RobustLoss::kNone;
   double robust_scale = 0.1;

@@ -77,6 +77,7 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("match_brightness", match_brightness),
         POLYFIT_SETTING("predict_motion", predict_motion),
         POLYFIT_SETTING("recover_lost_frames", recover_lost_frames),
+        POLYFIT_SETTING("start_from_ground_truth", start_from_ground_truth),
         POLYFIT_SETTING("max_patches", atlas.max_patches),
         POLYFIT_SETTING("initial_patches", atlas.initial_patches),
         POLYFIT_SETTING("split_ratio", atlas.split_ratio),
