@@ -311,9 +311,10 @@ class PolySftController {
   // The deformation chosen, and what may make the result unreliable.
   void CheckTemplate() {
     summary_.deformation = model_.texture_space() ? "texture_space" : "patch_jet";
-    if (options_.start_from_ground_truth && scene_.ground_truth_kind != GroundTruthKind::kVertices) {
+    if (options_.ground_truth_start != GroundTruthStart::kNone &&
+        scene_.ground_truth_kind != GroundTruthKind::kVertices) {
       summary_.warnings.emplace_back(
-          "start_from_ground_truth: the scene has no per-vertex ground truth; frames start from the frame before");
+          "ground_truth_start: the scene has no per-vertex ground truth; frames start from the frame before");
     }
     if (model_.texture_space() && !options_.deformation.texture_space) {
       summary_.warnings.emplace_back(
@@ -570,18 +571,22 @@ class PolySftController {
     }
     data->theta = WarmStart(*data);
     window_.push_back(std::move(data));
-    if (options_.start_from_ground_truth) StartFromGroundTruth();
+    if (options_.ground_truth_start != GroundTruthStart::kNone) StartFromGroundTruth();
   }
 
-  // PolySftOptions::start_from_ground_truth: the newest frame's parameters
-  // fitted to its ground truth under the regularisers (the window's other
-  // frames held), each vertex pulled to its point by
+  // PolySftOptions::ground_truth_start: the newest frame's parameters
+  // fitted to the ground truth (its own, or the frame before's) under the
+  // regularisers (the window's other frames held), each vertex pulled to
+  // its point by
   //   r = (w / L) (X_i - G_i),  w^2 = 10 / #V,  L the template's mean edge,
   // the temporal term's order-1 residual against the ground truth as data.
   void StartFromGroundTruth() {
     FrameData& frame = *window_.back();
-    const Eigen::Matrix3Xd& truth = frame.frame.ground_truth;
-    if (scene_.ground_truth_kind != GroundTruthKind::kVertices || truth.cols() != model_.num_vertices()) return;
+    if (scene_.ground_truth_kind != GroundTruthKind::kVertices) return;
+    const int t = frame.frame.index - scene_.first_frame;
+    const bool before = options_.ground_truth_start == GroundTruthStart::kFrameBefore && t > 0;
+    const Eigen::Matrix3Xd truth = before ? LoadFrame(scene_, t - 1).ground_truth : frame.frame.ground_truth;
+    if (truth.cols() != model_.num_vertices()) return;
     ceres::Problem::Options problem_options;
     problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
     ceres::Problem problem(problem_options);

@@ -29,6 +29,9 @@
 
 namespace polyfit {
 
+// PolySftOptions::ground_truth_start.
+enum class GroundTruthStart { kNone, kThisFrame, kFrameBefore };
+
 struct PolySftOptions {
   JetDeformationOptions deformation;
   // The template starts as one patch and splits where one jet cannot
@@ -180,12 +183,16 @@ struct PolySftOptions {
   // simulated flag it re-solved 26 frames and ended worse (docs/
   // benchmarks.md).
   bool recover_lost_frames = false;
-  // A diagnostic: each frame starts from the model fitted to its ground
-  // truth (per-vertex ground truth only; ignored otherwise) under the
-  // regularisers, instead of from the frame before. The error left is
-  // what the cost itself holds the surface to when tracking is perfect:
-  // the part of a scene's error that better tracking cannot remove.
-  bool start_from_ground_truth = false;
+  // A diagnostic (per-vertex ground truth only; ignored otherwise): each
+  // frame starts from the model fitted under the regularisers to the
+  // ground truth of
+  //   kThisFrame   the frame itself: the error left is what the cost holds
+  //                the surface to when tracking is perfect, the part that
+  //                better tracking cannot remove;
+  //   kFrameBefore the frame before: one ordinary step from a perfect
+  //                past, what a frame's motion alone costs (without the
+  //                errors that tracking accumulates).
+  GroundTruthStart ground_truth_start = GroundTruthStart::kNone;
   // Per-pixel robust loss of the photometric residual (real video).
   RobustLoss robust_loss = RobustLoss::kNone;
   double robust_scale = 0.1;

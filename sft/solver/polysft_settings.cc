@@ -77,7 +77,6 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("match_brightness", match_brightness),
         POLYFIT_SETTING("predict_motion", predict_motion),
         POLYFIT_SETTING("recover_lost_frames", recover_lost_frames),
-        POLYFIT_SETTING("start_from_ground_truth", start_from_ground_truth),
         POLYFIT_SETTING("max_patches", atlas.max_patches),
         POLYFIT_SETTING("initial_patches", atlas.initial_patches),
         POLYFIT_SETTING("split_ratio", atlas.split_ratio),
@@ -116,6 +115,10 @@ const std::vector<Setting>& Settings() {
     s.push_back(EnumSetting<RobustLoss>(
         "robust_loss", &PolySftOptions::robust_loss,
         {{RobustLoss::kNone, "none"}, {RobustLoss::kHuber, "huber"}, {RobustLoss::kCauchy, "cauchy"}}));
+    s.push_back(EnumSetting<GroundTruthStart>("ground_truth_start", &PolySftOptions::ground_truth_start,
+                                              {{GroundTruthStart::kNone, "none"},
+                                               {GroundTruthStart::kThisFrame, "this_frame"},
+                                               {GroundTruthStart::kFrameBefore, "frame_before"}}));
     return s;
   }();
   return settings;

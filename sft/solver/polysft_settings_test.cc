@@ -39,7 +39,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.silhouette_band = 4.5;
   changed.match_brightness = false;
   changed.predict_motion = true;
-  changed.start_from_ground_truth = true;
+  changed.ground_truth_start = GroundTruthStart::kFrameBefore;
   changed.rasterizer.sigma = 2.5;
   changed.rasterizer.gamma = 0.2;
   changed.depth_softness = 2e-3;
