@@ -244,9 +244,6 @@ TEST(PolySftTest, KeypointsFollowAClothFallingFasterThanThePyramidReaches) {
   }
 }
 
-// The physics prior reads the scene's gravity and frame rate: with them,
-// a temporal term of order 2 whose target moves by g dt^2 (with gravity
-// zero, exactly order 2); without them, off, with a warning.
 // ground_truth_start, the diagnostic: a frame the default loses (the
 // fall at frame 4, above) starts from its truth and stays near it, and
 // from the truth of the frame before follows one frame's motion; a scene
@@ -283,6 +280,9 @@ TEST(PolySftTest, StartingFromTheGroundTruthSeparatesTheCostFromTracking) {
   EXPECT_TRUE(warned);
 }
 
+// The physics prior reads the scene's gravity and frame rate: with them,
+// a temporal term of order 2 whose target moves by g dt^2 (with gravity
+// zero, exactly order 2); without them, off, with a warning.
 TEST(PolySftTest, TheGravityPriorIsActiveOnlyWhereTheSceneStatesGravity) {
   ScopedTempDir dir("polyfit_sft_gravity");
   GenerateSheetScene(SmallScene(SheetMotion::kFall, 4), dir.path().string());
