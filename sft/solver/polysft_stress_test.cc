@@ -63,7 +63,7 @@ TEST(PolySftStressTest, SheetTurningEdgeOn) {
   Report("edge-on", summary);
   ExpectFiniteEverywhere(summary, 13);
   EXPECT_FALSE(summary.warnings.empty());
-  // Flat-on again near the end (frame 11 measured 2.8 mm).
+  // Flat-on again near the end (frame 11 measured 0.78 mm).
   double best_late = 1e9;
   for (int f = 10; f < 13; ++f) best_late = std::min(best_late, summary.frames[f].rmse_mm);
   EXPECT_LT(best_late, 5.0);
