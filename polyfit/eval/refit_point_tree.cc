@@ -72,6 +72,11 @@ void RefitPointTree::Refit(const Eigen::Matrix3Xd& points) {
   }
 }
 
+double RefitPointTree::PlacedDistance2(int i, const Eigen::Vector3d& q) const {
+  const double dx = points_(i, 0) - q.x(), dy = points_(i, 1) - q.y(), dz = points_(i, 2) - q.z();
+  return dx * dx + dy * dy + dz * dz;
+}
+
 void RefitPointTree::ScanLeaf(const Node& node, const Eigen::Vector3d& q, int* best, double* best_d2) const {
   // The leaf's squared distances in one pass over its coordinates, then
   // the nearest (the first of ties, as one point at a time).
@@ -129,11 +134,8 @@ void RefitPointTree::Search(int index, const Eigen::Vector3d& q, int* best, doub
 int RefitPointTree::Nearest(const Eigen::Vector3d& query, double* squared_distance, int hint) const {
   int best = -1;
   double best_d2 = std::numeric_limits<double>::infinity();
-  if (hint >= 0 && hint < size()) {
-    const int i = place_[hint];
-    const double dx = points_(i, 0) - query.x(), dy = points_(i, 1) - query.y(), dz = points_(i, 2) - query.z();
-    // As the leaves' scan sums it, so that a hint ties with itself.
-    const double d2 = dx * dx + dy * dy + dz * dz;
+  if (IsIndex(hint)) {
+    const double d2 = PlacedDistance2(place_[hint], query);
     if (d2 < best_d2) {  // false for a NaN
       best = place_[hint];
       best_d2 = d2;
@@ -211,7 +213,7 @@ void RefitPointTree::NearestGroup(const Eigen::Matrix3Xd& queries, const int* hi
   group.centre = queries.rowwise().mean();
   int shared = -1;  // a hint for the queries without one
   for (int i = 0; i < count && shared < 0; ++i) {
-    if (hints != nullptr && hints[i] >= 0 && hints[i] < size()) shared = hints[i];
+    if (hints != nullptr && IsIndex(hints[i])) shared = hints[i];
   }
   if (shared < 0) {
     double d2;
@@ -221,10 +223,9 @@ void RefitPointTree::NearestGroup(const Eigen::Matrix3Xd& queries, const int* hi
     const Eigen::Vector3d q = queries.col(i);
     group.query[i] = q;
     group.offset[i] = (q - group.centre).norm();
-    const int hint = hints != nullptr && hints[i] >= 0 && hints[i] < size() ? hints[i] : shared;
+    const int hint = hints != nullptr && IsIndex(hints[i]) ? hints[i] : shared;
     const int b = place_[hint];
-    const double dx = points_(b, 0) - q.x(), dy = points_(b, 1) - q.y(), dz = points_(b, 2) - q.z();
-    const double d2 = dx * dx + dy * dy + dz * dz;                      // as the leaves' scan sums it
+    const double d2 = PlacedDistance2(b, q);
     const bool bounded = d2 < std::numeric_limits<double>::infinity();  // false for a point with a NaN
     group.best[i] = bounded ? b : -1;
     group.best_d2[i] = bounded ? d2 : std::numeric_limits<double>::infinity();

@@ -59,6 +59,10 @@ class RefitPointTree {
   void ScanLeaf(const Node& leaf, const Eigen::Vector3d& q, int* best, double* best_d2) const;
   struct Group;
   void SearchGroup(int node, Group* group) const;
+  bool IsIndex(int i) const { return i >= 0 && i < size(); }
+  // |points_ row i (leaf order) - q|^2, summed as the leaves' scan sums it,
+  // so that a hint's bound ties with its own point.
+  double PlacedDistance2(int i, const Eigen::Vector3d& q) const;
 
   // N by 3 (each coordinate contiguous, for the leaves' scans), in leaf order.
   Eigen::Matrix<double, Eigen::Dynamic, 3> points_;

@@ -583,9 +583,12 @@ class PolySftController {
   void StartFromGroundTruth() {
     FrameData& frame = *window_.back();
     if (scene_.ground_truth_kind != GroundTruthKind::kVertices) return;
-    const int t = frame.frame.index - scene_.first_frame;
-    const bool before = options_.ground_truth_start == GroundTruthStart::kFrameBefore && t > 0;
-    const Eigen::Matrix3Xd truth = before ? LoadFrame(scene_, t - 1).ground_truth : frame.frame.ground_truth;
+    Eigen::Matrix3Xd truth = frame.frame.ground_truth;
+    if (options_.ground_truth_start == GroundTruthStart::kFrameBefore) {
+      // Frames enter in order: the one before's truth is kept, not read again.
+      std::swap(truth, previous_truth_);
+      if (truth.cols() == 0) truth = previous_truth_;  // the first frame: its own
+    }
     if (truth.cols() != model_.num_vertices()) return;
     ceres::Problem::Options problem_options;
     problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
@@ -1302,6 +1305,7 @@ class PolySftController {
   std::vector<Eigen::Matrix3Xd> finals_;  // the two frames before the window, newest first, once there are
   std::vector<double> previous_final_theta_;
   bool recovering_ = false;  // solving a lost frame again (RecoverLostFrame)
+  Eigen::Matrix3Xd previous_truth_;  // the last frame's ground truth (ground_truth_start kFrameBefore)
   std::vector<double> frame_time_, frame_cost_;
   std::vector<int> frame_iterations_;
   int solves_ = 0, unconverged_solves_ = 0;
