@@ -85,6 +85,10 @@ std::string OneFitTrainerOptions::Validate() const {
   }
   if (d.num_processes > 1 && !d.all_reduce) return "distribution: several processes need all_reduce";
   if (!(kext_final_epoch >= 0.0) || !std::isfinite(kext_final_epoch)) return "kext_final_epoch must be >= 0";
+  if (!std::isfinite(collision_start)) return "collision_start must be finite (< 0: no curriculum)";
+  if (!(collision_ramp[0] >= 0.0 && collision_ramp[0] <= collision_ramp[1] && collision_ramp[1] <= 1.0)) {
+    return "collision_ramp must satisfy 0 <= start <= end <= 1";
+  }
   if (!(joint_mask_reach >= 0.0 && joint_mask_reach <= 1.0)) return "joint_mask_reach must be in [0, 1]";
   if (teacher.clips < 0 || teacher.max_frames < 0 || teacher.lead_in < 0 || teacher.batches < 0) {
     return "teacher: clips, max_frames, lead_in and batches must be >= 0";
@@ -642,6 +646,21 @@ int ValidationFrame(int i, int count, int clip_frames) {
   return static_cast<int>((2 * static_cast<long>(i) + 1) * clip_frames / (2 * static_cast<long>(count)));
 }
 
+double OneFitTrainer::CollisionWeightAt(int batch) const {
+  const double final_weight = options_.drape.physics.weights.collision;
+  if (options_.collision_start < 0.0) return final_weight;
+  const double t = static_cast<double>(batch) / std::max(options_.num_batches, 1);
+  const auto [begin, end] = options_.collision_ramp;
+  const double along = t <= begin ? 0.0 : t >= end ? 1.0 : (t - begin) / (end - begin);
+  return options_.collision_start + along * (final_weight - options_.collision_start);
+}
+
+void OneFitTrainer::SetCollisionWeight(double weight) {
+  for (const std::unique_ptr<GarmentData>& g : garments_) {
+    for (const std::unique_ptr<DrapeSolver>& solver : g->solvers) solver->SetCollisionWeight(weight);
+  }
+}
+
 void OneFitTrainer::ValidationDrape(const double* weights, int garment, int clip, int frames, double* inside_percent,
                                     double* edge_strain_percent, double* loss) {
   DrapeSolver& solver = *garments_.at(garment)->solvers.front();
@@ -660,11 +679,15 @@ void OneFitTrainer::ValidationDrape(const double* weights, int garment, int clip
   *inside_percent = inside;
   *edge_strain_percent = strain;
   if (loss != nullptr) {
+    // The loss's own collision weight, whatever the batch's.
+    const double batch_weight = solver.collision_weight();
+    solver.SetCollisionWeight(options_.drape.physics.weights.collision);
     double sum = 0.0;
     for (int i = 0; i < count; ++i) {
       const int f = ValidationFrame(i, count, static_cast<int>(c.poses.size()));
       sum += SampleLoss(weights, weights, {garment, clip, f}, 0, nullptr, options_.kext_final_epoch);
     }
+    solver.SetCollisionWeight(batch_weight);
     *loss = sum / count;
   }
 }
@@ -715,6 +738,7 @@ OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights, int fir
     for (OneFitSample& s : batch) s = DrawSample(&rng);
     if (b < first_batch) continue;
     epoch_ = options_.kext_final_epoch * b / options_.num_batches;
+    SetCollisionWeight(CollisionWeightAt(b));
     adam_before = adam;
     OneFitBatchSummary record = options_.optimizer == OneFitOptimizer::kAdam ? AdamBatch(batch, b, &adam, weights)
                                                                              : LbfgsBatch(batch, b, weights);
@@ -746,6 +770,7 @@ OneFitTrainingSummary OneFitTrainer::Train(std::vector<double>* weights, int fir
     best = *weights;
     if (on_batch) on_batch(summary.batches.back(), *weights, validated);
   }
+  SetCollisionWeight(options_.drape.physics.weights.collision);
   if (averaging) *weights = adam.average;
   if (summary.termination_type != TerminationType::kFailure) {
     summary.termination_type = TerminationType::kNoConvergence;

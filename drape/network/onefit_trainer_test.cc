@@ -281,6 +281,50 @@ TEST_F(OneFitTrainerTest, TheValidationDrapeMeasuresTheNetworksGarment) {
   EXPECT_NEAR(strain, 0.0, 1e-6);  // rigid skinning stretches nothing
 }
 
+// The collision curriculum: k_c held, ramped and held again over the
+// batches; the loss is affine in k_c, validation weighs collisions at the
+// loss's own whatever the batch's, and training ends at the loss's own.
+TEST_F(OneFitTrainerTest, ACollisionCurriculumRaisesTheWeightAndValidatesAtTheLossesOwn) {
+  OneFitTrainerOptions options = options_;
+  const double final_weight = options.drape.physics.weights.collision;
+  options.collision_start = 0.25 * final_weight;
+  options.collision_ramp = {0.25, 0.75};
+  options.num_batches = 8;
+  options.validation_every = 0;
+  OneFitTrainer trainer(body_, {TubeShirt()}, {Bob(body_, 8)}, options);
+  EXPECT_DOUBLE_EQ(trainer.CollisionWeightAt(0), 0.25 * final_weight);
+  EXPECT_DOUBLE_EQ(trainer.CollisionWeightAt(2), 0.25 * final_weight);  // the ramp starts at a quarter
+  EXPECT_DOUBLE_EQ(trainer.CollisionWeightAt(4), 0.625 * final_weight);
+  EXPECT_DOUBLE_EQ(trainer.CollisionWeightAt(6), final_weight);
+  EXPECT_DOUBLE_EQ(trainer.CollisionWeightAt(7), final_weight);
+  EXPECT_DOUBLE_EQ(trainer_->CollisionWeightAt(0), final_weight);  // no curriculum
+
+  std::vector<double> weights = trainer.InitialWeights();
+  const std::vector<OneFitSample> samples = {{0, 0, 2}, {0, 0, 5}};
+  const auto loss_at = [&](double k_c) {
+    trainer.SetCollisionWeight(k_c);
+    return trainer.Loss(weights.data(), samples, nullptr);
+  };
+  const double gentle = loss_at(0.25 * final_weight), stiff = loss_at(final_weight),
+               between = loss_at(0.625 * final_weight);
+  ASSERT_GT(stiff, gentle);  // the shirt touches the torso: collisions count
+  EXPECT_NEAR(between, 0.5 * (gentle + stiff), 1e-9 * stiff);
+
+  double inside = 0.0, strain = 0.0, validated_gentle = 0.0, validated_stiff = 0.0;
+  trainer.SetCollisionWeight(final_weight);
+  trainer.ValidationDrape(weights.data(), 0, 0, 4, &inside, &strain, &validated_stiff);
+  trainer.SetCollisionWeight(0.25 * final_weight);
+  trainer.ValidationDrape(weights.data(), 0, 0, 4, &inside, &strain, &validated_gentle);
+  EXPECT_DOUBLE_EQ(validated_gentle, validated_stiff);
+  EXPECT_DOUBLE_EQ(trainer.Loss(weights.data(), samples, nullptr), gentle);  // the batch's weight is back
+
+  const OneFitTrainingSummary summary = trainer.Train(&weights);
+  ASSERT_TRUE(summary.termination_type != TerminationType::kFailure) << summary.BriefReport();
+  OneFitTrainer plain(body_, {TubeShirt()}, {Bob(body_, 8)}, options_);
+  EXPECT_NEAR(trainer.Loss(weights.data(), samples, nullptr), plain.Loss(weights.data(), samples, nullptr),
+              1e-12 * stiff);
+}
+
 TEST_F(OneFitTrainerTest, AdamLowersTheLossToo) {
   OneFitTrainingGarment shirt = TubeShirt();
   OneFitTrainerOptions options = options_;

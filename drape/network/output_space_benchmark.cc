@@ -9,7 +9,7 @@
 // between this and a trained network is the training's.
 //
 //   output_space_benchmark [DATA_DIR [GARMENT [FRAMES [AREA:WARP:ITERATIONS[:KC[:EPS[:FLOOR[:KB]]]],...
-//                          [MODEL [reference|network|swap]]]]]]
+//                          [MODEL [reference|network|swap|continuation [KC_LOW]]]]]]]
 //   (DATA_DIR: ../shared/data/drape; WARP -1: no warp head; KC, EPS, FLOOR,
 //   KB: the collision weight, margin and margin floor and the patch
 //   boundary weight, the drape's defaults if not given; the default
@@ -29,7 +29,11 @@
 //   split each drape's strain between the edges within a patch (both
 //   vertices owned by it) and those across a seam. With `swap`: the reference drape's
 //   fitted warps F and MODEL's prediction N per frame, and N with each
-//   block of F's patch parameters swapped in (SwappedBlocks).
+//   block of F's patch parameters swapped in (SwappedBlocks). With
+//   `continuation`: the frame-to-frame solve at the collision weight KC_LOW
+//   (default 1), and from each of its frames ITERATIONS more at KC
+//   (Continuation): whether a drape settled under the gentle weight keeps
+//   its strain when the weight rises, as a curriculum would ask of training.
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -197,6 +201,40 @@ std::array<Row, 3> ReferenceAndFittedWarps(DrapeSolver* solver, const polyfit::M
   return rows;
 }
 
+// The frame-to-frame solve (as DrapeInOutputSpace) on `gentle`'s loss and,
+// from each of its frames, `iterations` L-BFGS iterations on `stiff`'s (the
+// same patching and skinning, another collision weight; the gentle chain's
+// frames as the history). Rows: the gentle chain, the stiff solves from it.
+std::array<Row, 2> Continuation(DrapeSolver* gentle, DrapeSolver* stiff, const polyfit::MotionRetargeter& clip,
+                                int frames, int iterations) {
+  std::vector<double> params = gentle->RestPatchParameters();
+  Eigen::Matrix3Xd previous = gentle->PositionsOf(params), before_previous = previous;
+  const polyfit::ClothRest rest = polyfit::PrepareClothRest(gentle->rest_garment());
+  const ceres::GradientProblemSolver::Options options = LbfgsOptions(iterations);
+  std::array<Row, 2> rows;
+  for (int k = 0; k < kLeadIn + frames; ++k) {
+    const auto pose = LeadInOrFrame(clip, k);
+    gentle->SetHistory(previous, before_previous);
+    gentle->Pose(pose, k);
+    ceres::GradientProblem problem(new FrameLoss(gentle));
+    ceres::GradientProblemSolver::Summary summary;
+    ceres::Solve(options, problem, params.data(), &summary);
+    const Eigen::Matrix3Xd x = gentle->PositionsOf(params);
+    if (k >= kLeadIn) {
+      rows[0].energy += summary.final_cost / frames;
+      rows[0].iterations += static_cast<double>(summary.iterations.size()) / frames;
+      Measure(*gentle, rest, x, frames, &rows[0]);
+      stiff->SetHistory(previous, before_previous);
+      stiff->Pose(pose, k);
+      std::vector<double> raised = params;
+      SolveAndMeasure(options, stiff, rest, frames, &raised, &rows[1]);
+    }
+    before_previous = previous;
+    previous = x;
+  }
+  return rows;
+}
+
 // The model's prediction per frame (its own frames as the history) and,
 // from it, `iterations` L-BFGS iterations on the loss: whether the
 // network's drape is in the basin of the best the output space holds.
@@ -325,7 +363,7 @@ polyfit::DrapeSolverOptions SolverOptions(const Config& c, const polyfit::OneFit
   return options;
 }
 
-enum class Mode { kOutputSpace, kReference, kNetwork, kSwap };
+enum class Mode { kOutputSpace, kReference, kNetwork, kSwap, kContinuation };
 
 // The strain of each row split by edge class (Row::within, Row::seam).
 void PrintSplit(const std::vector<const char*>& names, const std::vector<Row>& rows) {
@@ -336,11 +374,22 @@ void PrintSplit(const std::vector<const char*>& names, const std::vector<Row>& r
 
 // One configuration's line (a table row in the output-space mode).
 void RunConfig(const Config& c, Mode mode, const polyfit::OneFitModel* model, const polyfit::BenchmarkWalk& walk,
-               const polyfit::SkinWeights& weights, int frames) {
+               const polyfit::SkinWeights& weights, int frames, double gentle_collision) {
   const polyfit::SkinnedBody& body = walk.walk.body;
   const polyfit::MotionRetargeter& clip = *walk.walk.clip;
   DrapeSolver solver(body, walk.walk.garment, weights, SolverOptions(c, model));
-  if (mode == Mode::kNetwork) {
+  if (mode == Mode::kContinuation) {
+    Config gentle_config = c;
+    gentle_config.collision = gentle_collision;
+    DrapeSolver gentle(body, walk.walk.garment, weights, SolverOptions(gentle_config, model));
+    const std::array<Row, 2> rows = Continuation(&gentle, &solver, clip, frames, c.iterations);
+    std::printf(
+        "k_c %g, eps %g mm, warp order %d: solved frame to frame at k_c %g %.2f / %.2f (loss %.0f J, %.0f "
+        "iterations); from each of its frames at k_c %g %.2f / %.2f (loss %.0f J, %.0f iterations)\n",
+        c.collision, 1e3 * c.margin, c.warp, gentle_collision, rows[0].inside, rows[0].strain, rows[0].energy,
+        rows[0].iterations, c.collision, rows[1].inside, rows[1].strain, rows[1].energy, rows[1].iterations);
+    PrintSplit({"gentle chain", "raised from it"}, {rows[0], rows[1]});
+  } else if (mode == Mode::kNetwork) {
     const std::array<Row, 5> rows = NetworkAndPolished(*model, body, weights, &solver, clip, frames, c.iterations);
     std::printf(
         "k_c %g, eps %g mm, warp order %d: the network %.2f / %.2f (loss %.0f J); L-BFGS from it %.2f / %.2f "
@@ -407,10 +456,13 @@ int main(int argc, char** argv) {
   const Mode mode = mode_name == "reference" ? Mode::kReference
                     : mode_name == "network" ? Mode::kNetwork
                     : mode_name == "swap"    ? Mode::kSwap
-                                             : Mode::kOutputSpace;
+                    : mode_name == "continuation" ? Mode::kContinuation
+                                                  : Mode::kOutputSpace;
+  const double gentle_collision = argc > 7 ? std::atof(argv[7]) : 1.0;
   if (!mode_name.empty() && mode == Mode::kOutputSpace) {
     std::fprintf(stderr,
-                 "output_space_benchmark: the mode after MODEL is 'reference', 'network', 'swap' or nothing, not "
+                 "output_space_benchmark: the mode after MODEL is 'reference', 'network', 'swap', 'continuation' or "
+                 "nothing, not "
                  "'%s'\n",
                  mode_name.c_str());
     return 2;
@@ -423,6 +475,6 @@ int main(int argc, char** argv) {
         "energy J | eps_c %% | eps_e %% |\n");
     std::printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
   }
-  for (const Config& c : configs) RunConfig(c, mode, model ? &*model : nullptr, *loaded, weights, frames);
+  for (const Config& c : configs) RunConfig(c, mode, model ? &*model : nullptr, *loaded, weights, frames, gentle_collision);
   return 0;
 }

@@ -760,6 +760,10 @@ std::vector<double> DrapeSolver::PatchParameters() const {
   return packed;
 }
 
+void DrapeSolver::SetCollisionWeight(double weight) { impl_->options.physics.weights.collision = weight; }
+
+double DrapeSolver::collision_weight() const { return impl_->options.physics.weights.collision; }
+
 void DrapeSolver::Pose(const std::vector<Eigen::Isometry3d>& rest_to_posed, double epoch) {
   Impl& m = *impl_;
   if (static_cast<int>(rest_to_posed.size()) != m.body.skeleton.num_joints()) {

@@ -212,6 +212,10 @@ class DrapeSolver {
   // warp_order) each); num_patch_parameters() in all.
   // Not thread-safe: use one solver per thread.
   void Pose(const std::vector<Eigen::Isometry3d>& rest_to_posed, double epoch = 0.0);
+  // The collision weight k_c from the next Pose() on (a training's
+  // schedule, OneFitTrainerOptions::collision_start).
+  void SetCollisionWeight(double weight);
+  double collision_weight() const;
   double Evaluate(const std::vector<double>& patch_parameters, std::vector<double>* gradient);
   // The same energy and gradient with the Gauss-Newton approximation of
   // its Hessian, J^T J (num_patch_parameters() #patches square, dense), J

@@ -418,6 +418,16 @@ void AddTrainRunFlags(CLI::App* train, TrainFlags* f) {
                    "k_ext's epoch (eq. 4) at the last batch, reached linearly from 0 (0: no allowance)")
       ->capture_default_str();
   train
+      ->add_option("--k-c-start", t.collision_start,
+                   "a curriculum: the collision weight at the first batch, held over the first --k-c-ramp START of "
+                   "the batches, then raised linearly to --k-c at END (< 0: none)")
+      ->capture_default_str();
+  train
+      ->add_option_function<std::vector<double>>(
+          "--k-c-ramp", [&t](const std::vector<double>& v) { t.collision_ramp = {v[0], v[1]}; },
+          "with --k-c-start: the ramp's START and END, fractions of --batches (default 0.4 0.7)")
+      ->expected(2);
+  train
       ->add_option("--average-batches", t.average_batches,
                    "validate, keep in MODEL.best and return the weights averaged exponentially over about N "
                    "batches (Adam only; 0: the last batch's)")
