@@ -25,6 +25,7 @@
 #include "sft/render/mask_distance.h"
 #include "sft/scene/sft_metrics.h"
 #include "sft/solver/brightness.h"
+#include "sft/solver/flow_matches.h"
 #include "sft/solver/frame_costs.h"
 #include "sft/solver/polysft_settings.h"
 #include "sft/solver/silhouette_band.h"
@@ -60,6 +61,9 @@ struct FrameData {
   // solve (NaN without them).
   std::vector<FeatureMatch> features;
   double feature_error = std::numeric_limits<double>::quiet_NaN();
+  // Optical-flow correspondences from the frame before (the finest level's
+  // pixels; with PolySftOptions::flow_weight only).
+  std::vector<FeatureMatch> flow;
   // The parameters (JetDeformationModel layout).
   std::vector<double> theta;
   // The atlas's patches when the frame was last solved, and the patch of
@@ -168,7 +172,7 @@ std::string PolySftOptions::Validate() const {
   if (max_image_width < 0) return "max_image_width must be >= 0";
   if (max_iterations_per_level < 1) return "max_iterations_per_level must be >= 1";
   if (patience < 1) return "patience must be >= 1";
-  for (double w : {photometric_weight, silhouette_weight, silhouette_reach_weight, feature_weight,
+  for (double w : {photometric_weight, silhouette_weight, silhouette_reach_weight, feature_weight, flow_weight,
                    inextensibility_weight, temporal_weight}) {
     if (!(w >= 0.0) || !std::isfinite(w)) return "term weights must be finite and >= 0";
   }
@@ -263,6 +267,8 @@ class PolySftController {
       summary_.terms.emplace_back("silhouette_reach", o.silhouette_reach_weight);
     use_features_ = use_photometric_ && o.feature_weight > 0.0;
     if (use_features_) summary_.terms.emplace_back("features", o.feature_weight);
+    use_flow_ = use_photometric_ && num_frames > 1 && (o.flow_weight > 0.0 || o.flow_start);
+    if (use_flow_ && o.flow_weight > 0.0) summary_.terms.emplace_back("flow", o.flow_weight);
     if (use_inextensibility_) summary_.terms.emplace_back("inextensibility", o.inextensibility_weight);
     ChooseGravityPrior();
     if (use_temporal_) summary_.terms.emplace_back(gravity_shift_ ? "temporal_gravity" : "temporal", o.temporal_weight);
@@ -569,9 +575,59 @@ class PolySftController {
       if (!features_) FindTemplateKeypoints(*data);
       data->features = features_->Match(data->images.back(), data->masks.back());
     }
+    MatchFlow(data.get());
     data->theta = WarmStart(*data);
     window_.push_back(std::move(data));
+    if (options_.flow_start) StartFromFlow();
     if (options_.ground_truth_start != GroundTruthStart::kNone) StartFromGroundTruth();
+  }
+
+  // PolySftOptions::flow_start: the newest frame's parameters fitted to its
+  // flow correspondences under the regularisers (the window's other frames
+  // held), kept where they fit the frame's coarsest level better than the
+  // warm start. The fit's weight only sets how far the regularisers bend
+  // to the matches (the keypoints' scale).
+  void StartFromFlow() {
+    static constexpr double kWeight = 100.0;
+    static constexpr size_t kMinMatches = 10;
+    FrameData& frame = *window_.back();
+    if (frame.flow.size() < kMinMatches || frame.mask_empty) return;
+    const std::vector<double> warm = frame.theta;
+    ceres::Problem::Options problem_options;
+    problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+    ceres::Problem problem(problem_options);
+    AddMatchTerm(static_cast<int>(levels_.size()) - 1, frame, frame.flow, kWeight, &problem);
+    AddRegularizers(window_.size() - 1, false, &problem);
+    for (size_t k = 0; k + 1 < window_.size(); ++k) {
+      for (double* block : Blocks(window_[k]->theta)) {
+        if (problem.HasParameterBlock(block)) problem.SetParameterBlockConstant(block);
+      }
+    }
+    ceres::Solver::Options solver = LevelSolverOptions();
+    solver.max_num_iterations = 20;
+    ceres::Solver::Summary result;
+    ceres::Solve(solver, &problem, &result);
+    if (!(CoarseImageCost(frame, frame.theta.data()) < CoarseImageCost(frame, warm.data()))) frame.theta = warm;
+  }
+
+  // PolySftOptions::flow_weight, flow_start: the frame before's surface,
+  // where it saw it, carried into this frame by optical flow
+  // (FlowMatches); the frame before's finest image and mask kept for the
+  // next. Only a tracked frame's surface is carried: the flow moves a
+  // frame's registration on, and a lost frame's is wrong (carried, it
+  // keeps the next frames from finding the surface again).
+  void MatchFlow(FrameData* data) {
+    if (!use_flow_) return;
+    if (!window_.empty() && Tracked(*window_.back()) && !data->mask_empty && !previous_image_.empty()) {
+      Eigen::Matrix3Xd vertices;
+      model_.Evaluate(window_.back()->theta.data(), &vertices);
+      FlowMatchOptions flow;
+      flow.depth_tolerance = 0.5 * mean_edge_;
+      data->flow = FlowMatches(levels_.back().camera, vertices, scene_.template_mesh.faces, previous_image_,
+                               data->images.back(), previous_mask_, data->masks_upper.back(), flow);
+    }
+    previous_image_ = data->images.back();
+    previous_mask_ = data->mask_empty ? cv::Mat() : data->masks_upper.back();
   }
 
   // PolySftOptions::ground_truth_start: the newest frame's parameters
@@ -681,26 +737,31 @@ class PolySftController {
       }
     }
     AddSilhouetteReach(l, frame, problem);
-    AddFeatureTerm(l, frame, problem);
+    if (use_features_ && (l + 1 < static_cast<int>(levels_.size()) || options_.features_on_finest)) {
+      AddMatchTerm(l, frame, frame.features, options_.feature_weight, problem);
+    }
+    if (use_flow_ && options_.flow_weight > 0.0 &&
+        (l + 1 < static_cast<int>(levels_.size()) || options_.flow_on_finest)) {
+      AddMatchTerm(l, frame, frame.flow, options_.flow_weight, problem);
+    }
     return true;
   }
 
-  // The keypoint correspondences of a frame at level l (FeatureCost), on
-  // the coarse levels (and with features_on_finest the finest too), with
-  // w = sqrt(feature_weight / N) / (s_l D): D the template's linear size
-  // in full-size pixels, s_l the level's scale, so that the cost is
-  // feature_weight / 2 times the mean squared distance over D^2 at any
+  // Correspondences of a frame at level l (FeatureCost; keypoints or
+  // optical flow), with w = sqrt(weight / N) / (s_l D): D the template's
+  // linear size in full-size pixels, s_l the level's scale, so that the
+  // cost is weight / 2 times the mean squared distance over D^2 at any
   // level; the dead zone and Huber's threshold in full-size pixels. One
-  // cost per set of patches the keypoints' faces span (in a fixed order),
+  // cost per set of patches the matches' faces span (in a fixed order),
   // so that an atlas's normal equations stay sparse by patch.
-  void AddFeatureTerm(int l, FrameData& frame, ceres::Problem* problem) {
-    const bool finest = l + 1 == static_cast<int>(levels_.size());
-    if (!use_features_ || frame.features.empty() || (finest && !options_.features_on_finest)) return;
+  void AddMatchTerm(int l, FrameData& frame, const std::vector<FeatureMatch>& matches, double weight,
+                    ceres::Problem* problem) {
+    if (matches.empty()) return;
     const LevelData& level = levels_[l];
-    const double w = std::sqrt(options_.feature_weight / frame.features.size()) / std::sqrt(template_pixels_);
+    const double w = std::sqrt(weight / matches.size()) / std::sqrt(template_pixels_);
     const double to_level = level.scale / levels_.back().scale;  // the matches are in the finest level's pixels
     std::map<std::vector<int>, std::vector<FeatureCost::Point>> by_patches;
-    for (const FeatureMatch& m : frame.features) {
+    for (const FeatureMatch& m : matches) {
       const Eigen::Vector3i corners = scene_.template_mesh.faces.col(m.face);
       std::vector<int> patches = {model_.patch_of_vertex(corners[0]), model_.patch_of_vertex(corners[1]),
                                   model_.patch_of_vertex(corners[2])};
@@ -1290,6 +1351,9 @@ class PolySftController {
   bool use_masks_ = false, use_temporal_ = false, use_photometric_ = false, use_inextensibility_ = false;
   std::optional<Eigen::Vector3d> gravity_shift_;  // g dt^2, with the physics prior
   bool use_features_ = false;
+  bool use_flow_ = false;
+  // The frame before's finest image and (upper) mask (with use_flow_).
+  cv::Mat previous_image_, previous_mask_;
   // The template's keypoints on the surface (with use_features_), and the
   // finest level's texture they are rendered with.
   std::unique_ptr<TextureFeatures> features_;

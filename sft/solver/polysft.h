@@ -161,6 +161,24 @@ struct PolySftOptions {
   // pixel, is the photometric term's to settle, not a pull to bias it.
   double feature_dead_zone_px = 2.0;
   bool features_on_finest = false;
+  // Optical-flow correspondences (sft/solver/flow_matches.h): each frame's
+  // surface as solved, where that frame saw it, carried into the next frame
+  // by dense optical flow (forward-backward checked), pulls the next
+  // frame's vertices to where the image moved them, with FeatureCost's
+  // weighting as for keypoints (dead zone and Huber threshold shared), on
+  // the coarse levels only (with flow_on_finest every level): a frame's
+  // motion of tens of pixels is found where the blurred levels of the
+  // photometric term do not reach, and the finest level's fit is the
+  // images' alone. 0: off. Needs the photometric term.
+  double flow_weight = 0.0;
+  bool flow_on_finest = false;
+  // Start each frame from the surface fitted to its optical-flow
+  // correspondences (under the regularisers) where that fits the frame
+  // better than the warm start does (the image terms at the coarsest
+  // level): the flow finds a large motion, and the solve that follows is
+  // the images' alone, so a frame solved wrongly is not carried on by the
+  // flow. Needs the photometric term.
+  bool flow_start = false;
   TextureFeatureOptions features;
   // Map each frame to the texture's lighting (per-channel gain and bias,
   // sft/solver/brightness.h) before the photometric term compares them.
