@@ -161,23 +161,25 @@ struct PolySftOptions {
   // pixel, is the photometric term's to settle, not a pull to bias it.
   double feature_dead_zone_px = 2.0;
   bool features_on_finest = false;
-  // Optical-flow correspondences (sft/solver/flow_matches.h): each frame's
-  // surface as solved, where that frame saw it, carried into the next frame
-  // by dense optical flow (forward-backward checked), pulls the next
-  // frame's vertices to where the image moved them, with FeatureCost's
-  // weighting as for keypoints (dead zone and Huber threshold shared), on
-  // the coarse levels only (with flow_on_finest every level): a frame's
-  // motion of tens of pixels is found where the blurred levels of the
-  // photometric term do not reach, and the finest level's fit is the
-  // images' alone. 0: off. Needs the photometric term.
+  // Optical-flow correspondences (sft/solver/flow_matches.h): the frame
+  // before's surface as solved, where that frame saw it, carried into this
+  // frame by dense optical flow (forward-backward checked), only when the
+  // frame before is tracked (a lost frame's registration is wrong, and the
+  // flow would carry it on). As a term (flow_weight > 0): the vertices
+  // pulled to where the image moved them, weighted as keypoints are
+  // (FeatureCost; their dead zone and Huber threshold), on the coarse
+  // levels only (with flow_on_finest every level). As a start
+  // (flow_start): the newest frame fitted to them under the regularisers,
+  // kept as its start where that fits its coarsest level better than the
+  // warm start; the solve is then the images' alone. Off by default: on
+  // the simulated cloth the start holds the table within 7 mm through frame
+  // 21 where the default loses it from frame 8 (e3D 0.079 -> 0.052) and
+  // the flag a little better (0.042 -> 0.041), but the fall, found 4 frames
+  // longer, ends worse (0.048 -> 0.051), the sheets move by less than 0.1
+  // mm either way, and a frame takes up to twice as long; the term
+  // alone is weaker (docs/benchmarks.md). Both need the photometric term.
   double flow_weight = 0.0;
   bool flow_on_finest = false;
-  // Start each frame from the surface fitted to its optical-flow
-  // correspondences (under the regularisers) where that fits the frame
-  // better than the warm start does (the image terms at the coarsest
-  // level): the flow finds a large motion, and the solve that follows is
-  // the images' alone, so a frame solved wrongly is not carried on by the
-  // flow. Needs the photometric term.
   bool flow_start = false;
   TextureFeatureOptions features;
   // Map each frame to the texture's lighting (per-channel gain and bias,
