@@ -22,6 +22,9 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.feature_huber_px = 4.5;
   changed.feature_dead_zone_px = 1.5;
   changed.features_on_finest = true;
+  changed.flow_weight = 30.0;
+  changed.flow_on_finest = true;
+  changed.flow_start = true;
   changed.window_size = 5;
   changed.coarse_levels_newest_only = false;
   changed.pyramid_levels = 2;
