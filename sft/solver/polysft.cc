@@ -586,10 +586,13 @@ class PolySftController {
   // flow correspondences under the regularisers (the window's other frames
   // held), kept where they fit the frame's coarsest level better than the
   // warm start. The fit's weight only sets how far the regularisers bend
-  // to the matches (the keypoints' scale).
+  // to the matches (the keypoints' scale); a few iterations bring the
+  // start within the pyramid's reach, which is all a start needs (20 cost
+  // four times the time for no better result: docs/benchmarks.md).
   void StartFromFlow() {
     static constexpr double kWeight = 100.0;
     static constexpr size_t kMinMatches = 10;
+    static constexpr int kIterations = 5;
     FrameData& frame = *window_.back();
     if (frame.flow.size() < kMinMatches || frame.mask_empty) return;
     const std::vector<double> warm = frame.theta;
@@ -604,7 +607,7 @@ class PolySftController {
       }
     }
     ceres::Solver::Options solver = LevelSolverOptions();
-    solver.max_num_iterations = 20;
+    solver.max_num_iterations = kIterations;
     ceres::Solver::Summary result;
     ceres::Solve(solver, &problem, &result);
     if (!(CoarseImageCost(frame, frame.theta.data()) < CoarseImageCost(frame, warm.data()))) frame.theta = warm;
@@ -614,8 +617,8 @@ class PolySftController {
   // where it saw it, carried into this frame by optical flow
   // (FlowMatches); the frame before's finest image and mask kept for the
   // next. Only a tracked frame's surface is carried: the flow moves a
-  // frame's registration on, and a lost frame's is wrong (carried, it
-  // keeps the next frames from finding the surface again).
+  // registration on, right or wrong, and a lost frame's carried on keeps
+  // the frames after from finding the surface again.
   void MatchFlow(FrameData* data) {
     if (!use_flow_) return;
     if (!window_.empty() && Tracked(*window_.back()) && !data->mask_empty && !previous_image_.empty()) {

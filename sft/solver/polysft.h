@@ -164,23 +164,26 @@ struct PolySftOptions {
   // Optical-flow correspondences (sft/solver/flow_matches.h): the frame
   // before's surface as solved, where that frame saw it, carried into this
   // frame by dense optical flow (forward-backward checked), only when the
-  // frame before is tracked (a lost frame's registration is wrong, and the
-  // flow would carry it on). As a term (flow_weight > 0): the vertices
-  // pulled to where the image moved them, weighted as keypoints are
-  // (FeatureCost; their dead zone and Huber threshold), on the coarse
-  // levels only (with flow_on_finest every level). As a start
-  // (flow_start): the newest frame fitted to them under the regularisers,
-  // kept as its start where that fits its coarsest level better than the
-  // warm start; the solve is then the images' alone. Off by default: on
-  // the simulated cloth the start holds the table within 7 mm through frame
-  // 21 where the default loses it from frame 8 (e3D 0.079 -> 0.052) and
-  // the flag a little better (0.042 -> 0.041), but the fall, found 4 frames
-  // longer, ends worse (0.048 -> 0.051), the sheets move by less than 0.1
-  // mm either way, and a frame takes up to twice as long; the term
-  // alone is weaker (docs/benchmarks.md). Both need the photometric term.
+  // frame before is tracked (the flow carries a registration on, right or
+  // wrong). As a start (flow_start, on): the newest frame fitted to them
+  // under the regularisers, kept as its start where that fits its coarsest
+  // level better than the warm start; the solve is then the images' alone.
+  // On the simulated cloth it holds the table within 7 mm through frame 20
+  // where the warm start alone loses it from frame 8 (e3D 0.079 -> 0.053)
+  // and finds the fall 4 frames longer (lost either way once it lands:
+  // 0.048 -> 0.050 over the sequence); the flag 0.042 -> 0.041; the sheets
+  // within 0.01 mm but the wave packet 2.70 -> 2.48 mm and a real-like
+  // sheet 0.75 -> 0.69; a frame takes 1.05-1.45 times as long on the
+  // sheets, up to twice on the cloth. As a term (flow_weight > 0, off):
+  // the vertices pulled to where the image moved them, weighted as
+  // keypoints are (FeatureCost; their dead zone and Huber threshold), on
+  // the coarse levels only (with flow_on_finest every level); weaker than
+  // the start, since it ties each frame to the frame before's solution
+  // (docs/benchmarks.md). Both need the photometric term and more than one
+  // frame.
   double flow_weight = 0.0;
   bool flow_on_finest = false;
-  bool flow_start = false;
+  bool flow_start = true;
   TextureFeatureOptions features;
   // Map each frame to the texture's lighting (per-channel gain and bias,
   // sft/solver/brightness.h) before the photometric term compares them.

@@ -24,7 +24,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.features_on_finest = true;
   changed.flow_weight = 30.0;
   changed.flow_on_finest = true;
-  changed.flow_start = true;
+  changed.flow_start = false;
   changed.window_size = 5;
   changed.coarse_levels_newest_only = false;
   changed.pyramid_levels = 2;

@@ -216,7 +216,8 @@ TEST(PolySftTest, LargeMotionBetweenFramesStaysFiniteAndIsWarnedAbout) {
 
 // A cloth falling onto a sphere moves further between frames than the
 // pyramid's coarsest level reaches by frame 4; keypoint correspondences
-// (feature_weight) pull it back from wherever it is.
+// (feature_weight) pull it back from wherever it is. Without the flow
+// start, which follows it too (AFlowStartFollowsAFallThatTheWarmStartLoses).
 TEST(PolySftTest, KeypointsFollowAClothFallingFasterThanThePyramidReaches) {
   ScopedTempDir dir("polyfit_sft_keypoints");
   SheetSceneOptions o = SmallScene(SheetMotion::kFall, 6);
@@ -224,6 +225,7 @@ TEST(PolySftTest, KeypointsFollowAClothFallingFasterThanThePyramidReaches) {
   const SftScene scene = LoadScene(dir.path().string());
   PolySftOptions options;
   options.num_threads = 2;
+  options.flow_start = false;
   const PolySftSummary without = SolvePolySft(options, scene);
   options.feature_weight = 100.0;
   const PolySftSummary with = SolvePolySft(options, scene);
@@ -280,10 +282,10 @@ TEST(PolySftTest, StartingFromTheGroundTruthSeparatesTheCostFromTracking) {
   EXPECT_TRUE(warned);
 }
 
-// flow_start: the small fall (whose frame 4 the default loses) started
-// from each frame's optical-flow fit where that fits the
-// frame better, and the flow term listed among the active terms only with
-// its weight.
+// flow_start: the small fall (whose frame 4 the warm start alone loses)
+// started from each frame's optical-flow fit where that fits the frame
+// better, and the flow term listed among the active terms only with its
+// weight.
 TEST(PolySftTest, AFlowStartFollowsAFallThatTheWarmStartLoses) {
   ScopedTempDir dir("polyfit_sft_flow");
   GenerateSheetScene(SmallScene(SheetMotion::kFall, 6), dir.path().string());
@@ -291,8 +293,9 @@ TEST(PolySftTest, AFlowStartFollowsAFallThatTheWarmStartLoses) {
   PolySftOptions options;
   options.num_threads = 2;
   options.max_frames = 5;
+  options.flow_start = false;
   const PolySftSummary plain = SolvePolySft(options, scene);
-  options.flow_start = true;
+  options.flow_start = true;  // the default
   const PolySftSummary flow = SolvePolySft(options, scene);
   ExpectFinite(flow);
   ASSERT_EQ(flow.frames.size(), 5u);
