@@ -141,6 +141,21 @@ void SolveAndMeasure(const ceres::GradientProblemSolver::Options& options, Drape
   Measure(*solver, rest, solver->PositionsOf(*params), frames, row);
 }
 
+// One frame of the frame-to-frame solve: the solver posed at k with the
+// chain's history, L-BFGS from params (moved in place).
+ceres::GradientProblemSolver::Summary ChainStep(DrapeSolver* solver, const std::vector<Eigen::Isometry3d>& pose,
+                                                int k, const Eigen::Matrix3Xd& previous,
+                                                const Eigen::Matrix3Xd& before_previous,
+                                                const ceres::GradientProblemSolver::Options& options,
+                                                std::vector<double>* params) {
+  solver->SetHistory(previous, before_previous);
+  solver->Pose(pose, k);
+  ceres::GradientProblem problem(new FrameLoss(solver));
+  ceres::GradientProblemSolver::Summary summary;
+  ceres::Solve(options, problem, params->data(), &summary);
+  return summary;
+}
+
 // Lead-in from rest to the first pose, then `frames` frames, each solved
 // from the one before with `iterations` L-BFGS iterations.
 Row DrapeInOutputSpace(DrapeSolver* solver, const polyfit::MotionRetargeter& clip, int frames, int iterations) {
@@ -151,12 +166,8 @@ Row DrapeInOutputSpace(DrapeSolver* solver, const polyfit::MotionRetargeter& cli
   Row row;
   const int lead_in = kLeadIn;
   for (int k = 0; k < lead_in + frames; ++k) {
-    const auto pose = LeadInOrFrame(clip, k);
-    solver->SetHistory(previous, before_previous);
-    solver->Pose(pose, k);
-    ceres::GradientProblem problem(new FrameLoss(solver));
-    ceres::GradientProblemSolver::Summary summary;
-    ceres::Solve(options, problem, params.data(), &summary);
+    const ceres::GradientProblemSolver::Summary summary =
+        ChainStep(solver, LeadInOrFrame(clip, k), k, previous, before_previous, options, &params);
     row.iterations += static_cast<double>(summary.iterations.size()) / (lead_in + frames);
     before_previous = previous;
     previous = solver->PositionsOf(params);
@@ -214,11 +225,8 @@ std::array<Row, 2> Continuation(DrapeSolver* gentle, DrapeSolver* stiff, const p
   std::array<Row, 2> rows;
   for (int k = 0; k < kLeadIn + frames; ++k) {
     const auto pose = LeadInOrFrame(clip, k);
-    gentle->SetHistory(previous, before_previous);
-    gentle->Pose(pose, k);
-    ceres::GradientProblem problem(new FrameLoss(gentle));
-    ceres::GradientProblemSolver::Summary summary;
-    ceres::Solve(options, problem, params.data(), &summary);
+    const ceres::GradientProblemSolver::Summary summary =
+        ChainStep(gentle, pose, k, previous, before_previous, options, &params);
     const Eigen::Matrix3Xd x = gentle->PositionsOf(params);
     if (k >= kLeadIn) {
       rows[0].energy += summary.final_cost / frames;
