@@ -148,12 +148,13 @@ struct PolySftOptions {
   // feature_huber_px more; the finest level is the image's (with
   // features_on_finest, every level). They reach as far as the surface
   // moved, where the image terms reach only the coarsest level's blur, and
-  // they say whether a frame is found (Tracked). 0: off, the default: at
-  // 100 the simulated fall's e3D drops 0.048 -> 0.021 and the table's
-  // 0.079 -> 0.066, but the flag's rises 0.042 -> 0.044, and on a 160 px
-  // sheet turning 60 degrees between frames they pulled it into its
-  // mirror image, which fits the image better and the keypoints exactly
-  // (docs/benchmarks.md). Needs the photometric term.
+  // they say whether a frame is found (Tracked). 0: off, the default:
+  // with the flow start at 100 the simulated flag's e3D drops 0.041 ->
+  // 0.025 and the fall's 0.050 -> 0.021, but the sheets' creases lose 3-4%
+  // and a frame takes up to twice as long. (Without the flow start they
+  // pulled a 160 px sheet turning 60 degrees between frames into its
+  // mirror image, which fits the image better and the keypoints exactly;
+  // with it, no longer: docs/benchmarks.md.) Needs the photometric term.
   double feature_weight = 0.0;
   double feature_huber_px = 3.0;
   // Within this many pixels (full size) of its match a keypoint costs
