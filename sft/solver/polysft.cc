@@ -62,7 +62,7 @@ struct FrameData {
   std::vector<FeatureMatch> features;
   double feature_error = std::numeric_limits<double>::quiet_NaN();
   // Optical-flow correspondences from the frame before (the finest level's
-  // pixels; with PolySftOptions::flow_weight only).
+  // pixels; with PolySftOptions::flow_start or flow_weight only).
   std::vector<FeatureMatch> flow;
   // The parameters (JetDeformationModel layout).
   std::vector<double> theta;
