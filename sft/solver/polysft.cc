@@ -64,6 +64,7 @@ struct FrameData {
   // Optical-flow correspondences from the frame before (the finest level's
   // pixels; with PolySftOptions::flow_start or flow_weight only).
   std::vector<FeatureMatch> flow;
+  bool flow_started = false;  // its start is the flow's fit (flow_start)
   // The parameters (JetDeformationModel layout).
   std::vector<double> theta;
   // The atlas's patches when the frame was last solved, and the patch of
@@ -610,7 +611,8 @@ class PolySftController {
     solver.max_num_iterations = kIterations;
     ceres::Solver::Summary result;
     ceres::Solve(solver, &problem, &result);
-    if (!(CoarseImageCost(frame, frame.theta.data()) < CoarseImageCost(frame, warm.data()))) frame.theta = warm;
+    frame.flow_started = CoarseImageCost(frame, frame.theta.data()) < CoarseImageCost(frame, warm.data());
+    if (!frame.flow_started) frame.theta = warm;
   }
 
   // PolySftOptions::flow_weight, flow_start: the frame before's surface,
@@ -1292,6 +1294,8 @@ class PolySftController {
     result.iterations = iterations;
     result.patches = data.patches;
     result.vertex_patches = data.vertex_patches;
+    result.flow_matches = static_cast<int>(data.flow.size());
+    result.flow_start = data.flow_started;
     if (scene_.ground_truth_kind == GroundTruthKind::kVertices) {
       const Eigen::Matrix3Xd& gt = data.frame.ground_truth;
       result.e3d = ComputeE3D(result.vertices, gt);
@@ -1435,6 +1439,8 @@ void WriteSftOutputs(const std::string& directory, const SftScene& scene, const 
                       {"cost", f.cost},
                       {"iterations", f.iterations},
                       {"patches", f.patches},
+                      {"flow_matches", f.flow_matches},
+                      {"flow_start", f.flow_start},
                       {"e3d", JsonNumber(f.e3d)},
                       {"e_n_deg", JsonNumber(f.normal_error_deg)},
                       {"rmse_mm", JsonNumber(f.rmse_mm)},

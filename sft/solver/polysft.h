@@ -246,6 +246,11 @@ struct SftFrameSummary {
   // (#V; empty for a frame never solved).
   int patches = 1;
   std::vector<int> vertex_patches;
+  // Its optical-flow correspondences from the frame before (0 when that
+  // frame was not tracked), and whether it started from their fit
+  // (PolySftOptions::flow_start).
+  int flow_matches = 0;
+  bool flow_start = false;
   double e3d = std::numeric_limits<double>::quiet_NaN();
   double normal_error_deg = std::numeric_limits<double>::quiet_NaN();
   double rmse_mm = std::numeric_limits<double>::quiet_NaN();

@@ -304,6 +304,18 @@ TEST(PolySftTest, AFlowStartFollowsAFallThatTheWarmStartLoses) {
   ASSERT_EQ(plain.frames.size(), 5u);
   EXPECT_GT(plain.frames[4].rmse_mm, 10.0);
   for (int t = 0; t < 5; ++t) EXPECT_LT(flow.frames[t].rmse_mm, 2.5) << "frame " << t;
+  // Each frame says what the flow gave it: none for the first, matches for
+  // the others (every frame before is tracked), and a start from their fit
+  // where it fit better; nothing without the flow start.
+  EXPECT_EQ(flow.frames[0].flow_matches, 0);
+  int flow_started = 0;
+  for (int t = 1; t < 5; ++t) {
+    EXPECT_GT(flow.frames[t].flow_matches, 10) << "frame " << t;
+    flow_started += flow.frames[t].flow_start ? 1 : 0;
+    EXPECT_EQ(plain.frames[t].flow_matches, 0);
+    EXPECT_FALSE(plain.frames[t].flow_start);
+  }
+  EXPECT_GT(flow_started, 0);
   for (const auto& term : flow.terms) EXPECT_NE(term.first, "flow");
   options.flow_weight = 100.0;
   options.max_frames = 2;
