@@ -240,6 +240,7 @@ class PolySftController {
       frame_cost_[t] = cost;  // whether it is tracked, for RefineAtlas
       if (RefineAtlas(t) && !SolveWindow(&cost, &iterations)) break;
       RecoverLostFrame(t, &cost, &iterations);
+      if (t > 0 && CostRatio(cost) > kLostCostRatio) KeypointsFromNowOn(t);
       frame_time_[t] = Seconds(frame_start);
       frame_cost_[t] = cost;
       frame_iterations_[t] = iterations;
@@ -267,6 +268,7 @@ class PolySftController {
     if (use_masks_ && o.silhouette_reach_weight > 0.0)
       summary_.terms.emplace_back("silhouette_reach", o.silhouette_reach_weight);
     use_features_ = use_photometric_ && o.feature_weight > 0.0;
+    feature_weight_ = o.feature_weight;
     if (use_features_) summary_.terms.emplace_back("features", o.feature_weight);
     use_flow_ = use_photometric_ && num_frames > 1 && (o.flow_weight > 0.0 || o.flow_start);
     if (use_flow_ && o.flow_weight > 0.0) summary_.terms.emplace_back("flow", o.flow_weight);
@@ -583,6 +585,18 @@ class PolySftController {
     if (options_.ground_truth_start != GroundTruthStart::kNone) StartFromGroundTruth();
   }
 
+  // PolySftOptions::keypoints_when_lost: the keypoint term on from the
+  // frame after the first lost one.
+  void KeypointsFromNowOn(int t) {
+    static constexpr double kWeight = 100.0;
+    if (!options_.keypoints_when_lost || use_features_ || !use_photometric_) return;
+    use_features_ = true;
+    feature_weight_ = kWeight;
+    summary_.terms.emplace_back("features", kWeight);
+    summary_.warnings.emplace_back("frame " + std::to_string(scene_.first_frame + t) +
+                                   " lost: keypoint correspondences on from the next frame (keypoints_when_lost)");
+  }
+
   // PolySftOptions::flow_start: the newest frame's parameters fitted to its
   // flow correspondences under the regularisers (the window's other frames
   // held), kept where they fit the frame's coarsest level better than the
@@ -743,7 +757,7 @@ class PolySftController {
     }
     AddSilhouetteReach(l, frame, problem);
     if (use_features_ && (l + 1 < static_cast<int>(levels_.size()) || options_.features_on_finest)) {
-      AddMatchTerm(l, frame, frame.features, options_.feature_weight, problem);
+      AddMatchTerm(l, frame, frame.features, feature_weight_, problem);
     }
     if (use_flow_ && options_.flow_weight > 0.0 &&
         (l + 1 < static_cast<int>(levels_.size()) || options_.flow_on_finest)) {
@@ -1358,6 +1372,7 @@ class PolySftController {
   bool use_masks_ = false, use_temporal_ = false, use_photometric_ = false, use_inextensibility_ = false;
   std::optional<Eigen::Vector3d> gravity_shift_;  // g dt^2, with the physics prior
   bool use_features_ = false;
+  double feature_weight_ = 0.0;  // the keypoints' weight, once on
   bool use_flow_ = false;
   // The frame before's finest image and (upper) mask (with use_flow_).
   cv::Mat previous_image_, previous_mask_;

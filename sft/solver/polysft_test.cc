@@ -217,7 +217,8 @@ TEST(PolySftTest, LargeMotionBetweenFramesStaysFiniteAndIsWarnedAbout) {
 // A cloth falling onto a sphere moves further between frames than the
 // pyramid's coarsest level reaches by frame 4; keypoint correspondences
 // (feature_weight) pull it back from wherever it is. Without the flow
-// start, which follows it too (AFlowStartFollowsAFallThatTheWarmStartLoses).
+// start, which follows it too (AFlowStartFollowsAFallThatTheWarmStartLoses),
+// and without keypoints on a loss for the run without them.
 TEST(PolySftTest, KeypointsFollowAClothFallingFasterThanThePyramidReaches) {
   ScopedTempDir dir("polyfit_sft_keypoints");
   SheetSceneOptions o = SmallScene(SheetMotion::kFall, 6);
@@ -226,6 +227,7 @@ TEST(PolySftTest, KeypointsFollowAClothFallingFasterThanThePyramidReaches) {
   PolySftOptions options;
   options.num_threads = 2;
   options.flow_start = false;
+  options.keypoints_when_lost = false;
   const PolySftSummary without = SolvePolySft(options, scene);
   options.feature_weight = 100.0;
   const PolySftSummary with = SolvePolySft(options, scene);
@@ -293,6 +295,7 @@ TEST(PolySftTest, AFlowStartFollowsAFallThatTheWarmStartLoses) {
   PolySftOptions options;
   options.num_threads = 2;
   options.max_frames = 5;
+  options.keypoints_when_lost = false;  // the flow start against the warm start alone
   options.flow_start = false;
   const PolySftSummary plain = SolvePolySft(options, scene);
   options.flow_start = true;  // the default
@@ -323,6 +326,36 @@ TEST(PolySftTest, AFlowStartFollowsAFallThatTheWarmStartLoses) {
   bool listed = false;
   for (const auto& t : term.terms) listed |= t.first == "flow" && t.second == 100.0;
   EXPECT_TRUE(listed);
+}
+
+// keypoints_when_lost: no keypoints while every frame is tracked (a sheet
+// bending), keypoints from the frame after the first lost one (the fall,
+// without the flow start, lost as it drops), said in a warning.
+TEST(PolySftTest, KeypointsComeOnOnlyOnceAFrameIsLost) {
+  const auto has_features = [](const PolySftSummary& s) {
+    for (const auto& term : s.terms) {
+      if (term.first == "features") return true;
+    }
+    return false;
+  };
+  ScopedTempDir bend_dir("polyfit_sft_when_lost_bend");
+  GenerateSheetScene(SmallScene(SheetMotion::kBend, 4), bend_dir.path().string());
+  PolySftOptions options;
+  options.num_threads = 2;
+  options.keypoints_when_lost = true;
+  const PolySftSummary bend = SolvePolySft(options, LoadScene(bend_dir.path().string()));
+  EXPECT_FALSE(has_features(bend));
+  ScopedTempDir fall_dir("polyfit_sft_when_lost_fall");
+  GenerateSheetScene(SmallScene(SheetMotion::kFall, 6), fall_dir.path().string());
+  options.flow_start = false;
+  const PolySftSummary fall = SolvePolySft(options, LoadScene(fall_dir.path().string()));
+  ExpectFinite(fall);
+  EXPECT_TRUE(has_features(fall));
+  bool warned = false;
+  for (const std::string& w : fall.warnings) warned |= w.find("keypoints_when_lost") != std::string::npos;
+  EXPECT_TRUE(warned);
+  options.keypoints_when_lost = false;
+  EXPECT_FALSE(has_features(SolvePolySft(options, LoadScene(fall_dir.path().string()))));
 }
 
 // The physics prior reads the scene's gravity and frame rate: with them,
