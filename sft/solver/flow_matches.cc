@@ -22,8 +22,8 @@ cv::Mat Grey(const cv::Mat& image) {
 // to the image.
 Eigen::Vector2d Sample(const cv::Mat& flow, const Eigen::Vector2d& p) {
   const double x = std::clamp(p.x(), 0.0, flow.cols - 1.0), y = std::clamp(p.y(), 0.0, flow.rows - 1.0);
-  const int x0 = std::min(static_cast<int>(x), flow.cols - 2 < 0 ? 0 : flow.cols - 2);
-  const int y0 = std::min(static_cast<int>(y), flow.rows - 2 < 0 ? 0 : flow.rows - 2);
+  const int x0 = std::min(static_cast<int>(x), std::max(flow.cols - 2, 0));
+  const int y0 = std::min(static_cast<int>(y), std::max(flow.rows - 2, 0));
   const int x1 = std::min(x0 + 1, flow.cols - 1), y1 = std::min(y0 + 1, flow.rows - 1);
   const double ax = x - x0, ay = y - y0;
   const auto at = [&](int r, int c) {
@@ -91,6 +91,7 @@ std::vector<bool> VisibleVertices(const PinholeCamera& camera, const Eigen::Matr
   for (Eigen::Index v = 0; v < vertices.cols(); ++v) {
     if (!(vertices(2, v) > 0.0)) continue;
     const Eigen::Vector2d p = camera.Project(vertices.col(v));
+    if (!p.allFinite()) continue;  // a non-finite vertex has no pixel
     const long x = std::lround(p.x()), y = std::lround(p.y());
     if (x < 0 || y < 0 || x >= camera.width || y >= camera.height) continue;
     visible[v] = vertices(2, v) <= depth.at<float>(static_cast<int>(y), static_cast<int>(x)) + depth_tolerance;

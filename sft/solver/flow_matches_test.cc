@@ -1,6 +1,7 @@
 #include "sft/solver/flow_matches.h"
 
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -131,6 +132,13 @@ TEST(FlowMatchesTest, VisibleVerticesFollowTheImagesShiftAndHiddenOnesGetNone) {
   const size_t thinned = FlowMatches(camera, vertices, faces, before, after, cv::Mat(), cv::Mat(), options).size();
   EXPECT_LE(thinned, 40u);
   EXPECT_GT(thinned, 30u);
+  // A non-finite vertex is neither visible nor matched.
+  Eigen::Matrix3Xd broken = vertices;
+  broken(0, 0) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(VisibleVertices(camera, broken, faces, 0.01)[0]);
+  for (const FeatureMatch& m : FlowMatches(camera, broken, faces, before, after, cv::Mat(), cv::Mat(), options)) {
+    EXPECT_TRUE(m.pixel.allFinite());
+  }
   // Nothing to carry: no matches, no crash.
   EXPECT_TRUE(FlowMatches(camera, vertices, faces, cv::Mat(), after, cv::Mat(), cv::Mat(), options).empty());
 }

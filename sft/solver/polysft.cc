@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <deque>
 #include <filesystem>
+#include <functional>
 #include <limits>
 #include <map>
 #include <memory>
@@ -611,42 +612,29 @@ class PolySftController {
     FrameData& frame = *window_.back();
     if (frame.flow.size() < kMinMatches || frame.mask_empty) return;
     const std::vector<double> warm = frame.theta;
-    ceres::Problem::Options problem_options;
-    problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
-    ceres::Problem problem(problem_options);
-    AddMatchTerm(static_cast<int>(levels_.size()) - 1, frame, frame.flow, kWeight, &problem);
-    AddRegularizers(window_.size() - 1, false, &problem);
-    for (size_t k = 0; k + 1 < window_.size(); ++k) {
-      for (double* block : Blocks(window_[k]->theta)) {
-        if (problem.HasParameterBlock(block)) problem.SetParameterBlockConstant(block);
-      }
-    }
-    ceres::Solver::Options solver = LevelSolverOptions();
-    solver.max_num_iterations = kIterations;
-    ceres::Solver::Summary result;
-    ceres::Solve(solver, &problem, &result);
+    FitNewestFrame(kIterations, [&](ceres::Problem* problem) {
+      AddMatchTerm(static_cast<int>(levels_.size()) - 1, frame, frame.flow, kWeight, problem);
+    });
     frame.flow_started = CoarseImageCost(frame, frame.theta.data()) < CoarseImageCost(frame, warm.data());
     if (!frame.flow_started) frame.theta = warm;
   }
 
-  // PolySftOptions::flow_weight, flow_start: the frame before's surface,
-  // where it saw it, carried into this frame by optical flow
-  // (FlowMatches); the frame before's finest image and mask kept for the
-  // next. Only a tracked frame's surface is carried: the flow moves a
-  // registration on, right or wrong, and a lost frame's carried on keeps
-  // the frames after from finding the surface again.
-  void MatchFlow(FrameData* data) {
-    if (!use_flow_) return;
-    if (!window_.empty() && Tracked(*window_.back()) && !data->mask_empty && !previous_image_.empty()) {
-      Eigen::Matrix3Xd vertices;
-      model_.Evaluate(window_.back()->theta.data(), &vertices);
-      FlowMatchOptions flow;
-      flow.depth_tolerance = 0.5 * mean_edge_;
-      data->flow = FlowMatches(levels_.back().camera, vertices, scene_.template_mesh.faces, previous_image_,
-                               data->images.back(), previous_mask_, data->masks_upper.back(), flow);
-    }
-    previous_image_ = data->images.back();
-    previous_mask_ = data->mask_empty ? cv::Mat() : data->masks_upper.back();
+  // PolySftOptions::flow_weight, flow_start: the frame before's surface
+  // (the window's newest frame: frames enter in order), where it saw it,
+  // carried into this frame by optical flow (FlowMatches). Only a tracked
+  // frame's surface is carried: the flow moves a registration on, right or
+  // wrong, and a lost frame's carried on keeps the frames after from
+  // finding the surface again.
+  void MatchFlow(FrameData* data) const {
+    if (!use_flow_ || window_.empty() || data->mask_empty) return;
+    const FrameData& before = *window_.back();
+    if (!Tracked(before)) return;  // tracked: its mask is not empty either
+    Eigen::Matrix3Xd vertices;
+    model_.Evaluate(before.theta.data(), &vertices);
+    FlowMatchOptions flow;
+    flow.depth_tolerance = 0.5 * mean_edge_;
+    data->flow = FlowMatches(levels_.back().camera, vertices, scene_.template_mesh.faces, before.images.back(),
+                             data->images.back(), before.masks_upper.back(), data->masks_upper.back(), flow);
   }
 
   // PolySftOptions::ground_truth_start: the newest frame's parameters
@@ -665,15 +653,24 @@ class PolySftController {
       if (truth.cols() == 0) truth = previous_truth_;  // the first frame: its own
     }
     if (truth.cols() != model_.num_vertices()) return;
+    FitNewestFrame(30, [&](ceres::Problem* problem) {
+      const std::vector<double*> blocks = Blocks(frame.theta);
+      const double w = std::sqrt(10.0 / model_.num_vertices());
+      for (int p = 0; p < model_.num_patches(); ++p) {
+        problem->AddResidualBlock(new CompressedCost(new TemporalCost(&model_, p, mean_edge_, w, &truth)), nullptr,
+                                  blocks[p]);
+      }
+    });
+  }
+
+  // The newest frame's parameters fitted to a data term (add_data) under
+  // the regularisers, the window's other frames held: the fits that start
+  // a frame (StartFromFlow, StartFromGroundTruth).
+  void FitNewestFrame(int iterations, const std::function<void(ceres::Problem*)>& add_data) {
     ceres::Problem::Options problem_options;
     problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
     ceres::Problem problem(problem_options);
-    const std::vector<double*> blocks = Blocks(frame.theta);
-    const double w = std::sqrt(10.0 / model_.num_vertices());
-    for (int p = 0; p < model_.num_patches(); ++p) {
-      problem.AddResidualBlock(new CompressedCost(new TemporalCost(&model_, p, mean_edge_, w, &truth)), nullptr,
-                               blocks[p]);
-    }
+    add_data(&problem);
     AddRegularizers(window_.size() - 1, false, &problem);
     for (size_t k = 0; k + 1 < window_.size(); ++k) {
       for (double* block : Blocks(window_[k]->theta)) {
@@ -681,7 +678,7 @@ class PolySftController {
       }
     }
     ceres::Solver::Options solver = LevelSolverOptions();
-    solver.max_num_iterations = 30;
+    solver.max_num_iterations = iterations;
     ceres::Solver::Summary result;
     ceres::Solve(solver, &problem, &result);
   }
@@ -756,11 +753,13 @@ class PolySftController {
       }
     }
     AddSilhouetteReach(l, frame, problem);
-    if (use_features_ && (l + 1 < static_cast<int>(levels_.size()) || options_.features_on_finest)) {
+    // Correspondences guide the coarse levels; the finest is the images'
+    // unless asked.
+    const bool coarse = l + 1 < static_cast<int>(levels_.size());
+    if (use_features_ && (coarse || options_.features_on_finest)) {
       AddMatchTerm(l, frame, frame.features, feature_weight_, problem);
     }
-    if (use_flow_ && options_.flow_weight > 0.0 &&
-        (l + 1 < static_cast<int>(levels_.size()) || options_.flow_on_finest)) {
+    if (options_.flow_weight > 0.0 && (coarse || options_.flow_on_finest)) {
       AddMatchTerm(l, frame, frame.flow, options_.flow_weight, problem);
     }
     return true;
@@ -1374,8 +1373,6 @@ class PolySftController {
   bool use_features_ = false;
   double feature_weight_ = 0.0;  // the keypoints' weight, once on
   bool use_flow_ = false;
-  // The frame before's finest image and (upper) mask (with use_flow_).
-  cv::Mat previous_image_, previous_mask_;
   // The template's keypoints on the surface (with use_features_), and the
   // finest level's texture they are rendered with.
   std::unique_ptr<TextureFeatures> features_;
