@@ -177,7 +177,9 @@ struct OneFitTrainerOptions {
   // Solved frame by frame in the output space, the suit's walk settles at
   // k_c 1 with 8% strain and, raised to 3 from there, keeps it (8.2%, 0.98%
   // inside) where the solve at 3 throughout lands at 10.8% (0.71% inside)
-  // and a loss 60% higher (docs/benchmarks.md). < 0: no curriculum.
+  // and a loss 60% higher; but a network trained so (from 1 over 0.4-0.7
+  // of the shipped command's batches) ends where training at 3 throughout
+  // does (docs/benchmarks.md). < 0: no curriculum, the default.
   double collision_start = -1.0;
   std::array<double, 2> collision_ramp = {0.4, 0.7};
   // How the body features hold the root's rotation (recorded in the
