@@ -30,6 +30,8 @@ void BindSummaries(py::module_& m) {
       .def_readonly("patches", &SftFrameSummary::patches)
       .def_readonly("flow_matches", &SftFrameSummary::flow_matches)
       .def_readonly("flow_start", &SftFrameSummary::flow_start)
+      .def_readonly("keypoint_matches", &SftFrameSummary::keypoint_matches)
+      .def_readonly("relocalized", &SftFrameSummary::relocalized)
       .def_readonly("e3d", &SftFrameSummary::e3d)
       .def_readonly("normal_error_deg", &SftFrameSummary::normal_error_deg)
       .def_readonly("rmse_mm", &SftFrameSummary::rmse_mm)

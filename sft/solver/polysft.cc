@@ -28,6 +28,7 @@
 #include "sft/solver/brightness.h"
 #include "sft/solver/flow_matches.h"
 #include "sft/solver/frame_costs.h"
+#include "sft/solver/match_pose.h"
 #include "sft/solver/polysft_settings.h"
 #include "sft/solver/silhouette_band.h"
 
@@ -57,7 +58,8 @@ struct FrameData {
   Brightness brightness;
   std::vector<cv::Mat> compensated;
   // Keypoint correspondences with the template (the finest level's
-  // pixels; with PolySftOptions::feature_weight only), and the median
+  // pixels; with PolySftOptions::feature_weight, or relocalize after a
+  // frame that was not tracked), and the median
   // distance (full-size pixels) of the surface from them after the last
   // solve (NaN without them).
   std::vector<FeatureMatch> features;
@@ -66,6 +68,10 @@ struct FrameData {
   // pixels; with PolySftOptions::flow_start or flow_weight only).
   std::vector<FeatureMatch> flow;
   bool flow_started = false;  // its start is the flow's fit (flow_start)
+  // The frame before was not tracked; its start is the template placed on
+  // its keypoints (PolySftOptions::relocalize).
+  bool after_lost = false;
+  bool relocalized = false;
   // The parameters (JetDeformationModel layout).
   std::vector<double> theta;
   // The atlas's patches when the frame was last solved, and the patch of
@@ -575,14 +581,21 @@ class PolySftController {
       summary_.warnings.emplace_back("frame " + std::to_string(data->frame.index) +
                                      ": the mask is empty (object not visible?): its image terms are skipped");
     }
-    if (use_features_ && !data->mask_empty) {
-      if (!features_) FindTemplateKeypoints(*data);
-      data->features = features_->Match(data->images.back(), data->masks.back());
+    data->after_lost = !window_.empty() && !Tracked(*window_.back());
+    // The template's keypoints from the first frame's view of it, for
+    // whichever later frame needs them.
+    if (t == 0 && use_photometric_ && !data->mask_empty &&
+        (options_.keypoints_when_lost || options_.relocalize)) {
+      FindTemplateKeypoints(*data);
+    }
+    if (use_features_ || (options_.relocalize && use_photometric_ && data->after_lost)) {
+      SeekKeypoints(data.get());
     }
     MatchFlow(data.get());
     data->theta = WarmStart(*data);
     window_.push_back(std::move(data));
     if (options_.flow_start) StartFromFlow();
+    if (options_.relocalize) StartFromKeypoints();
     if (options_.ground_truth_start != GroundTruthStart::kNone) StartFromGroundTruth();
   }
 
@@ -617,6 +630,55 @@ class PolySftController {
     });
     frame.flow_started = CoarseImageCost(frame, frame.theta.data()) < CoarseImageCost(frame, warm.data());
     if (!frame.flow_started) frame.theta = warm;
+  }
+
+  // PolySftOptions::relocalize: a frame after one that was not tracked has
+  // no flow and a start where the surface was lost; it starts from the
+  // template placed on its keypoints (PlaceOnKeypoints) where that fits its
+  // coarsest level better than the warm start.
+  void StartFromKeypoints() {
+    FrameData& frame = *window_.back();
+    if (!frame.after_lost || frame.mask_empty) return;
+    const std::vector<double> warm = frame.theta;
+    if (!PlaceOnKeypoints(&frame)) return;
+    frame.relocalized = CoarseImageCost(frame, frame.theta.data()) < CoarseImageCost(frame, warm.data());
+    if (!frame.relocalized) frame.theta = warm;
+  }
+
+  // The frame's keypoint correspondences with the template's texture.
+  void SeekKeypoints(FrameData* frame) {
+    if (frame->mask_empty) return;
+    if (!features_) FindTemplateKeypoints(*frame);
+    frame->features = features_->Match(frame->images.back(), frame->masks.back());
+  }
+
+  // The template placed rigidly on the frame's keypoints (PoseFromMatches),
+  // the frame fitted to that and then to the keypoints that agree with it,
+  // under the regularisers (the window's other frames held). False, the
+  // frame untouched, where its keypoints agree on no motion.
+  bool PlaceOnKeypoints(FrameData* frame) {
+    static constexpr double kWeight = 100.0;
+    const Eigen::Matrix3Xd& rest = scene_.template_mesh.vertices;
+    MatchPose pose;
+    if (!PoseFromMatches(levels_.back().camera, rest, scene_.template_mesh.faces, frame->features, MatchPoseOptions(),
+                         &pose)) {
+      return false;
+    }
+    const Eigen::Matrix3Xd placed = (pose.rotation * rest).colwise() + pose.translation;
+    std::vector<FeatureMatch> agreeing;
+    for (int i : pose.inliers) agreeing.push_back(frame->features[i]);
+    FitNewestFrame(30, [&](ceres::Problem* problem) {
+      const std::vector<double*> blocks = Blocks(frame->theta);
+      const double w = std::sqrt(10.0 / model_.num_vertices());
+      for (int p = 0; p < model_.num_patches(); ++p) {
+        problem->AddResidualBlock(new CompressedCost(new TemporalCost(&model_, p, mean_edge_, w, &placed)), nullptr,
+                                  blocks[p]);
+      }
+    });
+    FitNewestFrame(5, [&](ceres::Problem* problem) {
+      AddMatchTerm(static_cast<int>(levels_.size()) - 1, *frame, agreeing, kWeight, problem);
+    });
+    return true;
   }
 
   // PolySftOptions::flow_weight, flow_start: the frame before's surface
@@ -1026,7 +1088,7 @@ class PolySftController {
       row.frame = window_.back()->frame.index;
       row.window = window_.front()->frame.index;
       row.patches = model_.num_patches();
-      row.recovery = recovering_ ? 1 : 0;
+      row.recovery = recovery_;
       std::function<double()> e3d;
       if (scene_.ground_truth_kind == GroundTruthKind::kVertices) {
         FrameData* newest = window_.back().get();
@@ -1201,41 +1263,64 @@ class PolySftController {
     return std::max(0.0, -(g.dot(step) + 0.5 * step.dot(jtj * step)));
   }
 
-  // PolySftOptions::recover_lost_frames: a newest frame that fits far
-  // worse than the first is moved onto its mask and its window solved
-  // again; the better of the two is kept.
+  // A newest frame that fits far worse than the first, its window solved
+  // again from other starts of the frame, the better kept:
+  // recover_lost_frames moves it onto its mask, relocalize places the
+  // template on its keypoints (unless its start already was that).
   void RecoverLostFrame(int t, double* cost, int* iterations) {
     FrameData& newest = *window_.back();
-    if (!options_.recover_lost_frames || t == 0 || !use_masks_ || newest.mask_empty || newest.frame.mask.empty() ||
-        !(CostRatio(*cost) > kLostCostRatio)) {
-      return;
+    if (t == 0 || newest.mask_empty) return;
+    if (options_.recover_lost_frames && use_masks_ && !newest.frame.mask.empty()) {
+      SolveAgainFrom(kRecoveryMask, "moved onto its mask", [&] { return MoveOntoMask(&newest); }, cost, iterations);
     }
+    if (options_.relocalize && use_photometric_ && !newest.relocalized) {
+      auto place = [&] {
+        if (newest.features.empty()) SeekKeypoints(&newest);
+        return PlaceOnKeypoints(&newest);
+      };
+      newest.relocalized = SolveAgainFrom(kRecoveryKeypoints, "placed on its keypoints", place, cost, iterations);
+    }
+  }
+
+  // trace.csv's `recovery`: the re-solve's start (RecoverLostFrame).
+  static constexpr int kRecoveryMask = 1;
+  static constexpr int kRecoveryKeypoints = 2;
+
+  // The window solved again from `restart`'s change to the newest frame,
+  // where that frame is lost and the change was made; kept (true) where it
+  // ends at a lower cost.
+  bool SolveAgainFrom(int recovery, const char* how, const std::function<bool()>& restart, double* cost,
+                      int* iterations) {
+    if (!(CostRatio(*cost) > kLostCostRatio)) return false;
     std::vector<std::vector<double>> before;
     for (const auto& frame : window_) before.push_back(frame->theta);
-    if (!MoveOntoMask(&newest)) return;
+    if (!restart()) {
+      for (size_t k = 0; k < window_.size(); ++k) window_[k]->theta = before[k];
+      return false;
+    }
     // A failed attempt leaves no trace but its rows (SolveWindow fails the
     // run only through Fail).
     const TerminationType termination = summary_.termination_type;
     const std::string message = summary_.message;
-    recovering_ = true;
+    recovery_ = recovery;
     double again = 0.0;
     int more = 0;
     const bool solved = SolveWindow(&again, &more);
-    recovering_ = false;
-    char buffer[200];
+    recovery_ = 0;
     if (solved && again < *cost) {
+      char buffer[200];
       std::snprintf(buffer, sizeof(buffer),
-                    "frame %d: lost (cost %.0f times the first frame's); moved onto its mask and solved again: "
-                    "cost %.3g -> %.3g",
-                    newest.frame.index, CostRatio(*cost), *cost, again);
+                    "frame %d: lost (cost %.0f times the first frame's); %s and solved again: cost %.3g -> %.3g",
+                    window_.back()->frame.index, CostRatio(*cost), how, *cost, again);
       summary_.warnings.emplace_back(buffer);
       *cost = again;
       *iterations += more;
-      return;
+      return true;
     }
     summary_.termination_type = termination;
     summary_.message = message;
     for (size_t k = 0; k < window_.size(); ++k) window_[k]->theta = before[k];
+    return false;
   }
 
   // Translates the frame's surface parallel to the image, at its mean
@@ -1309,6 +1394,8 @@ class PolySftController {
     result.vertex_patches = data.vertex_patches;
     result.flow_matches = static_cast<int>(data.flow.size());
     result.flow_start = data.flow_started;
+    result.keypoint_matches = static_cast<int>(data.features.size());
+    result.relocalized = data.relocalized;
     if (scene_.ground_truth_kind == GroundTruthKind::kVertices) {
       const Eigen::Matrix3Xd& gt = data.frame.ground_truth;
       result.e3d = ComputeE3D(result.vertices, gt);
@@ -1387,7 +1474,7 @@ class PolySftController {
   std::deque<std::unique_ptr<FrameData>> window_;
   std::vector<Eigen::Matrix3Xd> finals_;  // the two frames before the window, newest first, once there are
   std::vector<double> previous_final_theta_;
-  bool recovering_ = false;  // solving a lost frame again (RecoverLostFrame)
+  int recovery_ = 0;  // solving a lost frame again (RecoverLostFrame): its kRecovery start
   Eigen::Matrix3Xd previous_truth_;  // the last frame's ground truth (ground_truth_start kFrameBefore)
   std::vector<double> frame_time_, frame_cost_;
   std::vector<int> frame_iterations_;
@@ -1453,6 +1540,8 @@ void WriteSftOutputs(const std::string& directory, const SftScene& scene, const 
                       {"patches", f.patches},
                       {"flow_matches", f.flow_matches},
                       {"flow_start", f.flow_start},
+                      {"keypoint_matches", f.keypoint_matches},
+                      {"relocalized", f.relocalized},
                       {"e3d", JsonNumber(f.e3d)},
                       {"e_n_deg", JsonNumber(f.normal_error_deg)},
                       {"rmse_mm", JsonNumber(f.rmse_mm)},

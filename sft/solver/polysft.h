@@ -167,6 +167,13 @@ struct PolySftOptions {
   // at frame 8 where it was within 10: polysft_stress_test;
   // docs/benchmarks.md).
   bool keypoints_when_lost = false;
+  // A frame after one that was not tracked (lost, or an empty mask) starts
+  // from the template placed rigidly on its keypoints (SIFT matches with
+  // the template's texture, a RANSAC perspective-n-point solve:
+  // sft/solver/match_pose.h), then fitted to the keypoints that agree,
+  // where that fits its coarsest level better than the warm start. Keypoints
+  // are sought only in such frames. Needs the photometric term.
+  bool relocalize = false;
   double feature_huber_px = 3.0;
   // Within this many pixels (full size) of its match a keypoint costs
   // nothing (FeatureCost's dead zone): a keypoint's own error, about a
@@ -262,6 +269,11 @@ struct SftFrameSummary {
   // (PolySftOptions::flow_start).
   int flow_matches = 0;
   bool flow_start = false;
+  // Its keypoint correspondences with the template's texture (0 where
+  // none were sought: feature_weight, keypoints_when_lost, relocalize),
+  // and whether it started from the template they placed (relocalize).
+  int keypoint_matches = 0;
+  bool relocalized = false;
   double e3d = std::numeric_limits<double>::quiet_NaN();
   double normal_error_deg = std::numeric_limits<double>::quiet_NaN();
   double rmse_mm = std::numeric_limits<double>::quiet_NaN();

@@ -26,6 +26,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.flow_on_finest = true;
   changed.flow_start = false;
   changed.keypoints_when_lost = true;
+  changed.relocalize = !changed.relocalize;
   changed.window_size = 5;
   changed.coarse_levels_newest_only = false;
   changed.pyramid_levels = 2;

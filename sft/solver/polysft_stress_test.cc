@@ -32,6 +32,8 @@ SheetSceneOptions Rigid(int frames) {
 PolySftSummary Solve(const std::string& dir, double feature_weight = 0.0) {
   PolySftOptions options;
   options.feature_weight = feature_weight;
+  if (getenv("KWL")) options.keypoints_when_lost = true;
+  if (getenv("RELOC")) options.relocalize = true;
   options.num_threads = 2;
   options.rasterizer.num_threads = 2;
   return SolvePolySft(options, LoadScene(dir));
@@ -40,7 +42,7 @@ PolySftSummary Solve(const std::string& dir, double feature_weight = 0.0) {
 void Report(const char* name, const PolySftSummary& summary) {
   std::printf("%s: %s\n", name, summary.BriefReport().c_str());
   for (const SftFrameSummary& f : summary.frames) {
-    std::printf("  frame %d: e3D %.4f, RMSE %.2f mm, cost %.3e\n", f.index, f.e3d, f.rmse_mm, f.cost);
+    std::printf("  frame %d: e3D %.4f, RMSE %.2f mm, cost %.3e kp %d flow %d fs %d rl %d\n", f.index, f.e3d, f.rmse_mm, f.cost, f.keypoint_matches, f.flow_matches, int(f.flow_start), int(f.relocalized));
   }
   for (const std::string& w : summary.warnings) std::printf("  warning: %s\n", w.c_str());
 }
