@@ -72,8 +72,10 @@ struct FrameData {
   // its keypoints (PolySftOptions::relocalize).
   bool after_lost = false;
   bool relocalized = false;
-  // The parameters (JetDeformationModel layout).
+  // The parameters (JetDeformationModel layout), and where its first solve
+  // started.
   std::vector<double> theta;
+  std::vector<double> start;
   // The atlas's patches when the frame was last solved, and the patch of
   // each vertex then.
   int patches = 1;
@@ -526,24 +528,26 @@ class PolySftController {
   // FrameData::feature_error of every frame in the window.
   void MeasureFeatureErrors() {
     if (!use_features_) return;
+    for (const auto& frame : window_) frame->feature_error = FeatureError(*frame);
+  }
+
+  // The median distance (full-size pixels) of the frame's surface from its
+  // keypoint matches; NaN without them.
+  double FeatureError(const FrameData& frame) const {
+    if (frame.features.empty()) return std::numeric_limits<double>::quiet_NaN();
     const double to_full = 1.0 / levels_.back().scale;
     Eigen::Matrix3Xd vertices;
+    model_.Evaluate(frame.theta.data(), &vertices);
     std::vector<double> errors;
-    for (const auto& frame : window_) {
-      frame->feature_error = std::numeric_limits<double>::quiet_NaN();
-      if (frame->features.empty()) continue;
-      model_.Evaluate(frame->theta.data(), &vertices);
-      errors.clear();
-      for (const FeatureMatch& m : frame->features) {
-        Eigen::Vector3d x = Eigen::Vector3d::Zero();
-        for (int k = 0; k < 3; ++k) x += m.barycentric[k] * vertices.col(scene_.template_mesh.faces(k, m.face));
-        if (!(x.z() > 0.0)) continue;
-        errors.push_back(to_full * (levels_.back().camera.Project(x) - m.pixel).norm());
-      }
-      if (errors.empty()) continue;
-      std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
-      frame->feature_error = errors[errors.size() / 2];
+    for (const FeatureMatch& m : frame.features) {
+      Eigen::Vector3d x = Eigen::Vector3d::Zero();
+      for (int k = 0; k < 3; ++k) x += m.barycentric[k] * vertices.col(scene_.template_mesh.faces(k, m.face));
+      if (!(x.z() > 0.0)) continue;
+      errors.push_back(to_full * (levels_.back().camera.Project(x) - m.pixel).norm());
     }
+    if (errors.empty()) return std::numeric_limits<double>::quiet_NaN();
+    std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+    return errors[errors.size() / 2];
   }
 
   // Loads frame t with its pyramid, warm-started from the newest frame.
@@ -597,6 +601,7 @@ class PolySftController {
     if (options_.flow_start) StartFromFlow();
     if (options_.relocalize) StartFromKeypoints();
     if (options_.ground_truth_start != GroundTruthStart::kNone) StartFromGroundTruth();
+    window_.back()->start = window_.back()->theta;
   }
 
   // PolySftOptions::keypoints_when_lost: the keypoint term on from the
@@ -1274,9 +1279,15 @@ class PolySftController {
       SolveAgainFrom(kRecoveryMask, "moved onto its mask", [&] { return MoveOntoMask(&newest); }, cost, iterations);
     }
     if (options_.relocalize && use_photometric_ && !newest.relocalized) {
+      // Not where its keypoints find the surface already (its misfit is
+      // the model's: a fold one jet cannot hold), nor where the template
+      // placed on them fits the coarsest level worse than the frame's own
+      // start did (a surface too deformed for one rigid motion).
       auto place = [&] {
         if (newest.features.empty()) SeekKeypoints(&newest);
-        return PlaceOnKeypoints(&newest);
+        if (FeatureError(newest) <= FoundFeatureError()) return false;
+        return PlaceOnKeypoints(&newest) &&
+               CoarseImageCost(newest, newest.theta.data()) < CoarseImageCost(newest, newest.start.data());
       };
       newest.relocalized = SolveAgainFrom(kRecoveryKeypoints, "placed on its keypoints", place, cost, iterations);
     }

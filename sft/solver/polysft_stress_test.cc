@@ -4,10 +4,10 @@
 // frame: no picture, an empty mask), and simulated cloth that falls faster
 // than the pyramid reaches or folds over itself. Each must give finite vertices in
 // every frame and say what happened in its warnings, with and without
-// keypoint correspondences (an option). How well it tracks
-// again is measured, not required: today it finds the sheet again where
-// it returns near where it was lost (the recovery of large motion is the
-// issue "PolySfT on cloth that moves under gravity and wind").
+// keypoint correspondences as a term (an option). How well it tracks
+// again is measured, and required where relocalisation on the template's
+// keypoints (on by default) finds the sheet again: after it leaves and
+// comes back, and after a black frame.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -32,8 +32,6 @@ SheetSceneOptions Rigid(int frames) {
 PolySftSummary Solve(const std::string& dir, double feature_weight = 0.0) {
   PolySftOptions options;
   options.feature_weight = feature_weight;
-  if (getenv("KWL")) options.keypoints_when_lost = true;
-  if (getenv("RELOC")) options.relocalize = true;
   options.num_threads = 2;
   options.rasterizer.num_threads = 2;
   return SolvePolySft(options, LoadScene(dir));
@@ -42,7 +40,8 @@ PolySftSummary Solve(const std::string& dir, double feature_weight = 0.0) {
 void Report(const char* name, const PolySftSummary& summary) {
   std::printf("%s: %s\n", name, summary.BriefReport().c_str());
   for (const SftFrameSummary& f : summary.frames) {
-    std::printf("  frame %d: e3D %.4f, RMSE %.2f mm, cost %.3e kp %d flow %d fs %d rl %d\n", f.index, f.e3d, f.rmse_mm, f.cost, f.keypoint_matches, f.flow_matches, int(f.flow_start), int(f.relocalized));
+    std::printf("  frame %d: e3D %.4f, RMSE %.2f mm, cost %.3e, %d flow and %d keypoint matches%s\n", f.index, f.e3d,
+                f.rmse_mm, f.cost, f.flow_matches, f.keypoint_matches, f.relocalized ? ", relocalised" : "");
   }
   for (const std::string& w : summary.warnings) std::printf("  warning: %s\n", w.c_str());
 }
@@ -81,11 +80,13 @@ TEST(PolySftStressTest, SheetLeavingTheImageAndComingBack) {
   Report("leaving the image", summary);
   ExpectFiniteEverywhere(summary, 17);
   EXPECT_FALSE(summary.warnings.empty());
-  // Lost as it leaves (12 cm per frame: 130-300 mm off); found again as it
-  // passes where it was lost. How close it is found depends on where the
-  // lost frames ended: frame 8 measured 1.8 mm when the coarse levels
-  // solved the whole window, 7.5 mm since they hold the first frame (on
-  // the same motion at 160 px from `polysft generate`, 2.8 and 1.9 mm).
+  // Lost as it leaves (12 cm per frame); placed again on its keypoints
+  // (relocalize) in the frame it is lost or the one after. Measured: 0.9-17
+  // mm, 4.8 on average (without relocalisation 130-300 mm off except frame
+  // 8, found where it was lost: 159 mm on average).
+  double sum = 0.0;
+  for (const SftFrameSummary& f : summary.frames) sum += f.rmse_mm;
+  EXPECT_LT(sum / summary.frames.size(), 10.0);
   EXPECT_LT(summary.frames[8].rmse_mm, 10.0);
 }
 
@@ -131,7 +132,10 @@ TEST(PolySftStressTest, ABlackFrame) {
   Report("black frame", summary);
   ExpectFiniteEverywhere(summary, 7);
   EXPECT_FALSE(summary.warnings.empty());
-  // The frames after it drift (43-49 mm measured), the last is found again.
+  // The frame after it is placed on its keypoints (relocalize; 0.55 mm
+  // measured, where without relocalisation the frames after it drifted
+  // 43-49 mm off); the last is found too.
+  EXPECT_LT(summary.frames[4].rmse_mm, 5.0);
   EXPECT_LT(summary.frames.back().rmse_mm, 5.0);
 }
 
