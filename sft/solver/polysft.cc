@@ -657,10 +657,11 @@ class PolySftController {
     frame->features = features_->Match(frame->images.back(), frame->masks.back());
   }
 
-  // The template placed rigidly on the frame's keypoints (PoseFromMatches),
-  // the frame fitted to that and then to the keypoints that agree with it,
-  // under the regularisers (the window's other frames held). False, the
-  // frame untouched, where its keypoints agree on no motion.
+  // The template placed rigidly on the newest frame's keypoints
+  // (PoseFromMatches), the frame fitted to that and then to the keypoints
+  // that agree with it, under the regularisers (the window's other frames
+  // held). False, the frame untouched, where its keypoints agree on no
+  // motion.
   bool PlaceOnKeypoints(FrameData* frame) {
     static constexpr double kWeight = 100.0;
     const Eigen::Matrix3Xd& rest = scene_.template_mesh.vertices;
@@ -672,14 +673,7 @@ class PolySftController {
     const Eigen::Matrix3Xd placed = (pose.rotation * rest).colwise() + pose.translation;
     std::vector<FeatureMatch> agreeing;
     for (int i : pose.inliers) agreeing.push_back(frame->features[i]);
-    FitNewestFrame(30, [&](ceres::Problem* problem) {
-      const std::vector<double*> blocks = Blocks(frame->theta);
-      const double w = std::sqrt(10.0 / model_.num_vertices());
-      for (int p = 0; p < model_.num_patches(); ++p) {
-        problem->AddResidualBlock(new CompressedCost(new TemporalCost(&model_, p, mean_edge_, w, &placed)), nullptr,
-                                  blocks[p]);
-      }
-    });
+    FitNewestFrameTo(placed);
     FitNewestFrame(5, [&](ceres::Problem* problem) {
       AddMatchTerm(static_cast<int>(levels_.size()) - 1, *frame, agreeing, kWeight, problem);
     });
@@ -720,11 +714,18 @@ class PolySftController {
       if (truth.cols() == 0) truth = previous_truth_;  // the first frame: its own
     }
     if (truth.cols() != model_.num_vertices()) return;
+    FitNewestFrameTo(truth);
+  }
+
+  // The newest frame fitted to vertex positions (3 by #V) under the
+  // regularisers (a target's weight far above theirs).
+  void FitNewestFrameTo(const Eigen::Matrix3Xd& target) {
+    FrameData& frame = *window_.back();
     FitNewestFrame(30, [&](ceres::Problem* problem) {
       const std::vector<double*> blocks = Blocks(frame.theta);
       const double w = std::sqrt(10.0 / model_.num_vertices());
       for (int p = 0; p < model_.num_patches(); ++p) {
-        problem->AddResidualBlock(new CompressedCost(new TemporalCost(&model_, p, mean_edge_, w, &truth)), nullptr,
+        problem->AddResidualBlock(new CompressedCost(new TemporalCost(&model_, p, mean_edge_, w, &target)), nullptr,
                                   blocks[p]);
       }
     });
@@ -732,7 +733,7 @@ class PolySftController {
 
   // The newest frame's parameters fitted to a data term (add_data) under
   // the regularisers, the window's other frames held: the fits that start
-  // a frame (StartFromFlow, StartFromGroundTruth).
+  // a frame (StartFromFlow, PlaceOnKeypoints, FitNewestFrameTo).
   void FitNewestFrame(int iterations, const std::function<void(ceres::Problem*)>& add_data) {
     ceres::Problem::Options problem_options;
     problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
