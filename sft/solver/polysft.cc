@@ -640,15 +640,20 @@ class PolySftController {
   // PolySftOptions::relocalize: a frame after one that was not tracked has
   // no flow and a start where the surface was lost; it starts from the
   // template placed on its keypoints (PlaceOnKeypoints) where that fits its
-  // coarsest level better than the warm start.
+  // coarsest level better than the warm start, unless its keypoints agree
+  // with the warm start (the frame before fit badly but was where they say:
+  // a fold one jet cannot hold, not a loss).
   void StartFromKeypoints() {
     FrameData& frame = *window_.back();
-    if (!frame.after_lost || frame.mask_empty) return;
+    if (!frame.after_lost || frame.mask_empty || KeypointsAgree(frame)) return;
     const std::vector<double> warm = frame.theta;
     if (!PlaceOnKeypoints(&frame)) return;
     frame.relocalized = CoarseImageCost(frame, frame.theta.data()) < CoarseImageCost(frame, warm.data());
     if (!frame.relocalized) frame.theta = warm;
   }
+
+  // The frame's surface within FoundFeatureError of its keypoints.
+  bool KeypointsAgree(const FrameData& frame) const { return FeatureError(frame) <= FoundFeatureError(); }
 
   // The frame's keypoint correspondences with the template's texture.
   void SeekKeypoints(FrameData* frame) {
@@ -1286,7 +1291,7 @@ class PolySftController {
       // start did (a surface too deformed for one rigid motion).
       auto place = [&] {
         if (newest.features.empty()) SeekKeypoints(&newest);
-        if (FeatureError(newest) <= FoundFeatureError()) return false;
+        if (KeypointsAgree(newest)) return false;
         return PlaceOnKeypoints(&newest) &&
                CoarseImageCost(newest, newest.theta.data()) < CoarseImageCost(newest, newest.start.data());
       };
