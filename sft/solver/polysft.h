@@ -159,13 +159,11 @@ struct PolySftOptions {
   // With feature_weight 0: keypoint correspondences at weight 100 from the
   // frame after the first lost one (cost over 4 times the first frame's)
   // on, so that a scene pays for them only once it needs them (a warning
-  // says from when). With the flow start, on the simulated cloth: the
-  // table 0.053 -> 0.042, the flag 0.041 -> 0.025, the fall 0.050 ->
-  // 0.022 (e3D); the sheets that are never lost unchanged, the two creases,
-  // lost in their last frames, within 1%. Off by default: a sheet that
-  // leaves the image and comes back is then not found again (197 mm off
-  // at frame 8 where it was within 10: polysft_stress_test;
-  // docs/benchmarks.md).
+  // says from when). With the flow start and relocalize, on the simulated
+  // cloth: the table 0.053 -> 0.046, the flag 0.029 -> 0.026, the fall
+  // 0.050 -> 0.022 (e3D); the sheets that are never lost unchanged. Off by
+  // default: the two creases, lost in their last frames, lose 0.5-1%, and
+  // the flag takes 0.93 s a frame (docs/benchmarks.md).
   bool keypoints_when_lost = false;
   // Relocalisation on the template's keypoints (SIFT matches with its
   // texture) for frames that lose the surface. The template is placed
