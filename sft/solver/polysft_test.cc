@@ -358,7 +358,9 @@ TEST(PolySftTest, ALostSheetIsPlacedOnItsKeypoints) {
   int relocalized = 0;
   for (const SftFrameSummary& f : placed.frames) {
     relocalized += f.relocalized;
-    if (f.relocalized) EXPECT_GE(f.keypoint_matches, 8) << "frame " << f.index;
+    if (f.relocalized) {
+      EXPECT_GE(f.keypoint_matches, 8) << "frame " << f.index;
+    }
   }
   EXPECT_GT(relocalized, 0);
   EXPECT_EQ(placed.frames[0].keypoint_matches, 0);
