@@ -226,8 +226,11 @@ class SkinnedVertexCost : public ceres::CostFunction {
 // one patch. Blocks: alpha, s, T, slide_i, slide_j.
 class SkinnedEdgeCost : public ceres::CostFunction {
  public:
-  SkinnedEdgeCost(const SkinnedPatchPoint& point_i, const SkinnedPatchPoint& point_j, double rest_length, double weight)
-      : point_i_(point_i), point_j_(point_j), functor_(rest_length, weight) {
+  // stretch_factor: the residual of an edge longer than at rest times this
+  // (DrapePhysicsOptions::stretch_factor).
+  SkinnedEdgeCost(const SkinnedPatchPoint& point_i, const SkinnedPatchPoint& point_j, double rest_length, double weight,
+                  double stretch_factor = 1.0)
+      : point_i_(point_i), point_j_(point_j), functor_(rest_length, weight), stretch_factor_(stretch_factor) {
     set_num_residuals(1);
     mutable_parameter_block_sizes()->assign({point_i.num_coefficients(), 1, 3, 2, 2});
   }
@@ -242,6 +245,7 @@ class SkinnedEdgeCost : public ceres::CostFunction {
     const J6 b[3] = {J6(xj[0], 3), J6(xj[1], 4), J6(xj[2], 5)};
     J6 r;
     functor_(a, b, &r);
+    if (r.a > 0.0) r *= stretch_factor_;
     residuals[0] = r.a;
     if (jacobians != nullptr) {
       point_i_.Chain<1>(r.v.head<3>().transpose(), state_i, parameters[1], jacobians, 3);
@@ -253,6 +257,7 @@ class SkinnedEdgeCost : public ceres::CostFunction {
  private:
   SkinnedPatchPoint point_i_, point_j_;
   EdgeInextensibilityResidual functor_;
+  double stretch_factor_;
 };
 
 // Two patches' points of one garment vertex kept together once slid, in
@@ -302,8 +307,9 @@ class SkinnedFaceMetricCost : public ceres::CostFunction {
  public:
   SkinnedFaceMetricCost(int order, const Eigen::Matrix<double, 2, 3>& uv, const Eigen::Vector3d& rest_metric,
                         const Eigen::Matrix3d& rotation, const Eigen::Matrix3d* const skinning[3],
-                        const double* const k_ext[3], double weight)
+                        const double* const k_ext[3], double weight, double stretch_factor = 1.0)
       : order_(order),
+        stretch_factor_(stretch_factor),
         num_coefficients_(NumJetCoefficients(order)),
         uv_(uv),
         rest_(rest_metric),
@@ -337,6 +343,9 @@ class SkinnedFaceMetricCost : public ceres::CostFunction {
     MetricFromSlopes(J7(d.z_u, 0), J7(d.z_v, 1), J7(parameters[1][0], 2), map, h);
     PullBackMetric(h, w7, g);
     MetricResidual(g, rest_, k_ext, weight_, r);
+    // Stretch along u or v (a diagonal entry above the rest's).
+    if (r[0].a > 0.0) r[0] *= stretch_factor_;
+    if (r[2].a > 0.0) r[2] *= stretch_factor_;
     for (int i = 0; i < 3; ++i) residuals[i] = r[i].a;
     if (jacobians == nullptr) return true;
     if (jacobians[0] != nullptr) {
@@ -369,6 +378,7 @@ class SkinnedFaceMetricCost : public ceres::CostFunction {
 
  private:
   int order_;
+  double stretch_factor_;
   int num_coefficients_;
   Eigen::Matrix<double, 2, 3> uv_;
   Eigen::Vector3d rest_;

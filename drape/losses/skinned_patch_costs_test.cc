@@ -290,5 +290,54 @@ TEST(SkinnedPatchCostsTest, FaceMetricJacobiansMatchAutodiff) {
   }
 }
 
+// DrapePhysicsOptions::stretch_factor: residuals (and their Jacobians) of
+// stretch times the factor, of compression and shear unchanged.
+TEST(SkinnedPatchCostsTest, OnlyStretchIsWeightedByTheStretchFactor) {
+  const int order = 4, K = 15;
+  const Eigen::Matrix3d rotation =
+      Eigen::AngleAxisd(0.6, Eigen::Vector3d(0.3, 1.0, -0.4).normalized()).toRotationMatrix();
+  const Eigen::Matrix3d linear = Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  const Eigen::Vector3d translation(0.1, 0.0, 0.0);
+  double alpha[K], scale = 0.9, offset[3] = {0.05, -0.1, 0.2}, slide_a[2] = {0.02, -0.01}, slide_b[2] = {-0.03, 0.015},
+                   slide_c[2] = {0.01, 0.04};
+  for (int k = 0; k < K; ++k) alpha[k] = 0.3 * std::cos(1.7 * k + 0.2);
+  const SkinnedPatchPoint a(order, 0.1, 0.2, rotation, &linear, &translation);
+  const SkinnedPatchPoint b(order, -0.3, 0.25, rotation, &linear, &translation);
+  const double* edge_parameters[5] = {alpha, &scale, offset, slide_a, slide_b};
+  for (const double rest : {0.01, 10.0}) {  // stretched, compressed
+    double r1, r3, j1[K], j3[K];
+    double* jacobians1[5] = {j1, nullptr, nullptr, nullptr, nullptr};
+    double* jacobians3[5] = {j3, nullptr, nullptr, nullptr, nullptr};
+    ASSERT_TRUE(SkinnedEdgeCost(a, b, rest, 2.0).Evaluate(edge_parameters, &r1, jacobians1));
+    ASSERT_TRUE(SkinnedEdgeCost(a, b, rest, 2.0, 3.0).Evaluate(edge_parameters, &r3, jacobians3));
+    const double factor = rest < 1.0 ? 3.0 : 1.0;
+    EXPECT_EQ(r1 > 0.0, rest < 1.0);
+    EXPECT_NEAR(r3, factor * r1, 1e-12);
+    for (int k = 0; k < K; ++k) EXPECT_NEAR(j3[k], factor * j1[k], 1e-12);
+  }
+  Eigen::Matrix<double, 2, 3> uv;
+  uv << 0.1, 0.5, 0.2, -0.3, -0.1, 0.35;
+  const Eigen::Matrix3d* skinning[3] = {&linear, &linear, &linear};
+  const double k_ext = 1.0;
+  const double* k[3] = {&k_ext, &k_ext, &k_ext};
+  const double* face_parameters[5] = {alpha, &scale, slide_a, slide_b, slide_c};
+  // Rest metrics below and above the posed one along u and v.
+  for (const Eigen::Vector3d& rest : {Eigen::Vector3d(1e-3, 0.0, 10.0), Eigen::Vector3d(10.0, 0.0, 1e-3)}) {
+    double r1[3], r3[3], j1[3], j3[3];
+    double* jacobians1[5] = {nullptr, j1, nullptr, nullptr, nullptr};
+    double* jacobians3[5] = {nullptr, j3, nullptr, nullptr, nullptr};
+    ASSERT_TRUE(SkinnedFaceMetricCost(order, uv, rest, rotation, skinning, k, 3.0).Evaluate(face_parameters, r1,
+                                                                                           jacobians1));
+    ASSERT_TRUE(SkinnedFaceMetricCost(order, uv, rest, rotation, skinning, k, 3.0, 3.0)
+                    .Evaluate(face_parameters, r3, jacobians3));
+    for (int i = 0; i < 3; ++i) {
+      const double factor = i != 1 && r1[i] > 0.0 ? 3.0 : 1.0;
+      EXPECT_NEAR(r3[i], factor * r1[i], 1e-12) << "row " << i;
+      EXPECT_NEAR(j3[i], factor * j1[i], 1e-12) << "row " << i;
+    }
+    EXPECT_NE(r1[0] > 0.0, r1[2] > 0.0);  // one stretched, one compressed
+  }
+}
+
 }  // namespace
 }  // namespace polyfit

@@ -8,7 +8,7 @@
 // reference drape (per-vertex slides, LM) is the output space's, and the gap
 // between this and a trained network is the training's.
 //
-//   output_space_benchmark [DATA_DIR [GARMENT [FRAMES [AREA:WARP:ITERATIONS[:KC[:EPS[:FLOOR[:KB]]]],...
+//   output_space_benchmark [DATA_DIR [GARMENT [FRAMES [AREA:WARP:ITERATIONS[:KC[:EPS[:FLOOR[:KB[:SF]]]]],...
 //                          [MODEL [reference|network|swap|continuation [KC_LOW]]]]]]]
 //   (DATA_DIR: ../shared/data/drape; WARP -1: no warp head; KC, EPS, FLOOR,
 //   KB: the collision weight, margin and margin floor and the patch
@@ -327,10 +327,10 @@ std::array<Row, 6> SwappedBlocks(const polyfit::OneFitModel& model, const polyfi
 struct Config {
   double area;
   int warp, iterations;
-  double collision, margin, floor, boundary;
+  double collision, margin, floor, boundary, stretch = 1.0;
 };
 
-// The configurations of argv[4] (AREA:WARP:ITERATIONS[:KC[:EPS[:FLOOR[:KB]]]],
+// The configurations of argv[4] (AREA:WARP:ITERATIONS[:KC[:EPS[:FLOOR[:KB[:SF]]]]],
 // comma-separated), else the defaults (the table of docs/benchmarks.md);
 // empty, after saying why, when one does not parse.
 std::vector<Config> ParseConfigs(int argc, char** argv) {
@@ -346,9 +346,9 @@ std::vector<Config> ParseConfigs(int argc, char** argv) {
   std::istringstream list(argv[4]);
   for (std::string item; std::getline(list, item, ',');) {
     Config c{0.0, 0, 0, kc, eps, floor, kb};
-    if (std::sscanf(item.c_str(), "%lf:%d:%d:%lf:%lf:%lf:%lf", &c.area, &c.warp, &c.iterations, &c.collision, &c.margin,
-                    &c.floor, &c.boundary) < 3) {
-      std::fprintf(stderr, "output_space_benchmark: '%s' is not AREA:WARP:ITERATIONS[:KC[:EPS[:FLOOR[:KB]]]]\n",
+    if (std::sscanf(item.c_str(), "%lf:%d:%d:%lf:%lf:%lf:%lf:%lf", &c.area, &c.warp, &c.iterations, &c.collision,
+                    &c.margin, &c.floor, &c.boundary, &c.stretch) < 3) {
+      std::fprintf(stderr, "output_space_benchmark: '%s' is not AREA:WARP:ITERATIONS[:KC[:EPS[:FLOOR[:KB[:SF]]]]]\n",
                    item.c_str());
       return {};
     }
@@ -367,6 +367,7 @@ polyfit::DrapeSolverOptions SolverOptions(const Config& c, const polyfit::OneFit
   options.physics.weights.collision_margin = c.margin;
   options.physics.margin_floor = c.floor;
   options.physics.weights.boundary = c.boundary;
+  options.physics.stretch_factor = c.stretch;
   options.num_threads = 2;
   return options;
 }

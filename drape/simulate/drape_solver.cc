@@ -329,7 +329,7 @@ void DrapeSolver::Impl::AddMetricTerms(const PolyFitModel& model) {
       k[c] = &k_ext[v];
     }
     auto* cost = new SkinnedFaceMetricCost(order, m.uv, m.rest_metric, model.patches[m.patch].frame.rotation, skinning,
-                                           k, weight);
+                                           k, weight, o.stretch_factor);
     problem->AddResidualBlock(cost, nullptr, alpha(m.patch), scale(m.patch), slide(m.membership[0]),
                               slide(m.membership[1]), slide(m.membership[2]));
   }
@@ -340,7 +340,8 @@ void DrapeSolver::Impl::AddEdgeTerms(const PolyFitModel& model) {
   for (const PatchEdge& e : patch_edges) {
     const int p = model.membership_patch[e.mi];
     const double weight = std::sqrt(2.0 * stretch_weight() * options.physics.material.mu * edge_area[e.edge]);
-    problem->AddResidualBlock(new SkinnedEdgeCost(points[e.mi], points[e.mj], rest.edge_length[e.edge], weight),
+    problem->AddResidualBlock(new SkinnedEdgeCost(points[e.mi], points[e.mj], rest.edge_length[e.edge], weight,
+                                                  options.physics.stretch_factor),
                               nullptr, alpha(p), scale(p), translation(p), slide(e.mi), slide(e.mj));
   }
 }

@@ -61,6 +61,11 @@ struct DrapePhysicsOptions {
   // sigma: the inextensibility terms' base, a multiple of mu (measured in
   // docs/drape.md).
   double stretch_base = 5.0;
+  // The inextensibility terms' residuals where the cloth stretches (an
+  // edge longer than at rest, a metric's diagonal above the rest's) times
+  // this: cloth resists stretch far more than compression, which it
+  // relieves by buckling. 1: the paper's symmetric terms.
+  double stretch_factor = 1.0;
   // Collision terms for vertices closer to the body than this (m).
   double collision_band = 0.03;
   // >= 0 (m): each vertex's margin is its rest clearance (its signed

@@ -159,6 +159,11 @@ void AddSimulatePhysicsOptions(CLI::App* simulate, SimulateFlags* f) {
       ->capture_default_str();
   simulate->add_option("--k-mi", options.solver.physics.weights.inextensibility, "inextensibility weight")
       ->capture_default_str();
+  simulate
+      ->add_option("--stretch-factor", options.solver.physics.stretch_factor,
+                   "the inextensibility terms' residuals where the cloth stretches times this (1: symmetric)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   simulate->add_option("--k-g", options.solver.physics.weights.gravity, "gravity weight")->capture_default_str();
   simulate->add_option("--k-c", options.solver.physics.weights.collision, "collision weight")->capture_default_str();
   simulate->add_option("--k-i", options.solver.physics.weights.inertia, "inertia weight")->capture_default_str();
@@ -295,6 +300,11 @@ void AddTrainLossFlags(CLI::App* train, polyfit::OneFitTrainerOptions* trainer) 
   train
       ->add_option("--k-b", t.drape.physics.weights.boundary,
                    "the loss's patch boundary weight (positions and normals; the reference drape's by default)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  train
+      ->add_option("--stretch-factor", t.drape.physics.stretch_factor,
+                   "the inextensibility terms' residuals where the cloth stretches times this (1: symmetric)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
 }
