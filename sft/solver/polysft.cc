@@ -68,8 +68,9 @@ struct FrameData {
   // pixels; with PolySftOptions::flow_start or flow_weight only).
   std::vector<FeatureMatch> flow;
   bool flow_started = false;  // its start is the flow's fit (flow_start)
-  // The frame before was not tracked; its start is the template placed on
-  // its keypoints (PolySftOptions::relocalize).
+  // The frame before was not tracked (after_lost), and whether the frame
+  // was placed on its keypoints, as its start or in a re-solve
+  // (relocalized; PolySftOptions::relocalize).
   bool after_lost = false;
   bool relocalized = false;
   // The parameters (JetDeformationModel layout), and where its first solve
