@@ -32,6 +32,18 @@ void ExpectFinite(const PolySftSummary& summary) {
   }
 }
 
+// Each frame from the frame before's solution alone: no optical flow, no
+// keypoints (the baseline that the tests of those mechanisms measure
+// against).
+PolySftOptions WarmStartAlone() {
+  PolySftOptions options;
+  options.num_threads = 2;
+  options.flow_start = false;
+  options.keypoints_when_lost = false;
+  options.relocalize = false;
+  return options;
+}
+
 TEST(PolySftTest, RecoversAMixedSequenceFarBetterThanTheTemplate) {
   ScopedTempDir dir("polyfit_sft_mixed");
   GenerateSheetScene(SmallScene(SheetMotion::kMixed, 8), dir.path().string());
@@ -224,11 +236,7 @@ TEST(PolySftTest, KeypointsFollowAClothFallingFasterThanThePyramidReaches) {
   SheetSceneOptions o = SmallScene(SheetMotion::kFall, 6);
   GenerateSheetScene(o, dir.path().string());
   const SftScene scene = LoadScene(dir.path().string());
-  PolySftOptions options;
-  options.num_threads = 2;
-  options.flow_start = false;
-  options.keypoints_when_lost = false;
-  options.relocalize = false;
+  PolySftOptions options = WarmStartAlone();
   const PolySftSummary without = SolvePolySft(options, scene);
   options.feature_weight = 100.0;
   const PolySftSummary with = SolvePolySft(options, scene);
@@ -293,12 +301,8 @@ TEST(PolySftTest, AFlowStartFollowsAFallThatTheWarmStartLoses) {
   ScopedTempDir dir("polyfit_sft_flow");
   GenerateSheetScene(SmallScene(SheetMotion::kFall, 6), dir.path().string());
   const SftScene scene = LoadScene(dir.path().string());
-  PolySftOptions options;
-  options.num_threads = 2;
+  PolySftOptions options = WarmStartAlone();
   options.max_frames = 5;
-  options.keypoints_when_lost = false;  // the flow start against the warm start alone
-  options.relocalize = false;
-  options.flow_start = false;
   const PolySftSummary plain = SolvePolySft(options, scene);
   options.flow_start = true;  // the default
   const PolySftSummary flow = SolvePolySft(options, scene);
@@ -339,11 +343,7 @@ TEST(PolySftTest, ALostSheetIsPlacedOnItsKeypoints) {
   ScopedTempDir dir("polyfit_sft_relocalize");
   GenerateSheetScene(SmallScene(SheetMotion::kFall, 6), dir.path().string());
   const SftScene scene = LoadScene(dir.path().string());
-  PolySftOptions options;
-  options.num_threads = 2;
-  options.flow_start = false;
-  options.keypoints_when_lost = false;
-  options.relocalize = false;
+  PolySftOptions options = WarmStartAlone();
   const PolySftSummary plain = SolvePolySft(options, scene);
   options.relocalize = true;  // the default
   const PolySftSummary placed = SolvePolySft(options, scene);
