@@ -143,7 +143,9 @@ TEST(DrapeSolverTest, SolvedWarpsUndoInPlaneSkinningDistortion) {
   const int stride = solver.num_patch_parameters(), warp = NumJetCoefficients(4) + 4;
   for (size_t i = 0; i < given.size(); ++i) {
     ASSERT_TRUE(std::isfinite(solved[i])) << i;
-    if (static_cast<int>(i) % stride < warp) EXPECT_EQ(solved[i], given[i]) << i;
+    if (static_cast<int>(i) % stride < warp) {
+      EXPECT_EQ(solved[i], given[i]) << i;
+    }
   }
   const double before = MeasureCloth(rest, solver.PositionsOf(given)).edge_strain_percent;
   const double after = MeasureCloth(rest, solver.PositionsOf(solved)).edge_strain_percent;
@@ -156,7 +158,9 @@ TEST(DrapeSolverTest, SolvedWarpsUndoInPlaneSkinningDistortion) {
   const std::vector<double> moved = solver.SolveWarps(given, 20, 2, true);
   for (size_t i = 0; i < given.size(); ++i) {
     ASSERT_TRUE(std::isfinite(moved[i])) << i;
-    if (static_cast<int>(i) % stride < NumJetCoefficients(4) + 1) EXPECT_EQ(moved[i], given[i]) << i;
+    if (static_cast<int>(i) % stride < NumJetCoefficients(4) + 1) {
+      EXPECT_EQ(moved[i], given[i]) << i;
+    }
   }
   EXPECT_LT(MeasureCloth(rest, solver.PositionsOf(moved)).edge_strain_percent, 0.1 * before);
   // More sweeps from there do not undo it.
