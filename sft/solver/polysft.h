@@ -161,10 +161,10 @@ struct PolySftOptions {
   // on, so that a scene pays for them only once it needs them (a warning
   // says from when). With the flow start and relocalize, on the simulated
   // cloth: the table 0.053 -> 0.046, the flag 0.029 -> 0.026, the fall
-  // 0.050 -> 0.022 (e3D); the sheets that are never lost unchanged. Off by
-  // default: the two creases, lost in their last frames, lose 0.5-1%, and
-  // the flag takes 0.93 s a frame (docs/benchmarks.md).
-  bool keypoints_when_lost = false;
+  // 0.050 -> 0.022 (e3D); the sheets that are never lost unchanged, the
+  // two creases, lost in their last frames, 0.5-1% worse (docs/
+  // benchmarks.md).
+  bool keypoints_when_lost = true;
   // Relocalisation on the template's keypoints (SIFT matches with its
   // texture) for frames that lose the surface. The template is placed
   // rigidly on a frame's keypoints (a RANSAC perspective-n-point solve:

@@ -25,7 +25,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.flow_weight = 30.0;
   changed.flow_on_finest = true;
   changed.flow_start = false;
-  changed.keypoints_when_lost = true;
+  changed.keypoints_when_lost = !changed.keypoints_when_lost;
   changed.relocalize = !changed.relocalize;
   changed.window_size = 5;
   changed.coarse_levels_newest_only = false;
