@@ -42,9 +42,9 @@ def test_polysft_equals_the_command_line(scene, tmp_path):
         np.testing.assert_allclose(cli, frame.vertices, atol=1e-5)  # the PLY holds floats
         assert np.isfinite(frame.e3d) and frame.e3d < 0.05
         cli_frame = metrics["frames"][frame.index]
-        assert (frame.patches, frame.flow_matches, frame.flow_start, frame.keypoint_matches) == (
-            cli_frame["patches"], cli_frame["flow_matches"], cli_frame["flow_start"],
-            cli_frame["keypoint_matches"])
+        assert (frame.patches, frame.flow_matches, frame.flow_start, frame.keypoint_matches,
+                frame.relocalized) == (cli_frame["patches"], cli_frame["flow_matches"], cli_frame["flow_start"],
+                                       cli_frame["keypoint_matches"], cli_frame["relocalized"])
     assert summary.frames[0].flow_matches == 0 and summary.frames[1].flow_matches > 0
     assert summary.mean_e3d == pytest.approx(np.mean([f.e3d for f in summary.frames]))
     assert len(summary.trace) >= 3 and summary.trace[-1].time_s > 0
