@@ -7,18 +7,10 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
+#include "sft/camera/test_camera.h"
+
 namespace polyfit {
 namespace {
-
-PinholeCamera Camera() {
-  PinholeCamera camera;
-  camera.fx = camera.fy = 288.0;
-  camera.cx = 159.5;
-  camera.cy = 119.5;
-  camera.width = 320;
-  camera.height = 240;
-  return camera;
-}
 
 // An n by n grid of vertices over [x0, x0 + size] x [y0, y0 + size] at
 // depth z, appended to `vertices` and `faces`.
@@ -58,7 +50,7 @@ TEST(NearestDepthTest, TheNearerOfTwoOverlappingSheetsWinsPerspectiveCorrectly) 
   Eigen::Matrix3Xi faces(3, 0);
   AddGrid(-0.2, -0.2, 0.4, 1.0, 5, &vertices, &faces);  // far, large
   AddGrid(0.0, -0.1, 0.1, 0.8, 3, &vertices, &faces);   // near, small, over its right half
-  const PinholeCamera camera = Camera();
+  const PinholeCamera camera = TestCamera();
   const cv::Mat depth = NearestDepth(camera, vertices, faces);
   const auto at = [&](const Eigen::Vector3d& x) {
     const Eigen::Vector2d p = camera.Project(x);
@@ -86,7 +78,7 @@ TEST(FlowMatchesTest, VisibleVerticesFollowTheImagesShiftAndHiddenOnesGetNone) {
   AddGrid(-0.2, -0.15, 0.3, 1.0, 13, &vertices, &faces);  // the sheet
   const int sheet = static_cast<int>(vertices.cols());
   AddGrid(-0.05, -0.05, 0.1, 0.9, 3, &vertices, &faces);  // a flap in front of part of it
-  const PinholeCamera camera = Camera();
+  const PinholeCamera camera = TestCamera();
   const std::vector<bool> visible = VisibleVertices(camera, vertices, faces, 0.01);
   int hidden = 0;
   for (int v = 0; v < sheet; ++v) {

@@ -6,18 +6,10 @@
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
+#include "sft/camera/test_camera.h"
+
 namespace polyfit {
 namespace {
-
-PinholeCamera Camera() {
-  PinholeCamera camera;
-  camera.fx = camera.fy = 288.0;
-  camera.cx = 159.5;
-  camera.cy = 119.5;
-  camera.width = 320;
-  camera.height = 240;
-  return camera;
-}
 
 // A 20 cm square sheet at 0.6 m, n by n vertices, bent by `bend` (metres of
 // sag at its centre; 0: planar, as a sheet's template).
@@ -87,7 +79,7 @@ void ExpectPoseFound(double bend) {
   // About the sheet's centre, so that it stays in view.
   const Eigen::Vector3d centre(0.0, 0.0, 0.6);
   const Eigen::Vector3d translation = centre + Eigen::Vector3d(0.12, -0.03, 0.1) - rotation * centre;
-  const PinholeCamera camera = Camera();
+  const PinholeCamera camera = TestCamera();
   int num_true = 0;
   const std::vector<FeatureMatch> matches =
       Matches(camera, vertices, faces, rotation, translation, 80, 0.4, 0.5, &num_true);
@@ -110,7 +102,7 @@ TEST(PoseFromMatchesTest, NoPoseFromTooFewOrDisagreeingMatches) {
   Eigen::Matrix3Xd vertices;
   Eigen::Matrix3Xi faces;
   Sheet(5, 0.02, &vertices, &faces);
-  const PinholeCamera camera = Camera();
+  const PinholeCamera camera = TestCamera();
   const Eigen::Matrix3d identity = Eigen::Matrix3d::Identity();
   MatchPose pose;
   pose.translation = Eigen::Vector3d(1.0, 2.0, 3.0);
