@@ -171,8 +171,8 @@ struct PolySftOptions {
   // sft/solver/match_pose.h), and the frame fitted to that and then to the
   // keypoints that agree, under the regularisers:
   //  - a frame after one that was not tracked (lost, or an empty mask)
-  //    starts there where that fits its coarsest level better than its
-  //    warm start;
+  //    starts there where its keypoints disagree with its warm start and
+  //    that fits its coarsest level better;
   //  - a frame lost after its solve (cost over 4 times the first frame's)
   //    whose keypoints disagree with the surface is solved again from
   //    there (if that start fits the coarsest level better than its own
