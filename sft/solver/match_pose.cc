@@ -19,8 +19,7 @@ bool PoseFromMatches(const PinholeCamera& camera, const Eigen::Matrix3Xd& vertic
   std::vector<Eigen::Vector3d> points;
   points.reserve(n);
   for (const FeatureMatch& m : matches) {
-    Eigen::Vector3d x = Eigen::Vector3d::Zero();
-    for (int k = 0; k < 3; ++k) x += m.barycentric[k] * vertices.col(faces(k, m.face));
+    const Eigen::Vector3d x = m.PointOn(vertices, faces);
     if (!x.allFinite() || !m.pixel.allFinite()) return false;
     points.push_back(x);
     object.emplace_back(x.x(), x.y(), x.z());

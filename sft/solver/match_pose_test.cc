@@ -50,9 +50,7 @@ std::vector<FeatureMatch> Matches(const PinholeCamera& camera, const Eigen::Matr
     double a = unit(rng), b = unit(rng);
     if (a + b > 1.0) a = 1.0 - a, b = 1.0 - b;
     m.barycentric = Eigen::Vector3d(1.0 - a - b, a, b);
-    Eigen::Vector3d x = Eigen::Vector3d::Zero();
-    for (int k = 0; k < 3; ++k) x += m.barycentric[k] * vertices.col(faces(k, m.face));
-    m.pixel = camera.Project(rotation * x + translation) + Eigen::Vector2d(noise(rng), noise(rng));
+    m.pixel = camera.Project(rotation * m.PointOn(vertices, faces) + translation) + Eigen::Vector2d(noise(rng), noise(rng));
     if (unit(rng) < outliers) {
       m.pixel = Eigen::Vector2d(camera.width * unit(rng), camera.height * unit(rng));
     } else if (num_true != nullptr) {

@@ -541,8 +541,7 @@ class PolySftController {
     model_.Evaluate(frame.theta.data(), &vertices);
     std::vector<double> errors;
     for (const FeatureMatch& m : frame.features) {
-      Eigen::Vector3d x = Eigen::Vector3d::Zero();
-      for (int k = 0; k < 3; ++k) x += m.barycentric[k] * vertices.col(scene_.template_mesh.faces(k, m.face));
+      const Eigen::Vector3d x = m.PointOn(vertices, scene_.template_mesh.faces);
       if (!(x.z() > 0.0)) continue;
       errors.push_back(to_full * (levels_.back().camera.Project(x) - m.pixel).norm());
     }
@@ -634,7 +633,7 @@ class PolySftController {
     FitNewestFrame(kIterations, [&](ceres::Problem* problem) {
       AddMatchTerm(static_cast<int>(levels_.size()) - 1, frame, frame.flow, kWeight, problem);
     });
-    frame.flow_started = CoarseImageCost(frame, frame.theta.data()) < CoarseImageCost(frame, warm.data());
+    frame.flow_started = FitsCoarsestBetter(frame, warm);
     if (!frame.flow_started) frame.theta = warm;
   }
 
@@ -649,7 +648,7 @@ class PolySftController {
     if (!frame.after_lost || frame.mask_empty || KeypointsAgree(frame)) return;
     const std::vector<double> warm = frame.theta;
     if (!PlaceOnKeypoints(&frame)) return;
-    frame.relocalized = CoarseImageCost(frame, frame.theta.data()) < CoarseImageCost(frame, warm.data());
+    frame.relocalized = FitsCoarsestBetter(frame, warm);
     if (!frame.relocalized) frame.theta = warm;
   }
 
@@ -947,6 +946,12 @@ class PolySftController {
     *out = std::move(d);
     *screen_out = std::move(screen);
     return true;
+  }
+
+  // The frame's parameters fit its coarsest level better than `other`
+  // (the rule by which a start replaces another).
+  bool FitsCoarsestBetter(const FrameData& frame, const std::vector<double>& other) const {
+    return CoarseImageCost(frame, frame.theta.data()) < CoarseImageCost(frame, other.data());
   }
 
   // The image terms' cost of a frame at parameters theta, at the coarsest
@@ -1293,8 +1298,7 @@ class PolySftController {
       auto place = [&] {
         if (newest.features.empty()) SeekKeypoints(&newest);
         if (KeypointsAgree(newest)) return false;
-        return PlaceOnKeypoints(&newest) &&
-               CoarseImageCost(newest, newest.theta.data()) < CoarseImageCost(newest, newest.start.data());
+        return PlaceOnKeypoints(&newest) && FitsCoarsestBetter(newest, newest.start);
       };
       newest.relocalized = SolveAgainFrom(kRecoveryKeypoints, "placed on its keypoints", place, cost, iterations);
     }

@@ -48,6 +48,13 @@ struct FeatureMatch {
   int face = 0;
   Eigen::Vector3d barycentric = Eigen::Vector3d::Zero();
   Eigen::Vector2d pixel = Eigen::Vector2d::Zero();
+
+  // The point on a surface with the template's faces (3 by #F) and these
+  // vertices (3 by #V).
+  Eigen::Vector3d PointOn(const Eigen::Matrix3Xd& vertices, const Eigen::Matrix3Xi& faces) const {
+    return barycentric[0] * vertices.col(faces(0, face)) + barycentric[1] * vertices.col(faces(1, face)) +
+           barycentric[2] * vertices.col(faces(2, face));
+  }
 };
 
 class TextureFeatures {
