@@ -141,6 +141,9 @@ std::string DrapeSolverOptions::Validate() const {
     if (!std::isfinite(w) || w < 0.0) return "weights, stiffnesses and material constants must be finite and >= 0";
   }
   if (!(p.material.area_density > 0.0)) return "physics.material.area_density must be positive";
+  if (!(p.stretch_factor > 0.0) || !std::isfinite(p.stretch_factor)) {
+    return "physics.stretch_factor must be finite and positive (1: symmetric)";
+  }
   if (std::isnan(p.margin_floor) || p.margin_floor > p.weights.collision_margin) {
     return "physics.margin_floor must be at most the collision margin (< 0: off)";
   }

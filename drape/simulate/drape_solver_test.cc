@@ -217,6 +217,12 @@ TEST(DrapeSolverTest, TheMarginFloorLeavesATightShirtAtItsRestClearance) {
   EXPECT_NE(bad.Validate().find("margin_floor"), std::string::npos);
   bad.physics.margin_floor = std::nan("");
   EXPECT_NE(bad.Validate().find("margin_floor"), std::string::npos);
+  // So is a stretch factor that is not a positive number.
+  for (const double factor : {0.0, -1.0, std::nan("")}) {
+    DrapeSolverOptions stretch;
+    stretch.physics.stretch_factor = factor;
+    EXPECT_NE(stretch.Validate().find("stretch_factor"), std::string::npos) << factor;
+  }
 }
 
 // Without warps (slides zero) and with each patch's warp of order 0..2
