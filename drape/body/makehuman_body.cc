@@ -214,6 +214,18 @@ SkinnedBody LoadMakeHumanBody(const std::string& body_dir) {
                                weights_path);
 }
 
+Eigen::Vector3d SkinPoint(const Eigen::Vector3d& rest, const int* joints, const double* weights, int count,
+                          const std::vector<Eigen::Isometry3d>& rest_to_posed) {
+  Eigen::Matrix3d linear = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  for (int k = 0; k < count; ++k) {
+    const Eigen::Isometry3d& t = rest_to_posed[joints[k]];
+    linear += weights[k] * t.linear();
+    translation += weights[k] * t.translation();
+  }
+  return linear * rest + translation;
+}
+
 Eigen::Matrix3Xd SkinVertices(const SkinnedBody& body, const std::vector<Eigen::Isometry3d>& rest_to_posed) {
   if (static_cast<int>(rest_to_posed.size()) != body.skeleton.num_joints()) {
     throw std::invalid_argument("SkinVertices: one transform per joint is needed");
@@ -221,14 +233,9 @@ Eigen::Matrix3Xd SkinVertices(const SkinnedBody& body, const std::vector<Eigen::
   const int n = body.mesh.num_vertices();
   Eigen::Matrix3Xd posed(3, n);
   for (int v = 0; v < n; ++v) {
-    Eigen::Matrix3d linear = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d translation = Eigen::Vector3d::Zero();
-    for (int k = body.weight_offsets[v]; k < body.weight_offsets[v + 1]; ++k) {
-      const Eigen::Isometry3d& t = rest_to_posed[body.weight_joint[k]];
-      linear += body.weight_value[k] * t.linear();
-      translation += body.weight_value[k] * t.translation();
-    }
-    posed.col(v) = linear * body.mesh.vertices.col(v) + translation;
+    const int begin = body.weight_offsets[v];
+    posed.col(v) = SkinPoint(body.mesh.vertices.col(v), body.weight_joint.data() + begin,
+                             body.weight_value.data() + begin, body.weight_offsets[v + 1] - begin, rest_to_posed);
   }
   return posed;
 }

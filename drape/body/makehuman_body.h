@@ -60,6 +60,10 @@ SkinnedBody LoadMakeHumanBody(const std::string& body_dir);
 // Linear blend skinning: x_v = sum_j w_vj T_j x_v^rest, where T_j maps the
 // rest pose to the posed one for bone j (#joints transforms). 3 by #V.
 Eigen::Matrix3Xd SkinVertices(const SkinnedBody& body, const std::vector<Eigen::Isometry3d>& rest_to_posed);
+// One point's linear blend skinning: its rest position and bones
+// (joints[k] with weights[k], k < count), transforms not checked.
+Eigen::Vector3d SkinPoint(const Eigen::Vector3d& rest, const int* joints, const double* weights, int count,
+                          const std::vector<Eigen::Isometry3d>& rest_to_posed);
 
 }  // namespace polyfit
 

@@ -139,6 +139,7 @@ void BindSimulationOptions(py::module_& m) {
       .def_readwrite("write_meshes", &DrapeSimulationOptions::write_meshes)
       .def_readwrite("project_offset", &DrapeSimulationOptions::project_offset)
       .def_readwrite("strain_limit_passes", &DrapeSimulationOptions::strain_limit_passes)
+      .def_readwrite("relax_passes", &DrapeSimulationOptions::relax_passes)
       .def_readwrite("solver", &DrapeSimulationOptions::solver)
       .def_readwrite("skin", &DrapeSimulationOptions::skin)
       .def("validate", &DrapeSimulationOptions::Validate);

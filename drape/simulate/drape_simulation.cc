@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <iomanip>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -14,6 +15,8 @@
 #include "drape/network/onefit_draper.h"
 #include "drape/render/mesh_render.h"
 #include "drape/simulate/drape_inputs.h"
+#include "drape/simulate/skinned_contacts.h"
+#include "drape/simulate/strain_limit.h"
 #include "polyfit/mesh/mesh_io.h"
 #include "polyfit/util/atomic_file.h"
 #include "polyfit/util/json_number.h"
@@ -193,6 +196,14 @@ void RunNetworkFrames(const DrapeSimulationOptions& options, const DrapeInputs& 
   TriangleMesh posed = in.garment;
   const double fps = options.solver.physics.fps;
   std::vector<double> correction;  // the last re-solve's change to its prediction
+  // Bound once per garment, like the network's garment half.
+  std::optional<SkinnedContacts> skinned_contacts;
+  std::optional<StrainLimiter> limiter;
+  if (options.relax_passes > 0 && options.refine_iterations == 0) {
+    skinned_contacts.emplace(in.body, solver->rest_garment().vertices, kRelaxContactReach);
+    limiter.emplace(rest);
+  }
+  std::vector<BodyContact> contacts;  // reused from frame to frame
   for (int f = options.first_frame; f < in.last_frame; ++f) {
     const auto pose = [&](int g) { return in.retargeter->Pose(std::max(g, options.first_frame)); };
     const JointTransforms before_previous = pose(f - 2), previous = pose(f - 1), now = pose(f);
@@ -233,9 +244,13 @@ void RunNetworkFrames(const DrapeSimulationOptions& options, const DrapeInputs& 
       } else {
         positions = solver->PositionsAt(params, now);
       }
+      if (skinned_contacts) {
+        skinned_contacts->Pose(now, &contacts);
+        limiter->Apply(contacts, options.relax_passes, kNetworkProjectOffset, &positions, kRelaxMaxMove);
+      }
       step.time_s = step.solve_time_s = Seconds(start);
       if (options.warp_sweeps == 0) solver->Pose(now);
-      solver->Adopt(drape);
+      solver->Adopt(drape, positions);
       if (!positions.allFinite()) {
         step.termination_type = TerminationType::kFailure;
         step.message = "the network predicted non-finite positions";
@@ -322,6 +337,7 @@ void WriteOutputs(const DrapeSimulationOptions& options, const DrapeSimulationSu
     j["model"] = options.model_path;
     j["refine_iterations"] = options.refine_iterations;
     j["warp_sweeps"] = options.warp_sweeps;
+    j["relax_passes"] = options.refine_iterations > 0 ? 0 : options.relax_passes;
     if (options.warp_sweeps > 0) {
       j["warp_translations"] = options.warp_translations;
       j["warp_carry"] = options.warp_carry;
@@ -379,6 +395,7 @@ std::string DrapeSimulationOptions::Validate() const {
   if (num_frames == 0 || num_frames < -1) return "num_frames must be positive (or -1 for all)";
   if (refine_iterations < 0) return "refine_iterations must be >= 0";
   if (warp_sweeps < 0) return "warp_sweeps must be >= 0";
+  if (relax_passes < 0) return "relax_passes must be >= 0";
   if (warp_sweeps > 0 && model_path.empty()) return "warp_sweeps needs a model";
   if (warp_sweeps > 0 && refine_iterations > 0) return "warp_sweeps and refine_iterations do not go together";
   if (!(warp_carry >= 0.0 && warp_carry <= 1.0)) return "warp_carry must be in [0, 1]";

@@ -39,6 +39,22 @@ class DrapeInputError : public Error {
 // strain-limiting passes (DrapeSolver::PostProcessed).
 inline constexpr double kNetworkProjectOffset = 2e-3;  // m
 inline constexpr int kNetworkStrainLimitPasses = 10;
+// The network's relaxation (part of its inference, before any
+// post-process): strain-limiting passes (StrainLimiter) against the body's
+// tangent planes under the garment's vertices, carried by the body's
+// skinning from rest (SkinnedContacts: no distance query), for the
+// vertices within kRelaxContactReach of the body at rest; no vertex moved
+// further than kRelaxMaxMove from the network's prediction. The tether
+// keeps the relaxation to what it is for, the strain between neighbours
+// that the network's patches leave: untethered, a garment stretched as a
+// whole contracts along its length, its vertices slide centimetres from
+// where their planes were bound and through the body where it is not
+// convex (the suit decimated to 547 vertices: 1.43% -> 1.88% inside). It
+// is the reach over which the post-process trusts its planes
+// (DrapeSolver::kStrainLimitContactReach).
+inline constexpr int kNetworkRelaxPasses = 10;
+inline constexpr double kRelaxContactReach = 0.03;  // m
+inline constexpr double kRelaxMaxMove = 0.02;       // m
 
 struct DrapeSimulationOptions {
   // The MakeHuman body folder (../shared/data/drape/body); empty for the
@@ -79,6 +95,11 @@ struct DrapeSimulationOptions {
   // unconstrained (patches sliding along one another) drifts over a clip.
   // 0: each frame from the prediction alone.
   double warp_carry = 0.95;
+  // With a model and no refinement: each drape the network predicts (after
+  // any re-solved warps) relaxed by this many passes of LimitStrain against
+  // its skinned body planes, kept kNetworkProjectOffset above them, timed
+  // with the inference; 0: the network's drape as predicted.
+  int relax_passes = kNetworkRelaxPasses;
   // With warp_sweeps and a model that records its loss's collision settings
   // (OneFitModel::loss_collision): the re-solve, and the drape's metrics,
   // use those instead of solver.physics' (the warps it solves for are the

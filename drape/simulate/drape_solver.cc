@@ -858,6 +858,17 @@ void DrapeSolver::Adopt(const std::vector<double>& patch_parameters) {
   m.history1 = positions_;
 }
 
+void DrapeSolver::Adopt(const std::vector<double>& patch_parameters, const Eigen::Matrix3Xd& positions) {
+  if (positions.cols() != positions_.cols() || positions.rows() != 3) {
+    throw std::invalid_argument("DrapeSolver::Adopt: 3 by " + std::to_string(positions_.cols()) +
+                                " positions are needed, not " + std::to_string(positions.rows()) + " by " +
+                                std::to_string(positions.cols()));
+  }
+  Adopt(patch_parameters);
+  positions_ = positions;
+  impl_->history1 = positions_;
+}
+
 Eigen::Matrix3Xd DrapeSolver::PositionsAt(const std::vector<double>& patch_parameters,
                                           const std::vector<Eigen::Isometry3d>& rest_to_posed) {
   Impl& m = *impl_;

@@ -286,6 +286,9 @@ class DrapeSolver {
   // posed as last posed (Pose or Step): positions() and the history follow,
   // so that a Step refines from there (a network's prediction).
   void Adopt(const std::vector<double>& patch_parameters);
+  // ... with the garment at `positions` (3 by #V: the parameters' drape
+  // moved further, e.g. relaxed) instead of the parameters' own.
+  void Adopt(const std::vector<double>& patch_parameters, const Eigen::Matrix3Xd& positions);
   // Takes given patch parameters (slides from their warps) as the start of the
   // next Step, the history untouched: a refinement of a prediction.
   void WarmStart(const std::vector<double>& patch_parameters);

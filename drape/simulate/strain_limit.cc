@@ -1,25 +1,61 @@
 #include "drape/simulate/strain_limit.h"
 
+#include <cmath>
+#include <limits>
+
+
 namespace polyfit {
 
-void LimitStrain(const ClothRest& rest, const std::vector<BodyContact>& contacts, int passes, double offset,
-                 Eigen::Matrix3Xd* positions) {
+StrainLimiter::StrainLimiter(const ClothRest& rest) {
+  // Edge e of run r is the edges' (r per + e)-th: each run keeps the
+  // edges' order (neighbouring vertices, so that a pass carries a
+  // correction across the garment), and runs far apart in it seldom share
+  // a vertex.
+  const size_t n = rest.edges.size(), per = (n + kRuns - 1) / kRuns;
+  edges_.reserve(n);
+  length_.reserve(n);
+  for (size_t i = 0; i < per; ++i) {
+    for (size_t e = i; e < n; e += per) {
+      edges_.push_back(rest.edges[e]);
+      length_.push_back(rest.edge_length[e]);
+    }
+  }
+}
+
+void StrainLimiter::Apply(const std::vector<BodyContact>& contacts, int passes, double offset,
+                          Eigen::Matrix3Xd* positions, double max_move) const {
   Eigen::Matrix3Xd& x = *positions;
+  const bool tethered = max_move < std::numeric_limits<double>::infinity();
+  if (tethered) anchor_ = x;  // sized once for a garment
   for (int pass = 0; pass < passes; ++pass) {
-    for (size_t e = 0; e < rest.edges.size(); ++e) {
-      const int i = rest.edges[e][0], j = rest.edges[e][1];
-      const Eigen::Vector3d d = x.col(j) - x.col(i);
-      const double length = d.norm();
+    double* p = x.data();
+    for (size_t e = 0; e < edges_.size(); ++e) {
+      double* a = p + 3 * edges_[e][0];
+      double* b = p + 3 * edges_[e][1];
+      const double dx = b[0] - a[0], dy = b[1] - a[1], dz = b[2] - a[2];
+      const double length = std::sqrt(dx * dx + dy * dy + dz * dz);
       if (!(length > 0.0)) continue;
-      const Eigen::Vector3d move = (0.5 * (length - rest.edge_length[e]) / length) * d;
-      x.col(i) += move;
-      x.col(j) -= move;
+      const double k = 0.5 * (length - length_[e]) / length;
+      a[0] += k * dx, a[1] += k * dy, a[2] += k * dz;
+      b[0] -= k * dx, b[1] -= k * dy, b[2] -= k * dz;
+    }
+    if (tethered) {
+      for (int v = 0; v < x.cols(); ++v) {
+        const Eigen::Vector3d move = x.col(v) - anchor_.col(v);
+        const double length = move.norm();
+        if (length > max_move) x.col(v) = anchor_.col(v) + (max_move / length) * move;
+      }
     }
     for (const BodyContact& c : contacts) {
       const double below = offset - c.normal.dot(x.col(c.vertex) - c.point);
       if (below > 0.0) x.col(c.vertex) += below * c.normal;
     }
   }
+}
+
+void LimitStrain(const ClothRest& rest, const std::vector<BodyContact>& contacts, int passes, double offset,
+                 Eigen::Matrix3Xd* positions) {
+  StrainLimiter(rest).Apply(contacts, passes, offset, positions);
 }
 
 }  // namespace polyfit

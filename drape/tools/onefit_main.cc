@@ -634,6 +634,12 @@ void AddNetworkOptions(CLI::App* command, polyfit::DrapeSimulationOptions* optio
                    "Levenberg-Marquardt iterations of the reference drape from each prediction (0: none)")
       ->capture_default_str();
   command
+      ->add_option("--relax", options->relax_passes,
+                   "strain-limiting passes on each prediction against the body's planes under the garment, "
+                   "skinned from rest (part of the inference; 0: the network's drape as predicted)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command
       ->add_option("--warp-sweeps", options->warp_sweeps,
                    "re-solve each prediction's warps for its jets with this many sweeps, under the collision settings "
                    "of the model's training unless --k-c/--eps/--margin-floor are given (0: the network's own)")
