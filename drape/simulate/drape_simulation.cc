@@ -199,7 +199,7 @@ void RunNetworkFrames(const DrapeSimulationOptions& options, const DrapeInputs& 
   // Bound once per garment, like the network's garment half.
   std::optional<SkinnedContacts> skinned_contacts;
   std::optional<StrainLimiter> limiter;
-  if (options.relax_passes > 0 && options.refine_iterations == 0) {
+  if (options.relax_passes > 0 && options.refine_iterations == 0 && options.warp_sweeps == 0) {
     skinned_contacts.emplace(in.body, solver->rest_garment().vertices, kRelaxContactReach);
     limiter.emplace(rest);
   }
@@ -337,7 +337,7 @@ void WriteOutputs(const DrapeSimulationOptions& options, const DrapeSimulationSu
     j["model"] = options.model_path;
     j["refine_iterations"] = options.refine_iterations;
     j["warp_sweeps"] = options.warp_sweeps;
-    j["relax_passes"] = options.refine_iterations > 0 ? 0 : options.relax_passes;
+    j["relax_passes"] = options.refine_iterations > 0 || options.warp_sweeps > 0 ? 0 : options.relax_passes;
     if (options.warp_sweeps > 0) {
       j["warp_translations"] = options.warp_translations;
       j["warp_carry"] = options.warp_carry;

@@ -40,10 +40,11 @@ void StrainLimiter::Apply(const std::vector<BodyContact>& contacts, int passes, 
       b[0] -= k * dx, b[1] -= k * dy, b[2] -= k * dz;
     }
     if (tethered) {
+      const double max_move2 = max_move * max_move;
       for (int v = 0; v < x.cols(); ++v) {
         const Eigen::Vector3d move = x.col(v) - anchor_.col(v);
-        const double length = move.norm();
-        if (length > max_move) x.col(v) = anchor_.col(v) + (max_move / length) * move;
+        const double length2 = move.squaredNorm();
+        if (length2 > max_move2) x.col(v) = anchor_.col(v) + (max_move / std::sqrt(length2)) * move;
       }
     }
     for (const BodyContact& c : contacts) {

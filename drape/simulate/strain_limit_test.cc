@@ -76,7 +76,7 @@ TEST(StrainLimitTest, TheInterleavedRunsVisitEveryEdge) {
     triangles.faces.col(t) = Eigen::Vector3i(3 * t, 3 * t + 1, 3 * t + 2);
   }
   const ClothRest rest = PrepareClothRest(triangles);
-  ASSERT_EQ(rest.edges.size() % StrainLimiter::kRuns, 3u);
+  ASSERT_NE(rest.edges.size() % StrainLimiter::kRuns, 0u);
   Eigen::Matrix3Xd x = triangles.vertices;
   for (int t = 0; t < 5; ++t) {
     const Eigen::Vector3d centre = x.middleCols(3 * t, 3).rowwise().mean();

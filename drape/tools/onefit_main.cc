@@ -636,7 +636,8 @@ void AddNetworkOptions(CLI::App* command, polyfit::DrapeSimulationOptions* optio
   command
       ->add_option("--relax", options->relax_passes,
                    "strain-limiting passes on each prediction against the body's planes under the garment, "
-                   "skinned from rest (part of the inference; 0: the network's drape as predicted)")
+                   "skinned from rest (part of the inference; 0: the network's drape as predicted; not with --refine "
+                   "or --warp-sweeps)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   command
