@@ -9,8 +9,7 @@
 // or twice; the network in single precision (OneFitDraper's default) and,
 // for the shipped inputs (feedback once), also in double; and of that the
 // garment's positions alone (PositionsAt); and with the relaxation that
-// `onefit drape` runs after it (kNetworkRelaxPasses passes against the
-// body's skinned planes: SkinnedContacts, StrainLimiter). Random weights:
+// `onefit drape` runs after it (NetworkRelaxation, its defaults). Random weights:
 // the time does not depend on them. The
 // MakeHuman body when the shared data is there (its rig's features), else the procedural body.
 //
@@ -29,8 +28,7 @@
 #include "drape/simulate/drape_inputs.h"
 #include "drape/simulate/drape_simulation.h"
 #include "drape/simulate/drape_solver.h"
-#include "drape/simulate/skinned_contacts.h"
-#include "drape/simulate/strain_limit.h"
+#include "drape/simulate/network_relaxation.h"
 #include "polyfit/mesh/primitives.h"
 
 namespace {
@@ -122,10 +120,7 @@ int main(int argc, char** argv) {
       options.slide.warp_order = inputs.warp_order;
       options.patching.patch_area = patch_area;
       polyfit::DrapeSolver solver(body, tube, weights, options);
-      const polyfit::ClothRest rest = polyfit::PrepareClothRest(solver.rest_garment());
-      const polyfit::SkinnedContacts contacts(body, solver.rest_garment().vertices, polyfit::kRelaxContactReach);
-      const polyfit::StrainLimiter limiter(rest);
-      std::vector<polyfit::BodyContact> posed_contacts;
+      const polyfit::NetworkRelaxation relaxation(body, solver.rest_garment());
       for (const int width : {48, 128, 256}) {
         const polyfit::OneFitModel model = RandomModel(body, width, inputs);
         const bool shipped = inputs.feedback && inputs.feedback_passes == 1;
@@ -140,9 +135,7 @@ int main(int argc, char** argv) {
             const auto predicted = Clock::now();
             Eigen::Matrix3Xd x = solver.PositionsAt(params, poses[t]);
             const auto end = Clock::now();
-            contacts.Pose(poses[t], &posed_contacts);
-            limiter.Apply(posed_contacts, polyfit::kNetworkRelaxPasses, polyfit::kNetworkProjectOffset, &x,
-                          polyfit::kRelaxMaxMove);
+            relaxation.Apply(poses[t], &x);
             relaxed_ms.push_back(1e3 * std::chrono::duration<double>(Clock::now() - start).count());
             ms.push_back(1e3 * std::chrono::duration<double>(end - start).count());
             positions_ms.push_back(1e3 * std::chrono::duration<double>(end - predicted).count());

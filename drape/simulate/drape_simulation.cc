@@ -15,8 +15,6 @@
 #include "drape/network/onefit_draper.h"
 #include "drape/render/mesh_render.h"
 #include "drape/simulate/drape_inputs.h"
-#include "drape/simulate/skinned_contacts.h"
-#include "drape/simulate/strain_limit.h"
 #include "polyfit/mesh/mesh_io.h"
 #include "polyfit/util/atomic_file.h"
 #include "polyfit/util/json_number.h"
@@ -197,13 +195,17 @@ void RunNetworkFrames(const DrapeSimulationOptions& options, const DrapeInputs& 
   const double fps = options.solver.physics.fps;
   std::vector<double> correction;  // the last re-solve's change to its prediction
   // Bound once per garment, like the network's garment half.
-  std::optional<SkinnedContacts> skinned_contacts;
-  std::optional<StrainLimiter> limiter;
+  std::optional<NetworkRelaxation> relaxation;
   if (options.relax_passes > 0 && options.refine_iterations == 0 && options.warp_sweeps == 0) {
-    skinned_contacts.emplace(in.body, solver->rest_garment().vertices, kRelaxContactReach);
-    limiter.emplace(rest);
+    NetworkRelaxationOptions relax;
+    relax.passes = options.relax_passes;
+    relaxation.emplace(in.body, solver->rest_garment(), relax);
+    if (relaxation->passes() < relax.passes) {
+      summary->notes.push_back("relaxation: " + std::to_string(relaxation->passes()) + " passes, not " +
+                               std::to_string(relax.passes) + ", within its budget of " +
+                               std::to_string(relax.max_edge_updates) + " edge updates a frame");
+    }
   }
-  std::vector<BodyContact> contacts;  // reused from frame to frame
   for (int f = options.first_frame; f < in.last_frame; ++f) {
     const auto pose = [&](int g) { return in.retargeter->Pose(std::max(g, options.first_frame)); };
     const JointTransforms before_previous = pose(f - 2), previous = pose(f - 1), now = pose(f);
@@ -244,10 +246,7 @@ void RunNetworkFrames(const DrapeSimulationOptions& options, const DrapeInputs& 
       } else {
         positions = solver->PositionsAt(params, now);
       }
-      if (skinned_contacts) {
-        skinned_contacts->Pose(now, &contacts);
-        limiter->Apply(contacts, options.relax_passes, kNetworkProjectOffset, &positions, kRelaxMaxMove);
-      }
+      if (relaxation) relaxation->Apply(now, &positions);
       step.time_s = step.solve_time_s = Seconds(start);
       if (options.warp_sweeps == 0) solver->Pose(now);
       solver->Adopt(drape, positions);

@@ -25,6 +25,7 @@
 #include "drape/body/body_shape.h"
 #include "drape/garment/skin_transfer.h"
 #include "drape/simulate/drape_solver.h"
+#include "drape/simulate/network_relaxation.h"
 #include "polyfit/util/status.h"
 
 namespace polyfit {
@@ -39,22 +40,6 @@ class DrapeInputError : public Error {
 // strain-limiting passes (DrapeSolver::PostProcessed).
 inline constexpr double kNetworkProjectOffset = 2e-3;  // m
 inline constexpr int kNetworkStrainLimitPasses = 10;
-// The network's relaxation (part of its inference, before any
-// post-process): strain-limiting passes (StrainLimiter) against the body's
-// tangent planes under the garment's vertices, carried by the body's
-// skinning from rest (SkinnedContacts: no distance query), for the
-// vertices within kRelaxContactReach of the body at rest; no vertex moved
-// further than kRelaxMaxMove from the network's prediction. The tether
-// keeps the relaxation to what it is for, the strain between neighbours
-// that the network's patches leave: untethered, a garment stretched as a
-// whole contracts along its length, its vertices slide centimetres from
-// where their planes were bound and through the body where it is not
-// convex (the suit decimated to 547 vertices: 1.43% -> 1.88% inside). It
-// is the reach over which the post-process trusts its planes
-// (DrapeSolver::kStrainLimitContactReach).
-inline constexpr int kNetworkRelaxPasses = 15;
-inline constexpr double kRelaxContactReach = 0.03;  // m
-inline constexpr double kRelaxMaxMove = 0.02;       // m
 
 struct DrapeSimulationOptions {
   // The MakeHuman body folder (../shared/data/drape/body); empty for the
@@ -96,14 +81,13 @@ struct DrapeSimulationOptions {
   // 0: each frame from the prediction alone.
   double warp_carry = 0.95;
   // With a model, no refinement and no re-solved warps: each drape the
-  // network predicts relaxed by this many passes of StrainLimiter against
-  // the body's skinned planes (kept kNetworkProjectOffset above them,
-  // tethered within kRelaxMaxMove), timed with the inference; 0: the
+  // network predicts relaxed by this many passes (NetworkRelaxation, its
+  // other settings its defaults), timed with the inference; 0: the
   // network's drape as predicted. Not after re-solved warps: they already
   // take the strain, under exact collisions, which the relaxation's
   // planes would undo (the walk 0.69% -> 1.45% inside for 7.6 -> 5.4%
   // strain).
-  int relax_passes = kNetworkRelaxPasses;
+  int relax_passes = NetworkRelaxationOptions{}.passes;
   // With warp_sweeps and a model that records its loss's collision settings
   // (OneFitModel::loss_collision): the re-solve, and the drape's metrics,
   // use those instead of solver.physics' (the warps it solves for are the

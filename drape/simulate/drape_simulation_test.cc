@@ -245,7 +245,7 @@ TEST_F(SharedDataDrapeTest, TheRelaxationTakesTheNetworksStrainAndKeepsItOutOfTh
   options_.keep_positions = true;
   options_.relax_passes = 0;
   const DrapeSimulationSummary predicted = RunDrapeSimulation(options_);
-  options_.relax_passes = kNetworkRelaxPasses;
+  options_.relax_passes = NetworkRelaxationOptions{}.passes;
   const DrapeSimulationSummary relaxed = RunDrapeSimulation(options_);
   ASSERT_TRUE(predicted.all_finite && relaxed.all_finite);
   ASSERT_EQ(predicted.positions.size(), relaxed.positions.size());
@@ -258,7 +258,7 @@ TEST_F(SharedDataDrapeTest, TheRelaxationTakesTheNetworksStrainAndKeepsItOutOfTh
   for (size_t t = 0; t < relaxed.positions.size(); ++t) {
     const Eigen::VectorXd move = (relaxed.positions[t] - predicted.positions[t]).colwise().norm();
     max_move = std::max(max_move, move.maxCoeff());
-    beyond += (move.array() > kRelaxMaxMove + 1e-3).count();
+    beyond += (move.array() > NetworkRelaxationOptions{}.max_move + 1e-3).count();
     count += move.size();
   }
   EXPECT_GT(max_move, 0.005);

@@ -47,10 +47,15 @@ void StrainLimiter::Apply(const std::vector<BodyContact>& contacts, int passes, 
         if (length2 > max_move2) x.col(v) = anchor_.col(v) + (max_move / std::sqrt(length2)) * move;
       }
     }
-    for (const BodyContact& c : contacts) {
-      const double below = offset - c.normal.dot(x.col(c.vertex) - c.point);
-      if (below > 0.0) x.col(c.vertex) += below * c.normal;
-    }
+    KeepAbovePlanes(contacts, offset, &x);
+  }
+}
+
+void KeepAbovePlanes(const std::vector<BodyContact>& contacts, double offset, Eigen::Matrix3Xd* positions) {
+  Eigen::Matrix3Xd& x = *positions;
+  for (const BodyContact& c : contacts) {
+    const double below = offset - c.normal.dot(x.col(c.vertex) - c.point);
+    if (below > 0.0) x.col(c.vertex) += below * c.normal;
   }
 }
 

@@ -58,6 +58,8 @@ class StrainLimiter {
   void Apply(const std::vector<BodyContact>& contacts, int passes, double offset, Eigen::Matrix3Xd* positions,
              double max_move = std::numeric_limits<double>::infinity()) const;
 
+  int num_edges() const { return static_cast<int>(edges_.size()); }
+
   static constexpr int kRuns = 8;
 
  private:
@@ -65,6 +67,10 @@ class StrainLimiter {
   std::vector<double> length_;
   mutable Eigen::Matrix3Xd anchor_;  // the positions a tethered Apply started from
 };
+
+// Each contact's vertex (in positions, 3 by #V) put `offset` above its
+// plane where it is below: the contacts' step of a pass.
+void KeepAbovePlanes(const std::vector<BodyContact>& contacts, double offset, Eigen::Matrix3Xd* positions);
 
 // StrainLimiter(rest).Apply(...): for a single use.
 void LimitStrain(const ClothRest& rest, const std::vector<BodyContact>& contacts, int passes, double offset,

@@ -1,0 +1,66 @@
+// The relaxation that follows the network's prediction within its
+// inference (`onefit drape`, on by default): strain-limiting passes
+// (StrainLimiter) against the body's planes under the garment, skinned
+// from rest (SkinnedContacts: no distance query), every vertex tethered
+// near the prediction. A pass is linear in the garment's edges: past a
+// budget of edge updates a frame, a finer garment gets fewer passes, so
+// that the inference's time stays nearly flat in the garment's resolution,
+// as the network's does.
+#ifndef POLYFIT_DRAPE_SIMULATE_NETWORK_RELAXATION_H_
+#define POLYFIT_DRAPE_SIMULATE_NETWORK_RELAXATION_H_
+
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "drape/body/makehuman_body.h"
+#include "drape/simulate/skinned_contacts.h"
+#include "drape/simulate/strain_limit.h"
+#include "polyfit/mesh/triangle_mesh.h"
+
+namespace polyfit {
+
+// The tether keeps the relaxation to what it is for, the strain between
+// neighbours that the network's patches leave: untethered, a garment
+// stretched as a whole contracts along its length, its vertices slide
+// centimetres from where their planes were bound and through the body
+// where it is not convex (the suit decimated to 547 vertices: 1.43% ->
+// 1.88% inside). 2 cm is the reach over which the post-process trusts its
+// planes (DrapeSolver::kStrainLimitContactReach).
+struct NetworkRelaxationOptions {
+  int passes = 15;
+  double contact_reach = 0.03;  // m: vertices this near the body at rest get a plane
+  double offset = 2e-3;         // m: how far above its plane a vertex is kept
+  double max_move = 0.02;       // m: the tether
+  // At most this many edge updates a frame: passes times edges (15 passes
+  // up to 10,000 edges, about 3,300 vertices); at least one pass.
+  int max_edge_updates = 150000;
+};
+
+class NetworkRelaxation {
+ public:
+  // body: the body the garment is draped on (rest mesh, skinning weights);
+  // garment_rest: the garment in the body's rest pose (what strain is
+  // measured against).
+  NetworkRelaxation(const SkinnedBody& body, const TriangleMesh& garment_rest,
+                    const NetworkRelaxationOptions& options = {});
+
+  // positions: 3 by #V, the network's drape at `rest_to_posed` (one
+  // transform per joint), relaxed in place. Not thread-safe (buffers).
+  void Apply(const std::vector<Eigen::Isometry3d>& rest_to_posed, Eigen::Matrix3Xd* positions) const;
+
+  // The passes this garment gets (options.passes within the budget).
+  int passes() const { return passes_; }
+
+ private:
+  NetworkRelaxationOptions options_;
+  SkinnedContacts contacts_;
+  StrainLimiter limiter_;
+  int passes_ = 0;
+  mutable std::vector<BodyContact> posed_;
+};
+
+}  // namespace polyfit
+
+#endif  // POLYFIT_DRAPE_SIMULATE_NETWORK_RELAXATION_H_
