@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "polyfit/eval/surface_distance.h"
+#include "polyfit/mesh/barycentric.h"
 #include "polyfit/mesh/cotangent_laplacian.h"
 #include "polyfit/mesh/edge_split.h"
 #include "polyfit/mesh/mesh_topology.h"
@@ -103,16 +104,7 @@ SkinWeights TransferSkinWeights(const SkinnedBody& body, const TriangleMesh& gar
     const Eigen::Vector3i corners = body.mesh.faces.col(face);
     const Eigen::Vector3d a = body.mesh.vertices.col(corners[0]), b = body.mesh.vertices.col(corners[1]),
                           c = body.mesh.vertices.col(corners[2]);
-    // Barycentric coordinates of p (on the triangle, up to rounding).
-    const Eigen::Vector3d e0 = b - a, e1 = c - a, d = p - a;
-    const double d00 = e0.dot(e0), d01 = e0.dot(e1), d11 = e1.dot(e1), d20 = d.dot(e0), d21 = d.dot(e1);
-    const double denominator = d00 * d11 - d01 * d01;
-    Eigen::Vector3d bary(1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0);
-    if (denominator > 0.0) {
-      const double y = (d11 * d20 - d01 * d21) / denominator, z = (d00 * d21 - d01 * d20) / denominator;
-      bary = Eigen::Vector3d(1.0 - y - z, y, z).cwiseMax(0.0);
-      bary /= bary.sum();
-    }
+    const Eigen::Vector3d bary = BarycentricOnTriangle(a, b, c, p);
     for (int k = 0; k < 3; ++k) {
       const int bv = corners[k];
       for (int i = body.weight_offsets[bv]; i < body.weight_offsets[bv + 1]; ++i) {

@@ -6,22 +6,9 @@
 #include <unordered_map>
 
 #include "drape/collision/signed_distance.h"
+#include "polyfit/mesh/barycentric.h"
 
 namespace polyfit {
-
-namespace {
-
-// Barycentric coordinates of `p` (on or near the triangle a b c) in it.
-Eigen::Vector3d Barycentric(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
-                            const Eigen::Vector3d& p) {
-  const Eigen::Vector3d n = (b - a).cross(c - a);
-  const double area2 = n.squaredNorm();
-  if (!(area2 > 0.0)) return Eigen::Vector3d(1.0, 0.0, 0.0);
-  const double wb = n.dot((p - a).cross(c - a)) / area2, wc = n.dot((b - a).cross(p - a)) / area2;
-  return Eigen::Vector3d(1.0 - wb - wc, wb, wc);
-}
-
-}  // namespace
 
 SkinnedContacts::SkinnedContacts(const SkinnedBody& body, const Eigen::Matrix3Xd& garment_rest, double reach)
     : num_joints_(body.skeleton.num_joints()) {
@@ -44,8 +31,9 @@ SkinnedContacts::SkinnedContacts(const SkinnedBody& body, const Eigen::Matrix3Xd
       if (added) corners.push_back(b);
       bound.corner[c] = it->second;
     }
-    bound.barycentric = Barycentric(mesh.vertices.col(mesh.faces(0, r.face)), mesh.vertices.col(mesh.faces(1, r.face)),
-                                    mesh.vertices.col(mesh.faces(2, r.face)), r.closest);
+    bound.barycentric =
+        BarycentricOnTriangle(mesh.vertices.col(mesh.faces(0, r.face)), mesh.vertices.col(mesh.faces(1, r.face)),
+                              mesh.vertices.col(mesh.faces(2, r.face)), r.closest);
     bound_.push_back(bound);
   }
   corner_rest_ = mesh.vertices(Eigen::all, corners);
