@@ -234,8 +234,8 @@ TEST_F(SharedDataDrapeTest, ReSolvedWarpsCarriedFromFrameToFrameLeaveLessStrain)
 
 // The network's relaxation (part of its inference, on by default) against
 // the network's drape as predicted: the strain between neighbours goes,
-// the garment stays out of the body, and no vertex moves further than its
-// tether and the offset over its plane.
+// the garment stays out of the body, and vertices move further than their
+// tether only where a plane pushes out what the network left inside.
 TEST_F(SharedDataDrapeTest, TheRelaxationTakesTheNetworksStrainAndKeepsItOutOfTheBody) {
   if (!fs::exists(POLYFIT_SHIPPED_ONEFIT_MODEL)) GTEST_SKIP() << "needs " << POLYFIT_SHIPPED_ONEFIT_MODEL;
   options_.garment_path = (data_ / "garments" / "makehuman_cc0" / "male_casualsuit02.mhclo").string();
@@ -249,11 +249,13 @@ TEST_F(SharedDataDrapeTest, TheRelaxationTakesTheNetworksStrainAndKeepsItOutOfTh
   const DrapeSimulationSummary relaxed = RunDrapeSimulation(options_);
   ASSERT_TRUE(predicted.all_finite && relaxed.all_finite);
   ASSERT_EQ(predicted.positions.size(), relaxed.positions.size());
-  // Measured on these frames: 11.1% -> 6.4% strain, 1.38% -> 1.51% inside.
+  // Measured on these frames: 11.1% -> 6.1% strain, 1.38% -> 1.31% inside
+  // (1.51% with the planes bound at rest throughout, none replaced).
   EXPECT_LT(relaxed.mean_edge_strain_percent, predicted.mean_edge_strain_percent - 3.0);
-  EXPECT_LT(relaxed.mean_inside_percent, predicted.mean_inside_percent + 0.5);
-  // Beyond the tether only where a plane pushed a vertex the network left
-  // inside the body out.
+  EXPECT_LT(relaxed.mean_inside_percent, predicted.mean_inside_percent + 0.1);
+  // Beyond the tether only where a plane pushed out a vertex the network
+  // left inside the body (measured: 0.18% of them, at most 3.1 cm; 1.2%
+  // and 7.2 cm with the planes bound at rest throughout).
   double max_move = 0.0, beyond = 0.0, count = 0.0;
   for (size_t t = 0; t < relaxed.positions.size(); ++t) {
     const Eigen::VectorXd move = (relaxed.positions[t] - predicted.positions[t]).colwise().norm();
@@ -262,8 +264,8 @@ TEST_F(SharedDataDrapeTest, TheRelaxationTakesTheNetworksStrainAndKeepsItOutOfTh
     count += move.size();
   }
   EXPECT_GT(max_move, 0.005);
-  // Measured: 1.2% of the vertices, about those the network left inside.
-  EXPECT_LT(100.0 * beyond / count, predicted.mean_inside_percent + 0.5);
+  EXPECT_LT(max_move, 0.05);
+  EXPECT_LT(100.0 * beyond / count, 0.5);
   options_.relax_passes = -1;
   EXPECT_THROW(RunDrapeSimulation(options_), DrapeInputError);
 }

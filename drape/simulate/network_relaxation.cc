@@ -1,6 +1,7 @@
 #include "drape/simulate/network_relaxation.h"
 
 #include <algorithm>
+#include <limits>
 
 #include "drape/eval/cloth_energy.h"
 
@@ -11,6 +12,9 @@ NetworkRelaxation::NetworkRelaxation(const SkinnedBody& body, const TriangleMesh
     : options_(options),
       contacts_(body, garment_rest.vertices, options.contact_reach),
       limiter_(PrepareClothRest(garment_rest)) {
+  if (options.suspect_depth < std::numeric_limits<double>::infinity()) {
+    samples_ = std::make_unique<PosedBodySamples>(body);
+  }
   const long edges = std::max<long>(1, static_cast<long>(limiter_.num_edges()));
   passes_ = static_cast<int>(std::clamp<long>(options.max_edge_updates / edges, 1, std::max(options.passes, 1)));
   if (options.passes <= 0) passes_ = 0;
@@ -20,6 +24,17 @@ void NetworkRelaxation::Apply(const std::vector<Eigen::Isometry3d>& rest_to_pose
                               Eigen::Matrix3Xd* positions) const {
   if (passes_ == 0) return;
   contacts_.Pose(rest_to_posed, &posed_);
+  bool samples_posed = false;
+  for (BodyContact& c : posed_) {
+    if (!samples_ || !(c.normal.dot(positions->col(c.vertex) - c.point) < -options_.suspect_depth)) continue;
+    if (!samples_posed) samples_->Pose(rest_to_posed), samples_posed = true;
+    // Only where the body there says the prediction is outside: deep
+    // inside it, the bound plane is right (the network's error).
+    const SignedDistanceResult r = samples_->Query(positions->col(c.vertex));
+    if (r.face < 0 || !(r.distance >= 0.0)) continue;
+    c.point = r.closest;
+    c.normal = r.normal;
+  }
   limiter_.Apply(posed_, passes_, options_.offset, positions, options_.max_move);
 }
 

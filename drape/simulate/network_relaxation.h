@@ -2,19 +2,22 @@
 // inference (`onefit drape`, on by default): strain-limiting passes
 // (StrainLimiter) against the body's planes under the garment, skinned
 // from rest (SkinnedContacts: no distance query), every vertex tethered
-// near the prediction. A pass is linear in the garment's edges: past a
+// near the prediction; where the prediction lies deep below a bound
+// plane, the plane is the nearest body sample's instead. A pass is linear in the garment's edges: past a
 // budget of edge updates a frame, a finer garment gets fewer passes, so
 // that the inference's time stays nearly flat in the garment's resolution,
 // as the network's does.
 #ifndef POLYFIT_DRAPE_SIMULATE_NETWORK_RELAXATION_H_
 #define POLYFIT_DRAPE_SIMULATE_NETWORK_RELAXATION_H_
 
+#include <memory>
 #include <vector>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
 #include "drape/body/makehuman_body.h"
+#include "drape/network/body_proximity.h"
 #include "drape/simulate/skinned_contacts.h"
 #include "drape/simulate/strain_limit.h"
 #include "polyfit/mesh/triangle_mesh.h"
@@ -36,6 +39,12 @@ struct NetworkRelaxationOptions {
   // At most this many edge updates a frame: passes times edges (15 passes
   // up to 10,000 edges, about 3,300 vertices); at least one pass.
   int max_edge_updates = 150000;
+  // m: a prediction this far below its bound plane is taken to be over
+  // another part of the body (a plane bound to a thigh that has swung
+  // since): its plane is then the nearest body sample's
+  // (PosedBodySamples: the body's vertices 3 cm apart, posed only in the
+  // frames that need it). Infinite: the bound planes always.
+  double suspect_depth = 0.01;
 };
 
 class NetworkRelaxation {
@@ -47,7 +56,8 @@ class NetworkRelaxation {
                     const NetworkRelaxationOptions& options = {});
 
   // positions: 3 by #V, the network's drape at `rest_to_posed` (one
-  // transform per joint), relaxed in place. Not thread-safe (buffers).
+  // transform per joint), relaxed in place. Not thread-safe (buffers, the
+  // posed samples).
   void Apply(const std::vector<Eigen::Isometry3d>& rest_to_posed, Eigen::Matrix3Xd* positions) const;
 
   // The passes this garment gets (options.passes within the budget).
@@ -56,6 +66,7 @@ class NetworkRelaxation {
  private:
   NetworkRelaxationOptions options_;
   SkinnedContacts contacts_;
+  std::unique_ptr<PosedBodySamples> samples_;  // posed when a plane is suspect
   StrainLimiter limiter_;
   int passes_ = 0;
   mutable std::vector<BodyContact> posed_;
