@@ -56,6 +56,10 @@ class OneFitDraper {
   std::vector<double> Predict(const JointTransforms& before_previous, const JointTransforms& previous,
                               const JointTransforms& now, double fps, const BodyShape& shape) const;
 
+  // The body's samples posed at the last Predict's `now` (the body
+  // proximity's), or null for a model without the body proximity.
+  const PosedBodySamples* posed_body() const { return posed_body_.get(); }
+
  private:
   template <typename T>
   Eigen::MatrixXd Outputs(const T* weights, const MatrixX<T>& garment_half, const MatrixX<T>& feedback_half,

@@ -135,7 +135,7 @@ int main(int argc, char** argv) {
             const auto predicted = Clock::now();
             Eigen::Matrix3Xd x = solver.PositionsAt(params, poses[t]);
             const auto end = Clock::now();
-            relaxation.Apply(poses[t], &x);
+            relaxation.Apply(poses[t], &x, draper.posed_body());
             relaxed_ms.push_back(1e3 * std::chrono::duration<double>(Clock::now() - start).count());
             ms.push_back(1e3 * std::chrono::duration<double>(end - start).count());
             positions_ms.push_back(1e3 * std::chrono::duration<double>(end - predicted).count());

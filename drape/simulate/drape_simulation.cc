@@ -246,7 +246,7 @@ void RunNetworkFrames(const DrapeSimulationOptions& options, const DrapeInputs& 
       } else {
         positions = solver->PositionsAt(params, now);
       }
-      if (relaxation) relaxation->Apply(now, &positions);
+      if (relaxation) relaxation->Apply(now, &positions, draper.posed_body());
       step.time_s = step.solve_time_s = Seconds(start);
       if (options.warp_sweeps == 0) solver->Pose(now);
       solver->Adopt(drape, positions);

@@ -20,17 +20,20 @@ NetworkRelaxation::NetworkRelaxation(const SkinnedBody& body, const TriangleMesh
   if (options.passes <= 0) passes_ = 0;
 }
 
-void NetworkRelaxation::Apply(const std::vector<Eigen::Isometry3d>& rest_to_posed,
-                              Eigen::Matrix3Xd* positions) const {
+void NetworkRelaxation::Apply(const std::vector<Eigen::Isometry3d>& rest_to_posed, Eigen::Matrix3Xd* positions,
+                              const PosedBodySamples* posed) const {
   if (passes_ == 0) return;
   contacts_.Pose(rest_to_posed, &posed_);
-  bool samples_posed = false;
+  const PosedBodySamples* samples = posed;
   for (BodyContact& c : posed_) {
     if (!samples_ || !(c.normal.dot(positions->col(c.vertex) - c.point) < -options_.suspect_depth)) continue;
-    if (!samples_posed) samples_->Pose(rest_to_posed), samples_posed = true;
+    if (samples == nullptr) {
+      samples_->Pose(rest_to_posed);
+      samples = samples_.get();
+    }
     // Only where the body there says the prediction is outside: deep
     // inside it, the bound plane is right (the network's error).
-    const SignedDistanceResult r = samples_->Query(positions->col(c.vertex));
+    const SignedDistanceResult r = samples->Query(positions->col(c.vertex));
     if (r.face < 0 || !(r.distance >= 0.0)) continue;
     c.point = r.closest;
     c.normal = r.normal;

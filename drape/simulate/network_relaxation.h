@@ -31,13 +31,15 @@ namespace polyfit {
 // where it is not convex (the suit decimated to 547 vertices: 1.43% ->
 // 1.88% inside). 2 cm is the reach over which the post-process trusts its
 // planes (DrapeSolver::kStrainLimitContactReach).
+// 12 passes keep the suit's frame (2,136 vertices) within 1 ms on one core
+// here (15: 1.00 ms; docs/benchmarks.md).
 struct NetworkRelaxationOptions {
-  int passes = 15;
+  int passes = 12;
   double contact_reach = 0.03;  // m: vertices this near the body at rest get a plane
   double offset = 2e-3;         // m: how far above its plane a vertex is kept
   double max_move = 0.02;       // m: the tether
-  // At most this many edge updates a frame: passes times edges (15 passes
-  // up to 10,000 edges, about 3,300 vertices); at least one pass.
+  // At most this many edge updates a frame: passes times edges (12 passes
+  // up to 12,500 edges, about 4,000 vertices); at least one pass.
   int max_edge_updates = 150000;
   // m: a prediction this far below its bound plane is taken to be over
   // another part of the body (a plane bound to a thigh that has swung
@@ -56,9 +58,12 @@ class NetworkRelaxation {
                     const NetworkRelaxationOptions& options = {});
 
   // positions: 3 by #V, the network's drape at `rest_to_posed` (one
-  // transform per joint), relaxed in place. Not thread-safe (buffers, the
-  // posed samples).
-  void Apply(const std::vector<Eigen::Isometry3d>& rest_to_posed, Eigen::Matrix3Xd* positions) const;
+  // transform per joint), relaxed in place. posed (or null): the body's
+  // samples already posed at rest_to_posed (OneFitDraper::posed_body(), at
+  // the default spacing), which saves posing its own. Not thread-safe
+  // (buffers, the posed samples).
+  void Apply(const std::vector<Eigen::Isometry3d>& rest_to_posed, Eigen::Matrix3Xd* positions,
+             const PosedBodySamples* posed = nullptr) const;
 
   // The passes this garment gets (options.passes within the budget).
   int passes() const { return passes_; }
