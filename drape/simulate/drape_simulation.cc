@@ -185,9 +185,10 @@ void RunFrames(const DrapeSimulationOptions& options, const DrapeInputs& in, Dra
 }
 
 // The network's drape: per frame, its prediction from the pose and the two
-// before it, posed by the garment's skinning. The time is the inference
-// (body features, network, garment skinning and vertices); posing the body
-// for the metrics is not counted.
+// before it, posed by the garment's skinning, then relaxed
+// (NetworkRelaxation). The time is the inference (body features, network,
+// garment skinning and vertices, relaxation); posing the body for the
+// metrics is not counted.
 void RunNetworkFrames(const DrapeSimulationOptions& options, const DrapeInputs& in, const OneFitDraper& draper,
                       DrapeSolver* solver, DrapeSimulationSummary* summary) {
   const ClothRest rest = PrepareClothRest(solver->rest_garment());

@@ -56,7 +56,8 @@ struct DrapeSimulationOptions {
   std::string out_dir;
   // A trained OneFit model (`onefit train`): the network drapes every frame
   // instead of the reference drape's solve; the outputs are the same. Its
-  // time per frame is the network's inference with the garment's skinning.
+  // time per frame is the network's inference with the garment's skinning
+  // and the relaxation (relax_passes).
   std::string model_path;
   // With a model: after each prediction, this many Levenberg-Marquardt
   // iterations of the reference drape from it (slides included, one
