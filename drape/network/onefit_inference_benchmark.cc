@@ -145,8 +145,8 @@ int main(int argc, char** argv) {
             std::nth_element(v->begin(), v->begin() + v->size() / 2, v->end());
           }
           std::printf(
-              "| %d | %d | %d | %s | %s | %s | %d | %s | %.3f | %.3f | %.3f |\n", tube.num_vertices(), solver.num_patches(),
-              width, inputs.warp_order < 0 ? "none" : "order 2", inputs.local_pose ? "yes" : "no",
+              "| %d | %d | %d | %s | %s | %s | %d | %s | %.3f | %.3f | %.3f |\n", tube.num_vertices(),
+              solver.num_patches(), width, inputs.warp_order < 0 ? "none" : "order 2", inputs.local_pose ? "yes" : "no",
               inputs.proximity_probes == 0
                   ? "no"
                   : (std::to_string(inputs.proximity_probes) + " probes" +

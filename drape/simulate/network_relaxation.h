@@ -3,10 +3,10 @@
 // (StrainLimiter) against the body's planes under the garment, skinned
 // from rest (SkinnedContacts: no distance query), every vertex tethered
 // near the prediction; where the prediction lies deep below a bound
-// plane, the plane is the nearest body sample's instead. A pass is linear in the garment's edges: past a
-// budget of edge updates a frame, a finer garment gets fewer passes, so
-// that the inference's time stays nearly flat in the garment's resolution,
-// as the network's does.
+// plane, the plane is the nearest body sample's instead. A pass is linear
+// in the garment's edges: past a budget of edge updates a frame, a finer
+// garment gets fewer passes, so that the inference's time stays nearly
+// flat in the garment's resolution, as the network's does.
 #ifndef POLYFIT_DRAPE_SIMULATE_NETWORK_RELAXATION_H_
 #define POLYFIT_DRAPE_SIMULATE_NETWORK_RELAXATION_H_
 
@@ -30,9 +30,9 @@ namespace polyfit {
 // centimetres from where their planes were bound and through the body
 // where it is not convex (the suit decimated to 547 vertices: 1.43% ->
 // 1.88% inside). 2 cm is the reach over which the post-process trusts its
-// planes (DrapeSolver::kStrainLimitContactReach).
-// 12 passes keep the suit's frame (2,136 vertices) within 1 ms on one core
-// here (15: 1.00 ms; docs/benchmarks.md).
+// planes (DrapeSolver::kStrainLimitContactReach). 12 passes keep the
+// suit's frame (2,136 vertices) within 1 ms on one core here (15: 1.00
+// ms; docs/benchmarks.md).
 struct NetworkRelaxationOptions {
   int passes = 12;
   double contact_reach = 0.03;  // m: vertices this near the body at rest get a plane

@@ -55,8 +55,8 @@ TEST_F(NetworkRelaxationTest, NoisyDrapeLosesItsStrainAndEndsAboveTheBodysPlanes
   // Every vertex off by up to 4 mm, and pushed 1.5 cm inward: 5 mm inside
   // the body.
   const Eigen::Matrix3Xd normals = VertexNormals(body_.mesh);
-  Eigen::Matrix3Xd x = garment_.vertices + 0.004 * Eigen::Matrix3Xd::Random(3, garment_.num_vertices()) -
-                       0.015 * normals;
+  Eigen::Matrix3Xd x =
+      garment_.vertices + 0.004 * Eigen::Matrix3Xd::Random(3, garment_.num_vertices()) - 0.015 * normals;
   const double before = MeasureCloth(rest, x).edge_strain_percent;
   relaxation.Apply(identity_, &x);
   ASSERT_TRUE(x.allFinite());

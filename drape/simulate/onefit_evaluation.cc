@@ -184,8 +184,8 @@ OneFitEvaluationSummary EvaluateOneFitModel(const OneFitEvaluationOptions& optio
                                               FormatCarry(options.simulation.warp_carry) + ")"
                                         : std::string("network");
   const int relax = refine > 0 || sweeps > 0 ? 0 : options.simulation.relax_passes;
-  summary.network = Summarize(relax > 0 ? name + ", relaxed (" + std::to_string(relax) + " passes)" : name, network,
-                              network_jitter);
+  summary.network =
+      Summarize(relax > 0 ? name + ", relaxed (" + std::to_string(relax) + " passes)" : name, network, network_jitter);
   summary.network.distance_to_reference_mm = FiniteMean(summary.distance_mm);
   summary.network.max_distance_to_reference_mm =
       summary.distance_mm.empty() ? 0.0 : *std::max_element(summary.distance_mm.begin(), summary.distance_mm.end());

@@ -82,8 +82,8 @@ TEST_F(SkinnedContactsTest, APointBoundAtABodyVertexFollowsThatVertexsSkinning) 
   std::vector<Eigen::Isometry3d> pose = Identity();
   for (int j = 0; j < body_.skeleton.num_joints(); ++j) {
     const Eigen::Vector3d at = body_.skeleton.rest_heads.col(j);
-    const Eigen::Matrix3d turn = Eigen::AngleAxisd(0.2 + 0.05 * j, Eigen::Vector3d(j % 3, 1, (j + 1) % 2).normalized())
-                                     .toRotationMatrix();
+    const Eigen::Matrix3d turn =
+        Eigen::AngleAxisd(0.2 + 0.05 * j, Eigen::Vector3d(j % 3, 1, (j + 1) % 2).normalized()).toRotationMatrix();
     pose[j].linear() = turn;
     pose[j].translation() = at - turn * at + Eigen::Vector3d(0.0, 0.01 * j, 0.0);
   }
