@@ -8,7 +8,8 @@
 #
 # EVAL_FLAGS go to every row's `onefit eval` (e.g. --strain-limit 3).
 # Writes OUT/ROW/eval.md (and the rest of `onefit eval`'s outputs) per row
-# and prints one line per row: eps_c raw, post-processed and by area,
+# and prints one line per row (the network's row of eval.md, relaxed by
+# default; not "the network as predicted"): eps_c raw, post-processed and by area,
 # eps_e and eps_a post-processed, the mean distance to the reference drape
 # (mm) and eps_e raw. Run from the repository's
 # root; the data is taken from ../shared/data/drape.

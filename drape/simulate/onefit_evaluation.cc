@@ -23,12 +23,17 @@ std::string FormatCarry(double carry) {
 
 namespace fs = std::filesystem;
 
+constexpr char kPredictedFolder[] = "network_predicted";
+
 // The reference drape and the network's, each into its own folder, both
-// keeping their garments for the comparison.
-DrapeSimulationSummary RunDrape(const OneFitEvaluationOptions& options, bool network) {
+// keeping their garments for the comparison; `folder` names the network's
+// (its relaxation off for "network_predicted").
+DrapeSimulationSummary RunDrape(const OneFitEvaluationOptions& options, bool network,
+                                const std::string& folder = "network") {
   DrapeSimulationOptions o = options.simulation;
-  o.out_dir = (fs::path(options.simulation.out_dir) / (network ? "network" : "reference")).string();
+  o.out_dir = (fs::path(options.simulation.out_dir) / (network ? folder : "reference")).string();
   o.keep_positions = true;
+  if (network && folder == kPredictedFolder) o.relax_passes = 0;
   if (network) {
     o.project_offset = options.project_offset;
     o.strain_limit_passes = options.strain_limit_passes;
@@ -134,7 +139,10 @@ std::string OneFitEvaluationSummary::Table() const {
       "| drape | eps_c % | eps_c % post | eps_c % area | eps_e % | eps_a % | to reference mm (max frame) | jitter mm | "
       "ms / frame | eps_e % raw |\n"
       "|---|---:|---:|---:|---:|---:|---|---:|---:|---:|\n";
-  for (const OneFitEvaluationRow* row : {&reference, &network}) {
+  std::vector<const OneFitEvaluationRow*> rows = {&reference};
+  if (has_predicted) rows.push_back(&predicted);
+  rows.push_back(&network);
+  for (const OneFitEvaluationRow* row : rows) {
     char line[512];
     std::snprintf(line, sizeof(line), "| %s | %.2f | %.2f | %.2f | %.2f | %.2f | %.1f (%.1f) | %.2f | %.3g | %.2f |\n",
                   row->name.c_str(), row->inside_percent, row->inside_projected_percent, row->inside_area_percent,
@@ -189,6 +197,20 @@ OneFitEvaluationSummary EvaluateOneFitModel(const OneFitEvaluationOptions& optio
   summary.network.distance_to_reference_mm = FiniteMean(summary.distance_mm);
   summary.network.max_distance_to_reference_mm =
       summary.distance_mm.empty() ? 0.0 : *std::max_element(summary.distance_mm.begin(), summary.distance_mm.end());
+  if (relax > 0) {
+    // The network alone beside it: what the relaxation changes.
+    const DrapeSimulationSummary predicted = RunDrape(options, true, kPredictedFolder);
+    summary.has_predicted = true;
+    summary.predicted = Summarize("the network as predicted (`--relax 0`)", predicted, Jitter(predicted.positions));
+    std::vector<double> distance;
+    const size_t frames = std::min(predicted.positions.size(), reference.positions.size());
+    for (size_t t = 0; t < frames; ++t) {
+      distance.push_back(1e3 * (predicted.positions[t] - reference.positions[t]).colwise().norm().mean());
+    }
+    summary.predicted.distance_to_reference_mm = FiniteMean(distance);
+    summary.predicted.max_distance_to_reference_mm =
+        distance.empty() ? 0.0 : *std::max_element(distance.begin(), distance.end());
+  }
   summary.termination_type =
       (network.termination_type == TerminationType::kFailure || reference.termination_type == TerminationType::kFailure)
           ? TerminationType::kFailure

@@ -7,6 +7,8 @@
 // frame-to-frame jitter (mean |x_t - 2 x_(t-1) + x_(t-2)|, mm: what the
 // eye sees as shaking) and the time per frame. Writes into out_dir:
 //   reference/, network/   each drape's outputs (as `onefit simulate`)
+//   network_predicted/     with the relaxation on, the network's drape
+//                          without it (a row of the table)
 //   eval.csv               per-frame values of both
 //   eval.md                the summary table
 //   eval.png               epsilon_c, epsilon_e, distance and jitter per frame
@@ -55,6 +57,9 @@ struct OneFitEvaluationSummary {
   int frames = 0;
   int garment_vertices = 0;
   OneFitEvaluationRow reference, network;
+  // With the relaxation on: the network's drape as predicted, beside it.
+  bool has_predicted = false;
+  OneFitEvaluationRow predicted;
   std::vector<int> frame_numbers;
   std::vector<double> distance_mm;  // per frame
 

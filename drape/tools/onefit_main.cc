@@ -575,7 +575,8 @@ int RunEval(SimulateFlags& f) {
   SayWhatAnEarlierRunLeft(options.simulation.out_dir, "eval.md");
   const polyfit::OneFitEvaluationSummary summary = polyfit::EvaluateOneFitModel(options);
   std::printf("%s\n%s", summary.BriefReport().c_str(), summary.Table().c_str());
-  std::printf("wrote %s (reference/, network/, eval.csv, eval.md, eval.png)\n", options.simulation.out_dir.c_str());
+  std::printf("wrote %s (reference/, network/, %seval.csv, eval.md, eval.png)\n", options.simulation.out_dir.c_str(),
+              summary.has_predicted ? "network_predicted/, " : "");
   return summary.termination_type == polyfit::TerminationType::kFailure ? polyfit::kExitSolverFailure
                                                                         : polyfit::kExitSuccess;
 }
