@@ -82,9 +82,11 @@ OneFitEvaluationRow Summarize(const std::string& name, const DrapeSimulationSumm
   return row;
 }
 
+// predicted (or null): the network's drape without its relaxation.
 void WriteReport(const OneFitEvaluationOptions& options, const OneFitEvaluationSummary& summary,
                  const DrapeSimulationSummary& reference, const DrapeSimulationSummary& network,
-                 const std::vector<double>& reference_jitter, const std::vector<double>& network_jitter) {
+                 const DrapeSimulationSummary* predicted, const std::vector<double>& reference_jitter,
+                 const std::vector<double>& network_jitter) {
   const fs::path out(options.simulation.out_dir);
   WriteFileAtomically((out / "eval.csv").string(), [&](std::ostream& csv) {
     csv << "frame,reference_inside_percent,network_inside_percent,network_projected_inside_percent,"
@@ -110,17 +112,24 @@ void WriteReport(const OneFitEvaluationOptions& options, const OneFitEvaluationS
     for (const DrapeFrameSummary& r : s.records) values.push_back(r.*field);
     return values;
   };
-  const cv::Scalar grey(90, 90, 90), blue(200, 110, 30), orange(30, 140, 240);
-  const std::vector<PlotPanel> panels = {
+  const cv::Scalar grey(90, 90, 90), blue(200, 110, 30), orange(30, 140, 240), red(40, 40, 200);
+  std::vector<PlotPanel> panels = {
       {"epsilon_c (% inside)",
        {{"reference", column(reference, &DrapeFrameSummary::inside_percent), grey},
         {"network", column(network, &DrapeFrameSummary::inside_unprojected_percent), blue},
         {"network + post", column(network, &DrapeFrameSummary::inside_percent), orange}}},
       {"epsilon_e (% edge change)",
        {{"reference", column(reference, &DrapeFrameSummary::edge_strain_percent), grey},
+        {"network", column(network, &DrapeFrameSummary::edge_strain_unprojected_percent), blue},
         {"network + post", column(network, &DrapeFrameSummary::edge_strain_percent), orange}}},
       {"distance to the reference (mm)", {{"network + post", summary.distance_mm, orange}}},
       {"jitter (mm)", {{"reference", reference_jitter, grey}, {"network + post", network_jitter, orange}}}};
+  if (predicted != nullptr) {
+    panels[0].series.push_back(
+        {"as predicted", column(*predicted, &DrapeFrameSummary::inside_unprojected_percent), red});
+    panels[1].series.push_back(
+        {"as predicted", column(*predicted, &DrapeFrameSummary::edge_strain_unprojected_percent), red});
+  }
   WriteImage((out / "eval.png").string(), DrawLinePlot(x, panels));
 }
 
@@ -197,9 +206,10 @@ OneFitEvaluationSummary EvaluateOneFitModel(const OneFitEvaluationOptions& optio
   summary.network.distance_to_reference_mm = FiniteMean(summary.distance_mm);
   summary.network.max_distance_to_reference_mm =
       summary.distance_mm.empty() ? 0.0 : *std::max_element(summary.distance_mm.begin(), summary.distance_mm.end());
+  DrapeSimulationSummary predicted;
   if (relax > 0) {
     // The network alone beside it: what the relaxation changes.
-    const DrapeSimulationSummary predicted = RunDrape(options, true, kPredictedFolder);
+    predicted = RunDrape(options, true, kPredictedFolder);
     summary.has_predicted = true;
     summary.predicted = Summarize("the network as predicted (`--relax 0`)", predicted, Jitter(predicted.positions));
     std::vector<double> distance;
@@ -216,7 +226,8 @@ OneFitEvaluationSummary EvaluateOneFitModel(const OneFitEvaluationOptions& optio
           ? TerminationType::kFailure
           : TerminationType::kConvergence;
   if (!network.all_finite) summary.message = "the network predicted non-finite frames";
-  WriteReport(options, summary, reference, network, reference_jitter, network_jitter);
+  WriteReport(options, summary, reference, network, summary.has_predicted ? &predicted : nullptr, reference_jitter,
+              network_jitter);
   return summary;
 }
 
