@@ -26,7 +26,6 @@
 
 #include "drape/network/onefit_draper.h"
 #include "drape/simulate/drape_inputs.h"
-#include "drape/simulate/drape_simulation.h"
 #include "drape/simulate/drape_solver.h"
 #include "drape/simulate/network_relaxation.h"
 #include "polyfit/mesh/primitives.h"

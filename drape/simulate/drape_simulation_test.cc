@@ -175,6 +175,13 @@ class SharedDataDrapeTest : public ::testing::Test {
     options_.render_every = 0;
     options_.write_meshes = false;
   }
+  // The suit's walk, first `frames` frames, by the shipped network.
+  void DrapeTheSuitsWalkWithTheShippedModel(int frames) {
+    options_.garment_path = (data_ / "garments" / "makehuman_cc0" / "male_casualsuit02.mhclo").string();
+    options_.motion_path = (data_ / "motion" / "02_01.bvh").string();
+    options_.model_path = POLYFIT_SHIPPED_ONEFIT_MODEL;
+    options_.num_frames = frames;
+  }
   fs::path data_;
   ScopedTempDir dir_;
   DrapeSimulationOptions options_;
@@ -214,10 +221,7 @@ TEST_F(SharedDataDrapeTest, GarmentStartingInsideTheBodyIsPushedOut) {
 // strain at no more cost per frame.
 TEST_F(SharedDataDrapeTest, ReSolvedWarpsCarriedFromFrameToFrameLeaveLessStrain) {
   if (!fs::exists(POLYFIT_SHIPPED_ONEFIT_MODEL)) GTEST_SKIP() << "needs " << POLYFIT_SHIPPED_ONEFIT_MODEL;
-  options_.garment_path = (data_ / "garments" / "makehuman_cc0" / "male_casualsuit02.mhclo").string();
-  options_.motion_path = (data_ / "motion" / "02_01.bvh").string();
-  options_.model_path = POLYFIT_SHIPPED_ONEFIT_MODEL;
-  options_.num_frames = 12;
+  DrapeTheSuitsWalkWithTheShippedModel(12);
   options_.lead_in_frames = 1;
   options_.warp_sweeps = 1;
   options_.warp_translations = true;
@@ -238,10 +242,7 @@ TEST_F(SharedDataDrapeTest, ReSolvedWarpsCarriedFromFrameToFrameLeaveLessStrain)
 // tether only where a plane pushes out what the network left inside.
 TEST_F(SharedDataDrapeTest, TheRelaxationTakesTheNetworksStrainAndKeepsItOutOfTheBody) {
   if (!fs::exists(POLYFIT_SHIPPED_ONEFIT_MODEL)) GTEST_SKIP() << "needs " << POLYFIT_SHIPPED_ONEFIT_MODEL;
-  options_.garment_path = (data_ / "garments" / "makehuman_cc0" / "male_casualsuit02.mhclo").string();
-  options_.motion_path = (data_ / "motion" / "02_01.bvh").string();
-  options_.model_path = POLYFIT_SHIPPED_ONEFIT_MODEL;
-  options_.num_frames = 12;
+  DrapeTheSuitsWalkWithTheShippedModel(12);
   options_.keep_positions = true;
   options_.relax_passes = 0;
   const DrapeSimulationSummary predicted = RunDrapeSimulation(options_);

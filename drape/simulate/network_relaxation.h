@@ -69,6 +69,12 @@ class NetworkRelaxation {
   int passes() const { return passes_; }
 
  private:
+  // posed_'s planes that the prediction (positions) lies suspect_depth
+  // below, where the body's samples (posed, or samples_ posed here) say it
+  // is outside, replaced by the nearest sample's.
+  void ReplaceSuspectPlanes(const std::vector<Eigen::Isometry3d>& rest_to_posed, const Eigen::Matrix3Xd& positions,
+                            const PosedBodySamples* posed) const;
+
   NetworkRelaxationOptions options_;
   SkinnedContacts contacts_;
   std::unique_ptr<PosedBodySamples> samples_;  // posed when a plane is suspect

@@ -23,17 +23,20 @@ std::string FormatCarry(double carry) {
 
 namespace fs = std::filesystem;
 
-constexpr char kPredictedFolder[] = "network_predicted";
+enum class Drape { kReference, kNetwork, kNetworkAsPredicted };
 
-// The reference drape and the network's, each into its own folder, both
-// keeping their garments for the comparison; `folder` names the network's
-// (its relaxation off for "network_predicted").
-DrapeSimulationSummary RunDrape(const OneFitEvaluationOptions& options, bool network,
-                                const std::string& folder = "network") {
+// A drape into its own folder, keeping its garments for the comparison:
+// the reference drape, the network's, or the network's without its
+// relaxation.
+DrapeSimulationSummary RunDrape(const OneFitEvaluationOptions& options, Drape drape) {
+  const bool network = drape != Drape::kReference;
+  const char* folder = drape == Drape::kReference ? "reference"
+                       : drape == Drape::kNetwork ? "network"
+                                                  : "network_predicted";
   DrapeSimulationOptions o = options.simulation;
-  o.out_dir = (fs::path(options.simulation.out_dir) / (network ? folder : "reference")).string();
+  o.out_dir = (fs::path(options.simulation.out_dir) / folder).string();
   o.keep_positions = true;
-  if (network && folder == kPredictedFolder) o.relax_passes = 0;
+  if (drape == Drape::kNetworkAsPredicted) o.relax_passes = 0;
   if (network) {
     o.project_offset = options.project_offset;
     o.strain_limit_passes = options.strain_limit_passes;
@@ -62,6 +65,22 @@ double FiniteMean(const std::vector<double>& values) {
     if (std::isfinite(v)) sum += v, ++count;
   }
   return count > 0 ? sum / count : std::numeric_limits<double>::quiet_NaN();
+}
+
+// Per frame (of the shorter), the mean over vertices of |a_t - b_t| (mm).
+std::vector<double> DistancesMm(const std::vector<Eigen::Matrix3Xd>& a, const std::vector<Eigen::Matrix3Xd>& b) {
+  std::vector<double> distance;
+  for (size_t t = 0; t < std::min(a.size(), b.size()); ++t) {
+    distance.push_back(1e3 * (a[t] - b[t]).colwise().norm().mean());
+  }
+  return distance;
+}
+
+// A row's distance to the reference drape: the mean and worst frame of
+// `distance` (mm per frame).
+void SetDistanceToReference(const std::vector<double>& distance, OneFitEvaluationRow* row) {
+  row->distance_to_reference_mm = FiniteMean(distance);
+  row->max_distance_to_reference_mm = distance.empty() ? 0.0 : *std::max_element(distance.begin(), distance.end());
 }
 
 OneFitEvaluationRow Summarize(const std::string& name, const DrapeSimulationSummary& drape,
@@ -182,15 +201,13 @@ OneFitEvaluationSummary EvaluateOneFitModel(const OneFitEvaluationOptions& optio
     throw Error(ErrorKind::kInvalidArgument, "onefit eval: " + problem);
   }
   // The network first: a bad model fails before the long reference drape.
-  const DrapeSimulationSummary network = RunDrape(options, true);
-  const DrapeSimulationSummary reference = RunDrape(options, false);
+  const DrapeSimulationSummary network = RunDrape(options, Drape::kNetwork);
+  const DrapeSimulationSummary reference = RunDrape(options, Drape::kReference);
   OneFitEvaluationSummary summary;
   summary.frames = static_cast<int>(std::min(network.records.size(), reference.records.size()));
   summary.garment_vertices = network.garment_vertices;
-  for (int t = 0; t < summary.frames; ++t) {
-    summary.frame_numbers.push_back(network.records[t].frame);
-    summary.distance_mm.push_back(1e3 * (network.positions[t] - reference.positions[t]).colwise().norm().mean());
-  }
+  for (int t = 0; t < summary.frames; ++t) summary.frame_numbers.push_back(network.records[t].frame);
+  summary.distance_mm = DistancesMm(network.positions, reference.positions);
   const std::vector<double> reference_jitter = Jitter(reference.positions), network_jitter = Jitter(network.positions);
   summary.reference = Summarize("reference drape", reference, reference_jitter);
   const int refine = options.simulation.refine_iterations, sweeps = options.simulation.warp_sweeps;
@@ -203,23 +220,14 @@ OneFitEvaluationSummary EvaluateOneFitModel(const OneFitEvaluationOptions& optio
   const int relax = refine > 0 || sweeps > 0 ? 0 : options.simulation.relax_passes;
   summary.network =
       Summarize(relax > 0 ? name + ", relaxed (" + std::to_string(relax) + " passes)" : name, network, network_jitter);
-  summary.network.distance_to_reference_mm = FiniteMean(summary.distance_mm);
-  summary.network.max_distance_to_reference_mm =
-      summary.distance_mm.empty() ? 0.0 : *std::max_element(summary.distance_mm.begin(), summary.distance_mm.end());
+  SetDistanceToReference(summary.distance_mm, &summary.network);
   DrapeSimulationSummary predicted;
   if (relax > 0) {
     // The network alone beside it: what the relaxation changes.
-    predicted = RunDrape(options, true, kPredictedFolder);
+    predicted = RunDrape(options, Drape::kNetworkAsPredicted);
     summary.has_predicted = true;
     summary.predicted = Summarize("the network as predicted (`--relax 0`)", predicted, Jitter(predicted.positions));
-    std::vector<double> distance;
-    const size_t frames = std::min(predicted.positions.size(), reference.positions.size());
-    for (size_t t = 0; t < frames; ++t) {
-      distance.push_back(1e3 * (predicted.positions[t] - reference.positions[t]).colwise().norm().mean());
-    }
-    summary.predicted.distance_to_reference_mm = FiniteMean(distance);
-    summary.predicted.max_distance_to_reference_mm =
-        distance.empty() ? 0.0 : *std::max_element(distance.begin(), distance.end());
+    SetDistanceToReference(DistancesMm(predicted.positions, reference.positions), &summary.predicted);
   }
   summary.termination_type =
       (network.termination_type == TerminationType::kFailure || reference.termination_type == TerminationType::kFailure)

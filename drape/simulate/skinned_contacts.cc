@@ -57,8 +57,8 @@ void SkinnedContacts::Pose(const std::vector<Eigen::Isometry3d>& rest_to_posed,
     corner_posed_.col(c) = SkinPoint(corner_rest_.col(c), joint_.data() + offset_[c], weight_.data() + offset_[c],
                                      offset_[c + 1] - offset_[c], rest_to_posed);
   }
-  // A face skinned flat holds nothing: a zero normal (LimitStrain moves the
-  // vertex by the offset times it).
+  // A face skinned flat holds nothing: a zero normal (KeepAbovePlanes moves
+  // the vertex by the offset times it).
   contacts->resize(bound_.size());
   for (size_t i = 0; i < bound_.size(); ++i) {
     const Bound& b = bound_[i];

@@ -5,8 +5,9 @@
 // blend skinning), and each contact is its point on the posed face and
 // the face's normal. Where the garment stays over its binding (a tight
 // garment) the plane is the posed body's; these are the contacts
-// LimitStrain (strain_limit.h) keeps vertices above, so that the network's
-// drape can be relaxed within its inference.
+// StrainLimiter (strain_limit.h) keeps vertices above, so that the
+// network's drape can be relaxed within its inference
+// (network_relaxation.h).
 #ifndef POLYFIT_DRAPE_SIMULATE_SKINNED_CONTACTS_H_
 #define POLYFIT_DRAPE_SIMULATE_SKINNED_CONTACTS_H_
 
@@ -33,8 +34,6 @@ class SkinnedContacts {
   // contacts: one per bound vertex (resized; reuse it across frames). Not
   // thread-safe (the posed corners are kept in a buffer).
   void Pose(const std::vector<Eigen::Isometry3d>& rest_to_posed, std::vector<BodyContact>* contacts) const;
-
-  int size() const { return static_cast<int>(bound_.size()); }
 
  private:
   struct Bound {
