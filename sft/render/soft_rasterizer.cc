@@ -6,6 +6,7 @@
 #include <type_traits>
 
 #include <ceres/jet.h>
+#include <opencv2/imgproc.hpp>
 
 #include "polyfit/mesh/mesh_topology.h"
 #include "polyfit/util/parallel_for.h"
@@ -18,7 +19,8 @@ constexpr int kTile = 8;
 using J9 = ceres::Jet<double, 9>;
 
 // Bilinear texture lookup at OBJ texture coordinates (v up), clamped at the
-// borders: colour and its derivatives with respect to u and v.
+// borders: colour and its derivatives with respect to u and v (or the
+// colour alone, where d_du and d_dv are null).
 void SampleTexture(const cv::Mat& texture, double u, double v, Eigen::Vector3d* color, Eigen::Vector3d* d_du,
                    Eigen::Vector3d* d_dv) {
   const int w = texture.cols, h = texture.rows;
@@ -34,6 +36,7 @@ void SampleTexture(const cv::Mat& texture, double u, double v, Eigen::Vector3d* 
   };
   const Eigen::Vector3d c00 = px(y0, x0), c01 = px(y0, x1), c10 = px(y1, x0), c11 = px(y1, x1);
   *color = (1 - fy) * ((1 - fx) * c00 + fx * c01) + fy * ((1 - fx) * c10 + fx * c11);
+  if (d_du == nullptr) return;  // the colour alone
   // Clamped coordinates have no derivative.
   const double dx_du = (x == xc) ? w : 0.0, dy_dv = (y == yc) ? -h : 0.0;
   const Eigen::Vector3d d_dx = (1 - fy) * (c01 - c00) + fy * (c11 - c10);
@@ -100,6 +103,10 @@ void BinTrianglesIntoTiles(const ScreenMesh& mesh, const cv::Rect& roi, double s
 struct TermContext {
   const ScreenMesh& mesh;
   const cv::Mat& texture;
+  // The texture's mip levels (level 0 the texture) and each face's level,
+  // or empty and null: no mip-mapping.
+  const std::vector<cv::Mat>& mips;
+  const float* face_levels = nullptr;
   double sigma = 1.0;
   double max_distance2 = 0.0;  // cutoff sigma: beyond, a soft edge is 0 or 1
   double reach = 0.0;          // a little more than its square root
@@ -135,6 +142,32 @@ struct TriangleAtPixel {
   int nearest = 0, edge = -1;
   bool inside = false;
 };
+
+// The texture's colour at (u, v) for face f (and its derivatives, unless
+// null): trilinear between the two mip levels around the face's
+// (fractional) level, which is a constant here.
+void SampleFaceTexture(const TermContext& c, int f, double u, double v, Eigen::Vector3d* color, Eigen::Vector3d* d_du,
+                       Eigen::Vector3d* d_dv) {
+  const int levels = static_cast<int>(c.mips.size());
+  if (levels <= 1 || c.face_levels == nullptr) {
+    SampleTexture(c.texture, u, v, color, d_du, d_dv);
+    return;
+  }
+  const double level = std::clamp(static_cast<double>(c.face_levels[f]), 0.0, levels - 1.0);
+  const int k = std::min(static_cast<int>(level), levels - 2);
+  const double a = level - k;
+  SampleTexture(c.mips[k], u, v, color, d_du, d_dv);
+  if (a > 0.0) {
+    Eigen::Vector3d color1, d_du1, d_dv1;
+    const bool derivatives = d_du != nullptr;
+    SampleTexture(c.mips[k + 1], u, v, &color1, derivatives ? &d_du1 : nullptr, derivatives ? &d_dv1 : nullptr);
+    *color = (1.0 - a) * *color + a * color1;
+    if (derivatives) {
+      *d_du = (1.0 - a) * *d_du + a * d_du1;
+      *d_dv = (1.0 - a) * *d_dv + a * d_dv1;
+    }
+  }
+}
 
 bool LocateTriangle(const TermContext& c, int f, int px, int py, TriangleAtPixel* g) {
   const ScreenMesh& mesh = c.mesh;
@@ -242,13 +275,13 @@ bool TriangleTermAt(const TermContext& c, int f, int px, int py, TriangleTerm* t
     }
     Eigen::Vector3d color, d_du, d_dv;
     if constexpr (std::is_same_v<T, J9>) {
-      SampleTexture(c.texture, u.a, v.a, &color, &d_du, &d_dv);
+      SampleFaceTexture(c, f, u.a, v.a, &color, &d_du, &d_dv);
       for (int ch = 0; ch < 3; ++ch) {
         term->color[ch].a = color[ch];
         term->color[ch].v = d_du[ch] * u.v + d_dv[ch] * v.v;
       }
     } else {
-      SampleTexture(c.texture, u, v, &color, &d_du, &d_dv);
+      SampleFaceTexture(c, f, u, v, &color, nullptr, nullptr);
       for (int ch = 0; ch < 3; ++ch) term->color[ch].a = color[ch];
     }
   } else {
@@ -355,7 +388,7 @@ bool TriangleTermWithDerivatives(const TermContext& c, int f, int px, int py, Tr
       dv += db[k] * mesh.corner_texcoords(1, 3 * f + k);
     }
     Eigen::Vector3d color, d_du, d_dv;
-    SampleTexture(c.texture, u, v, &color, &d_du, &d_dv);
+    SampleFaceTexture(c, f, u, v, &color, &d_du, &d_dv);
     for (int ch = 0; ch < 3; ++ch) {
       term->color[ch].a = color[ch];
       term->color[ch].v.head<6>() = d_du[ch] * du + d_dv[ch] * dv;
@@ -368,20 +401,50 @@ bool TriangleTermWithDerivatives(const TermContext& c, int f, int px, int py, Tr
   return true;
 }
 
-// A pixel's aggregate of its triangle terms (SoftRas):
-//   S = 1 - prod_j (1 - D_j)
-//   I = (e_b C_b + sum_j e_j C_j) / (e_b + sum_j e_j),
-//   e_j = D_j exp((z_j - z_max) / gamma), e_b = exp((z_b - z_max) / gamma).
+// A tile's triangle with its box grown by the reach of its soft edges:
+// beyond it the triangle cannot reach a pixel (LocateTriangle would find it
+// outside and further than the cutoff). Kept contiguous, so that the many
+// triangle-pixel pairs of a tile that fail it are settled without reading
+// the mesh.
+struct TriangleBox {
+  int face;
+  double x0, x1, y0, y1;
+};
+
+// A pixel's aggregate of its triangle terms. The silhouette is SoftRas':
+//   S = 1 - prod_j (1 - D_j).
+// The colour, by options.compositing:
+//   kSoftZ (SoftRas)  I = (e_b C_b + sum_j e_j C_j) / (e_b + sum_j e_j),
+//                     e_j = D_j exp((z_j - z_max) / gamma),
+//                     e_b = exp((z_b - z_max) / gamma);
+//   kOver             the terms sorted nearest first, each laid over those
+//                     behind it by its coverage, the surface's own colour:
+//                     I = sum_j T_j D_j C_j / A, T_j = prod_{k<j} (1 - D_k),
+//                     A = 1 - T_n = sum_j T_j D_j (the background shows
+//                     only where no triangle reaches, as with kSoftZ).
+constexpr int kOverSlots = 5;
+
 struct PixelBlend {
   double color[3];
   double silhouette = 0.0;
   double e_sum = 0.0;
   double z_max = 0.0;
-  const double* e = nullptr;  // e_j, for the gradients
+  // kSoftZ: e_j per term, e_sum their sum with e_b. kOver: per term (in
+  // the terms' order) kOverSlots values: T_j, then the colour N_j and the
+  // coverage A_j of what lies behind it; e_sum is A.
+  const double* e = nullptr;
+};
+
+// Per thread, reused across tiles and pixels.
+struct RenderScratch {
+  std::vector<TriangleTerm> terms;
+  std::vector<double> e;
+  std::vector<int> order;
+  std::vector<TriangleBox> boxes;
 };
 
 PixelBlend BlendPixel(const std::vector<TriangleTerm>& terms, const cv::Vec3f& background,
-                      const SoftRasterizerOptions& o, std::vector<double>* e_scratch) {
+                      const SoftRasterizerOptions& o, RenderScratch* scratch) {
   PixelBlend blend;
   double keep = 1.0;  // prod (1 - D_j)
   blend.z_max = o.background_depth;
@@ -389,10 +452,45 @@ PixelBlend BlendPixel(const std::vector<TriangleTerm>& terms, const cv::Vec3f& b
     keep *= 1.0 - term.coverage.a;
     blend.z_max = std::max(blend.z_max, term.depth.a);
   }
+  blend.silhouette = 1.0 - keep;
+  std::vector<double>& e = scratch->e;
+  if (o.compositing == Compositing::kOver) {
+    const int n = static_cast<int>(terms.size());
+    std::vector<int>& order = scratch->order;
+    order.resize(n);
+    for (int j = 0; j < n; ++j) order[j] = j;
+    // Nearest first (z is the normalised inverse depth); ties keep the
+    // triangles' order, so that a render does not depend on the threads.
+    std::stable_sort(order.begin(), order.end(),
+                     [&terms](int a, int b) { return terms[a].depth.a > terms[b].depth.a; });
+    e.resize(kOverSlots * n);
+    // Back to front: what lies behind each triangle, its colour (without
+    // the background) and its coverage.
+    double behind[3] = {0.0, 0.0, 0.0}, behind_alpha = 0.0;
+    for (int i = n - 1; i >= 0; --i) {
+      const TriangleTerm& term = terms[order[i]];
+      double* slot = &e[kOverSlots * order[i]];
+      const double d = term.coverage.a;
+      for (int ch = 0; ch < 3; ++ch) {
+        slot[1 + ch] = behind[ch];
+        behind[ch] = d * term.color[ch].a + (1.0 - d) * behind[ch];
+      }
+      slot[4] = behind_alpha;
+      behind_alpha = d + (1.0 - d) * behind_alpha;
+    }
+    double transmitted = 1.0;
+    for (int i = 0; i < n; ++i) {
+      e[kOverSlots * order[i]] = transmitted;
+      transmitted *= 1.0 - terms[order[i]].coverage.a;
+    }
+    blend.e_sum = behind_alpha;  // A = 1 - prod (1 - D_j) > 0: each term has D_j > 0
+    for (int ch = 0; ch < 3; ++ch) blend.color[ch] = behind[ch] / behind_alpha;
+    blend.e = e.data();
+    return blend;
+  }
   const double e_background = std::exp((o.background_depth - blend.z_max) / o.gamma);
   blend.e_sum = e_background;
   double numerator[3] = {e_background * background[0], e_background * background[1], e_background * background[2]};
-  std::vector<double>& e = *e_scratch;
   e.resize(terms.size());
   for (size_t j = 0; j < terms.size(); ++j) {
     e[j] = terms[j].coverage.a * std::exp((terms[j].depth.a - blend.z_max) / o.gamma);
@@ -400,17 +498,19 @@ PixelBlend BlendPixel(const std::vector<TriangleTerm>& terms, const cv::Vec3f& b
     for (int ch = 0; ch < 3; ++ch) numerator[ch] += e[j] * terms[j].color[ch].a;
   }
   for (int ch = 0; ch < 3; ++ch) blend.color[ch] = numerator[ch] / blend.e_sum;
-  blend.silhouette = 1.0 - keep;
   blend.e = e.data();
   return blend;
 }
 
 // d(I, S)/d(screen variables) of a pixel, per vertex, appended to `grads`
-// (a vertex's entries summed over its triangles).
-void AppendPixelGradients(const std::vector<TriangleTerm>& terms, const PixelBlend& blend, double gamma,
-                          bool depth_gradient, std::vector<VertexGradient>* grads) {
+// (a vertex's entries summed over its triangles). kOver holds the depth
+// order fixed: dI/dD_j = T_j (C_j - R_j), dI/dC_j = T_j D_j, no depth
+// derivative (the order is piecewise constant).
+void AppendPixelGradients(const std::vector<TriangleTerm>& terms, const PixelBlend& blend,
+                          const SoftRasterizerOptions& o, std::vector<VertexGradient>* grads) {
   // Without the depth gradient the blend's weights move with coverage only.
-  const double depth_scale = depth_gradient ? 1.0 / gamma : 0.0;
+  const double depth_scale = o.depth_gradient ? 1.0 / o.gamma : 0.0;
+  const bool over = o.compositing == Compositing::kOver;
   const int first = static_cast<int>(grads->size());
   const int n = static_cast<int>(terms.size());
   for (int j = 0; j < n; ++j) {
@@ -420,14 +520,26 @@ void AppendPixelGradients(const std::vector<TriangleTerm>& terms, const PixelBle
     for (int k = 0; k < n; ++k) {
       if (k != j) others *= 1.0 - terms[k].coverage.a;
     }
-    const double exp_j = std::exp((term.depth.a - blend.z_max) / gamma);
     // d colour / d local variables of triangle j.
     Eigen::Matrix<double, 4, 9> local;
-    for (int ch = 0; ch < 3; ++ch) {
-      const double to_e = (term.color[ch].a - blend.color[ch]) / blend.e_sum;
-      local.row(ch) = (to_e * (exp_j * term.coverage.v + blend.e[j] * depth_scale * term.depth.v) +
-                       blend.e[j] / blend.e_sum * term.color[ch].v)
-                          .transpose();
+    if (over) {
+      // I = N / A: dI/dD_j = T_j ((C_j - N_j) - I (1 - A_j)) / A,
+      // dI/dC_j = T_j D_j / A, with N_j, A_j the colour and coverage
+      // behind triangle j.
+      const double* slot = blend.e + kOverSlots * j;
+      const double scale = slot[0] / blend.e_sum;
+      for (int ch = 0; ch < 3; ++ch) {
+        const double to_coverage = (term.color[ch].a - slot[1 + ch]) - blend.color[ch] * (1.0 - slot[4]);
+        local.row(ch) = (scale * (to_coverage * term.coverage.v + term.coverage.a * term.color[ch].v)).transpose();
+      }
+    } else {
+      const double exp_j = std::exp((term.depth.a - blend.z_max) / o.gamma);
+      for (int ch = 0; ch < 3; ++ch) {
+        const double to_e = (term.color[ch].a - blend.color[ch]) / blend.e_sum;
+        local.row(ch) = (to_e * (exp_j * term.coverage.v + blend.e[j] * depth_scale * term.depth.v) +
+                         blend.e[j] / blend.e_sum * term.color[ch].v)
+                            .transpose();
+      }
     }
     local.row(3) = (others * term.coverage.v).transpose();
     for (int c = 0; c < 3; ++c) {
@@ -483,9 +595,10 @@ void ConcatenateTileGradients(const std::vector<std::vector<VertexGradient>>& ti
 
 // What a render's triangle terms read: the options' softness and the
 // mesh's depth range, texture coordinates and edge flags.
-TermContext MakeTermContext(const ScreenMesh& mesh, const cv::Mat& texture, const SoftRasterizerOptions& o) {
+TermContext MakeTermContext(const ScreenMesh& mesh, const cv::Mat& texture, const std::vector<cv::Mat>& mips,
+                            const SoftRasterizerOptions& o) {
   const int num_faces = static_cast<int>(mesh.faces.cols());
-  TermContext context{mesh, texture};
+  TermContext context{mesh, texture, mips};
   context.sigma = o.sigma;
   context.max_distance2 = o.cutoff * o.sigma;
   context.reach = std::sqrt(context.max_distance2) * (1.0 + 1e-9) + 1e-9;
@@ -495,16 +608,6 @@ TermContext MakeTermContext(const ScreenMesh& mesh, const cv::Mat& texture, cons
   context.has_flags = static_cast<int>(mesh.boundary_edges.size()) == num_faces;
   return context;
 }
-
-// A tile's triangle with its box grown by the reach of its soft edges:
-// beyond it the triangle cannot reach a pixel (LocateTriangle would find it
-// outside and further than the cutoff). Kept contiguous, so that the many
-// triangle-pixel pairs of a tile that fail it are settled without reading
-// the mesh.
-struct TriangleBox {
-  int face;
-  double x0, x1, y0, y1;
-};
 
 TriangleBox MakeTriangleBox(const TermContext& c, int f) {
   const ScreenMesh& mesh = c.mesh;
@@ -518,14 +621,40 @@ TriangleBox MakeTriangleBox(const TermContext& c, int f) {
           std::min({y[0], y[1], y[2]}) - reach, std::max({y[0], y[1], y[2]}) + reach};
 }
 
-// Per thread, reused across tiles and pixels.
-struct RenderScratch {
-  std::vector<TriangleTerm> terms;
-  std::vector<double> e;
-  std::vector<TriangleBox> boxes;
-};
-
 }  // namespace
+
+void FaceMipLevels(const ScreenMesh& mesh, int texture_width, int texture_height, int num_levels, double bias,
+                   std::vector<float>* levels) {
+  const int num_faces = static_cast<int>(mesh.faces.cols());
+  levels->resize(num_faces);
+  const bool has_uv = mesh.corner_texcoords.cols() == 3 * num_faces;
+  const double top = std::max(num_levels - 1, 0);
+  for (int f = 0; f < num_faces; ++f) {
+    if (!has_uv) {
+      (*levels)[f] = 0.0f;
+      continue;
+    }
+    const Eigen::Vector2d p0 = mesh.pixels.col(mesh.faces(0, f)), p1 = mesh.pixels.col(mesh.faces(1, f)),
+                          p2 = mesh.pixels.col(mesh.faces(2, f));
+    const Eigen::Vector2d e1 = p1 - p0, e2 = p2 - p0;
+    const auto texel = [&](int k) {
+      return Eigen::Vector2d(mesh.corner_texcoords(0, 3 * f + k) * texture_width,
+                             mesh.corner_texcoords(1, 3 * f + k) * texture_height);
+    };
+    const Eigen::Vector2d t1 = texel(1) - texel(0), t2 = texel(2) - texel(0);
+    const double det = e1.x() * e2.y() - e2.x() * e1.y();
+    double level = top;  // no area on screen: the coarsest
+    if (std::abs(det) > 1e-12 && std::isfinite(det)) {
+      // d(texel)/d(pixel x) and d(texel)/d(pixel y): the texel edges times
+      // the inverse of the pixel edges; the footprint is the longer.
+      const Eigen::Vector2d along_x = (t1 * e2.y() - t2 * e1.y()) / det;
+      const Eigen::Vector2d along_y = (t2 * e1.x() - t1 * e2.x()) / det;
+      const double footprint2 = std::max(along_x.squaredNorm(), along_y.squaredNorm());
+      if (std::isfinite(footprint2)) level = 0.5 * std::log2(std::max(footprint2, 1e-300)) + bias;
+    }
+    (*levels)[f] = static_cast<float>(std::clamp(level, 0.0, top));
+  }
+}
 
 double SoftnessToGamma(double softness, double depth, double depth_near, double depth_far) {
   return softness / (depth * depth * (1.0 / depth_near - 1.0 / depth_far));
@@ -548,6 +677,7 @@ std::string SoftRasterizerOptions::Validate() const {
   if (!(sigma > 0.0)) return "sigma must be > 0";
   if (!(gamma > 0.0)) return "gamma must be > 0";
   if (!(cutoff > 0.0)) return "cutoff must be > 0";
+  if (!std::isfinite(mip_level_bias)) return "mip_level_bias must be finite";
   return {};
 }
 
@@ -558,6 +688,16 @@ SoftRasterizer::SoftRasterizer(const SoftRasterizerOptions& options, const cv::M
   }
   if (texture.empty() || texture.type() != CV_32FC3) {
     throw std::invalid_argument("SoftRasterizer: the texture must be a non-empty CV_32FC3 image");
+  }
+  if (options.mipmap) {
+    mips_.push_back(texture);
+    while (mips_.back().cols > 2 || mips_.back().rows > 2) {
+      const cv::Mat& last = mips_.back();
+      cv::Mat half;
+      cv::resize(last, half, cv::Size(std::max(1, (last.cols + 1) / 2), std::max(1, (last.rows + 1) / 2)), 0, 0,
+                 cv::INTER_AREA);
+      mips_.push_back(half);
+    }
   }
 }
 
@@ -586,7 +726,16 @@ void SoftRasterizer::Render(const ScreenMesh& mesh, int width, int height, const
 
   const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
   std::vector<std::vector<int>>& tiles = out->tile_triangles;
-  const TermContext context = MakeTermContext(mesh, texture_, o);
+  TermContext context = MakeTermContext(mesh, texture_, mips_, o);
+  if (!mips_.empty()) {
+    if (static_cast<Eigen::Index>(mesh.face_mip_levels.size()) == mesh.faces.cols()) {
+      context.face_levels = mesh.face_mip_levels.data();
+    } else {
+      FaceMipLevels(mesh, texture_.cols, texture_.rows, static_cast<int>(mips_.size()), o.mip_level_bias,
+                    &out->face_mip_levels);
+      context.face_levels = out->face_mip_levels.data();
+    }
+  }
   BinTrianglesIntoTiles(mesh, roi, context.reach, tiles_x, tiles_y, &tiles);
 
   // Per tile: its pixels' gradients, concatenated afterwards.
@@ -621,13 +770,13 @@ void SoftRasterizer::Render(const ScreenMesh& mesh, int width, int height, const
             if (s.terms.empty()) continue;
             ++covered[tile];
             const PixelBlend blend =
-                BlendPixel(s.terms, background.empty() ? flat : background.at<cv::Vec3f>(py, px), o, &s.e);
+                BlendPixel(s.terms, background.empty() ? flat : background.at<cv::Vec3f>(py, px), o, &s);
             out->color.at<cv::Vec3f>(py, px) = cv::Vec3f(blend.color[0], blend.color[1], blend.color[2]);
             out->silhouette.at<float>(py, px) = static_cast<float>(blend.silhouette);
             if (!with_gradients) continue;
             const int pixel = py * width + px;
             out->begin[pixel] = static_cast<int>(grads.size());  // tile-local; made global below
-            AppendPixelGradients(s.terms, blend, o.gamma, o.depth_gradient, &grads);
+            AppendPixelGradients(s.terms, blend, o, &grads);
             out->end[pixel] = static_cast<int>(grads.size());
           }
         }

@@ -8,10 +8,13 @@
 //   S   = 1 - prod_j (1 - D_j)                            silhouette
 //   w_j = D_j exp(z_j / gamma) / (sum_k D_k exp(z_k / gamma) + exp(eps / gamma))
 //   I   = sum_j w_j C_j + w_b C_b                          colour
+// or, with Compositing::kOver, each triangle laid over those behind it:
+//   I   = sum_j T_j D_j C_j / (1 - T_n),  T_j = prod_{k nearer} (1 - D_k)
 // z_j is the normalised inverse depth of triangle j at p (1 nearest, 0
 // farthest; perspective-correct), C_j the texture's bilinear colour at the
 // triangle's interpolated texture coordinates (at the closest point of the
-// triangle for pixels outside it), C_b the background (a colour, or an
+// triangle for pixels outside it; from the face's mip level with mipmap),
+// C_b the background (a colour, or an
 // image: the observed frame, so that pixels the object does not cover match
 // exactly and only the object's own pixels carry residuals).
 //
@@ -32,6 +35,19 @@
 
 namespace polyfit {
 
+// How a pixel's colour comes from the triangles that reach it.
+enum class Compositing {
+  // SoftRas: weights D_j exp(z_j / gamma), normalised with the
+  // background's. A layer within gamma of the nearest shows through it,
+  // and a soft edge shows its triangle's colour in full wherever a
+  // nearer-than-background triangle reaches.
+  kSoftZ,
+  // Depth-sorted "over": each triangle, nearest first, covers what lies
+  // behind it by D_j. The nearest layer wins, by its coverage at its
+  // edges, as a camera's pixel sees it; gamma is not used.
+  kOver,
+};
+
 struct SoftRasterizerOptions {
   // sigma, in pixels squared: the width of the coverage sigmoid.
   double sigma = 0.5;
@@ -51,6 +67,16 @@ struct SoftRasterizerOptions {
   // Each triangle's derivatives at a pixel by hand (true) or by Ceres'
   // jets (false: the reference they are tested against; slower).
   bool analytic_derivatives = true;
+  Compositing compositing = Compositing::kSoftZ;
+  // Mip-mapping: each face reads the texture prefiltered to its footprint
+  // on screen (FaceMipLevels; trilinear between levels), so that a far or
+  // grazing part does not alias. False: the texture as given everywhere.
+  bool mipmap = false;
+  // Added to each face's level. Below 0, a face reads the sharper level
+  // for longer: trilinear blending already blurs, and a texture that the
+  // caller prefiltered to about one texel per pixel where the surface is
+  // nearest needs no more there.
+  double mip_level_bias = -0.25;
   // Background colour when no background image is given (RGB in [0, 1]).
   Eigen::Vector3d background_color = Eigen::Vector3d::Zero();
   int num_threads = 0;
@@ -77,12 +103,23 @@ struct ScreenMesh {
   // by 1/2 and the silhouette dips to 3/4 along every interior edge. Empty:
   // every edge is soft (plain SoftRas).
   std::vector<std::uint8_t> boundary_edges;
+  // Per face, the mip level its texture is read at (options.mipmap), fixed
+  // by the caller; empty: FaceMipLevels of these pixels. Either way the
+  // levels are constants of the derivatives.
+  std::vector<float> face_mip_levels;
 };
 
 // The gamma under which a surface `softness` metres behind another at
 // `depth` weighs e times less: z's slope there is 1 / (depth^2 (1/near -
 // 1/far)) per metre.
 double SoftnessToGamma(double softness, double depth, double depth_near, double depth_far);
+
+// Each face's mip level (#F): log2 of its texel footprint, the longer of
+// d(texel)/d(pixel x) and d(texel)/d(pixel y) from the affine map of its
+// corners on a texture_width by texture_height level 0, plus bias, within
+// [0, num_levels - 1]. A face with no area on screen gets the coarsest.
+void FaceMipLevels(const ScreenMesh& mesh, int texture_width, int texture_height, int num_levels, double bias,
+                   std::vector<float>* levels);
 
 // The boundary_edges flags of a mesh's faces (an edge used by one face only).
 std::vector<std::uint8_t> MeshBoundaryEdgeFlags(const Eigen::Matrix3Xi& faces);
@@ -115,6 +152,7 @@ struct SoftRenderOutput {
   // rasterization of a small mesh).
   std::vector<std::vector<VertexGradient>> tile_gradients;
   std::vector<std::vector<int>> tile_triangles;
+  std::vector<float> face_mip_levels;
 };
 
 class SoftRasterizer {
@@ -129,10 +167,14 @@ class SoftRasterizer {
               SoftRenderOutput* output, const cv::Rect& roi = cv::Rect()) const;
 
   const SoftRasterizerOptions& options() const { return options_; }
+  // 1 without mip-mapping; else level 0 (the texture) and each level half
+  // the one before, down to 2 by 2.
+  int num_mip_levels() const { return mips_.empty() ? 1 : static_cast<int>(mips_.size()); }
 
  private:
   SoftRasterizerOptions options_;
   cv::Mat texture_;
+  std::vector<cv::Mat> mips_;  // options_.mipmap: level 0 the texture, each half the one before
 };
 
 }  // namespace polyfit

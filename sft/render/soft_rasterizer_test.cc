@@ -101,21 +101,27 @@ TEST(SoftRasterizerTest, ARenderWithoutGradientsIsTheSameImage) {
   }
 }
 
-TEST(SoftRasterizerTest, GradientsMatchFiniteDifferences) {
-  SoftRasterizerOptions options;
-  options.num_threads = 1;
-  options.gamma = 0.05;  // a soft z-blend, so depth derivatives are not negligible
-  const cv::Mat texture = SmoothTexture(32);
+// Every colour and silhouette derivative of TestMesh's render against
+// central finite differences: the count compared, how many are not small,
+// how many disagree and by how much at most.
+struct FiniteDifferenceCheck {
+  int checked = 0, nonzero = 0, large = 0;
+  double max_error = 0.0;
+};
+
+FiniteDifferenceCheck CheckAgainstFiniteDifferences(const SoftRasterizerOptions& options, const cv::Mat& texture) {
   SoftRasterizer rasterizer(options, texture);
   cv::Mat background(kHeight, kWidth, CV_32FC3, cv::Scalar(0.2, 0.4, 0.6));
-  const ScreenMesh mesh = TestMesh();
+  ScreenMesh mesh = TestMesh();
+  // The mip levels are constants of the derivatives: held at the mesh's.
+  if (options.mipmap) {
+    FaceMipLevels(mesh, texture.cols, texture.rows, rasterizer.num_mip_levels(), options.mip_level_bias,
+                  &mesh.face_mip_levels);
+  }
   SoftRenderOutput out;
   rasterizer.Render(mesh, kWidth, kHeight, background, true, &out);
-
   const double h = 1e-5;
-  int checked = 0, large = 0, nonzero = 0;
-  double max_error = 0.0;
-  std::vector<double> errors;
+  FiniteDifferenceCheck check;
   for (int vertex = 0; vertex < 7; ++vertex) {
     for (int var = 0; var < 3; ++var) {
       ScreenMesh plus = mesh, minus = mesh;
@@ -143,44 +149,79 @@ TEST(SoftRasterizerTest, GradientsMatchFiniteDifferences) {
           for (int r = 0; r < 4; ++r) {
             // Images are float: the differences carry ~1e-7 / h noise.
             const double error = std::abs(analytic[r] - numeric[r]);
-            nonzero += std::abs(numeric[r]) > 1e-2;
-            max_error = std::max(max_error, error);
-            large += error > 2e-2 + 0.02 * std::abs(numeric[r]);
-            ++checked;
+            check.nonzero += std::abs(numeric[r]) > 1e-2;
+            check.max_error = std::max(check.max_error, error);
+            check.large += error > 2e-2 + 0.02 * std::abs(numeric[r]);
+            ++check.checked;
           }
         }
       }
     }
   }
+  return check;
+}
+
+TEST(SoftRasterizerTest, GradientsMatchFiniteDifferences) {
+  SoftRasterizerOptions options;
+  options.num_threads = 1;
+  options.gamma = 0.05;  // a soft z-blend, so depth derivatives are not negligible
+  const FiniteDifferenceCheck check = CheckAgainstFiniteDifferences(options, SmoothTexture(32));
   // Kinks (the closest edge switching, bilinear texel borders) could make a
   // few finite differences meaningless; none are hit here.
-  EXPECT_LT(large, checked / 500) << "max error " << max_error;
-  EXPECT_GT(checked, 10000);
-  EXPECT_GT(nonzero, 1000);  // the derivatives compared are not all zero
+  EXPECT_LT(check.large, check.checked / 500) << "max error " << check.max_error;
+  EXPECT_GT(check.checked, 10000);
+  EXPECT_GT(check.nonzero, 1000);  // the derivatives compared are not all zero
   // Measured: 52,416 derivatives, 3,884 of them above 1e-2, largest
   // difference 3e-3 (float images with h = 1e-5).
-  EXPECT_LT(max_error, 1e-2);
+  EXPECT_LT(check.max_error, 1e-2);
+}
+
+// The depth-sorted composite and the mip-mapped texture (a texture four
+// times finer than the test mesh's pixels, so that faces read between
+// levels): exact derivatives too, with the depth order and the levels
+// held (they are piecewise constant and constants).
+TEST(SoftRasterizerTest, OverCompositingAndMipLevelsMatchFiniteDifferences) {
+  for (const bool over : {true, false}) {
+    for (const bool mipmap : {false, true}) {
+      if (!over && !mipmap) continue;  // the test above
+      SoftRasterizerOptions options;
+      options.num_threads = 1;
+      options.gamma = 0.05;
+      options.compositing = over ? Compositing::kOver : Compositing::kSoftZ;
+      options.mipmap = mipmap;
+      const FiniteDifferenceCheck check = CheckAgainstFiniteDifferences(options, SmoothTexture(128));
+      EXPECT_LT(check.large, check.checked / 500) << over << mipmap << " max error " << check.max_error;
+      EXPECT_GT(check.nonzero, 1000) << over << mipmap;
+      EXPECT_LT(check.max_error, 2e-2) << over << mipmap;
+    }
+  }
 }
 
 // The hand-derived triangle terms against Ceres' jets: the same image and
 // the same gradients, pixel by pixel and vertex by vertex, with and
-// without the depth gradient and with every edge soft.
+// without the depth gradient and with every edge soft, and composited over
+// a mip-mapped texture.
 TEST(SoftRasterizerTest, TheHandDerivedDerivativesAreTheJets) {
   const cv::Mat texture = SmoothTexture(32);
   cv::Mat background(kHeight, kWidth, CV_32FC3, cv::Scalar(0.2, 0.4, 0.6));
-  for (const bool depth_gradient : {true, false}) {
-    for (const bool flags : {true, false}) {
+  for (int variant = 0; variant < 6; ++variant) {
+    const bool depth_gradient = variant % 2 == 0, flags = variant % 4 < 2;
+    {
       SoftRasterizerOptions options;
       options.num_threads = 1;
       options.gamma = 0.05;
       options.depth_gradient = depth_gradient;
+      // The last two: depth-sorted compositing over a mip-mapped texture.
+      options.compositing = variant >= 4 ? Compositing::kOver : Compositing::kSoftZ;
+      options.mipmap = variant >= 4;
       ScreenMesh mesh = TestMesh();
       if (!flags) mesh.boundary_edges.clear();
+      const cv::Mat fine = variant >= 4 ? SmoothTexture(128) : texture;  // faces between mip levels
       SoftRenderOutput jets, hand;
       options.analytic_derivatives = false;
-      SoftRasterizer(options, texture).Render(mesh, kWidth, kHeight, background, true, &jets);
+      SoftRasterizer(options, fine).Render(mesh, kWidth, kHeight, background, true, &jets);
       options.analytic_derivatives = true;
-      SoftRasterizer(options, texture).Render(mesh, kWidth, kHeight, background, true, &hand);
+      SoftRasterizer(options, fine).Render(mesh, kWidth, kHeight, background, true, &hand);
       EXPECT_EQ(cv::norm(jets.color, hand.color, cv::NORM_INF), 0.0);
       EXPECT_EQ(cv::norm(jets.silhouette, hand.silhouette, cv::NORM_INF), 0.0);
       ASSERT_EQ(jets.begin, hand.begin);
@@ -199,7 +240,7 @@ TEST(SoftRasterizerTest, TheHandDerivedDerivativesAreTheJets) {
       }
       EXPECT_GT(jets.gradients.size(), 300u);
       EXPECT_GT(max_value, 0.1);
-      EXPECT_LT(max_error, 1e-6) << depth_gradient << flags;  // float storage
+      EXPECT_LT(max_error, 1e-6) << variant;  // float storage
     }
   }
 }
@@ -315,6 +356,112 @@ TEST(SoftRasterizerTest, AFoldOverShowsItsNearLayerOnceTheSoftnessIsInMetres) {
   // (exactly so to first order in the gap).
   const double one = RenderFold(1e-3, SoftnessToGamma(1e-3, 0.4, near, 0.4 + 1e-3 + 0.3)).hidden_share;
   EXPECT_NEAR(one, 1.0 / (1.0 + std::exp(1.0)), 3e-3);
+}
+
+// Composited in depth order, the near layer hides the far one whatever the
+// gap (a soft z-blend lets a layer within its softness show through), and
+// the hidden layer gets no pull at all; where the near layer's soft edge
+// only partly covers a pixel, the far layer shows by the rest.
+TEST(SoftRasterizerTest, OverCompositingShowsTheNearLayerAndNothingOfTheHiddenOne) {
+  for (const double gap : {1e-4, 5e-3, 0.05}) {
+    SoftRasterizerOptions options;
+    options.compositing = Compositing::kOver;
+    options.num_threads = 1;
+    SoftRenderOutput out;
+    SoftRasterizer(options, RedBlueTexture()).Render(FoldedLayers(gap), kWidth, kHeight, cv::Mat(), true, &out);
+    const cv::Vec3f centre = out.color.at<cv::Vec3f>(12, 12);
+    EXPECT_EQ(centre[2], 0.0f) << gap;
+    EXPECT_GT(centre[0], 0.1f) << gap;
+    double hidden = 0.0, front = 0.0;
+    for (int y = 7; y <= 17; ++y) {
+      for (int x = 7; x <= 17; ++x) {
+        const int pixel = y * kWidth + x;
+        for (int k = out.begin[pixel]; k < out.end[pixel]; ++k) {
+          for (int c = 0; c < 3; ++c) {
+            for (int v = 0; v < 3; ++v) {
+              (out.gradients[k].vertex >= 4 ? hidden : front) += std::abs(double(out.gradients[k].d[c][v]));
+            }
+          }
+        }
+      }
+    }
+    EXPECT_EQ(hidden, 0.0) << gap;
+    EXPECT_GT(front, 0.1) << gap;
+  }
+  // The near layer's left edge moved to x = 7.33, over the hidden layer's
+  // interior: pixel x = 7 mixes the two by the near layer's coverage D
+  // there, and the background (black) does not enter.
+  ScreenMesh shifted = FoldedLayers(5e-3);
+  for (int v = 0; v < 4; ++v) shifted.pixels(0, v) += 3.33;
+  shifted.boundary_edges = MeshBoundaryEdgeFlags(shifted.faces);
+  SoftRasterizerOptions options;
+  options.compositing = Compositing::kOver;
+  SoftRenderOutput out;
+  SoftRasterizer(options, RedBlueTexture()).Render(shifted, kWidth, kHeight, cv::Mat(), false, &out);
+  const cv::Vec3f edge = out.color.at<cv::Vec3f>(12, 7);
+  const double d = 1.0 / (1.0 + std::exp(0.33 * 0.33 / options.sigma));  // sigmoid(-d^2 / sigma)
+  const double red = edge[0], blue = edge[2];
+  // Colour shares, against coverage shares: the ramps differ by layer.
+  const cv::Vec3f red_alone = out.color.at<cv::Vec3f>(12, 12), blue_alone = out.color.at<cv::Vec3f>(12, 5);
+  EXPECT_NEAR(red / red_alone[0], d, 0.02);
+  EXPECT_NEAR(blue / blue_alone[2], 1.0 - d, 0.02);
+  EXPECT_GT(red, 0.05);
+  EXPECT_GT(blue, 0.05);
+}
+
+// A texture of one-texel stripes read at 3.8 texels per pixel: a single
+// level aliases (each pixel lands on a stripe or between), the mip levels
+// give the stripes' mean; FaceMipLevels gives that footprint's level.
+TEST(SoftRasterizerTest, MipLevelsFollowTheFootprintAndRemoveAliasing) {
+  cv::Mat stripes(64, 64, CV_32FC3);
+  for (int y = 0; y < 64; ++y) {
+    for (int x = 0; x < 64; ++x) stripes.at<cv::Vec3f>(y, x) = cv::Vec3f::all(x % 2 == 0 ? 1.0f : 0.0f);
+  }
+  ScreenMesh quad;
+  quad.pixels.resize(2, 4);
+  quad.pixels << 2.3, 19.3, 19.3, 2.3,  // 17 pixels across for 64 texels
+      2.3, 2.3, 19.3, 19.3;
+  quad.depths = Eigen::VectorXd::Ones(4);
+  quad.faces.resize(3, 2);
+  quad.faces << 0, 0,  //
+      1, 2,            //
+      2, 3;
+  quad.corner_texcoords.resize(2, 6);
+  quad.corner_texcoords << 0, 1, 1, 0, 1, 0,  //
+      1, 1, 0, 1, 0, 0;
+  quad.boundary_edges = MeshBoundaryEdgeFlags(quad.faces);
+  std::vector<float> levels;
+  FaceMipLevels(quad, 64, 64, 7, -0.25, &levels);
+  ASSERT_EQ(levels.size(), 2u);
+  EXPECT_NEAR(levels[0], std::log2(64.0 / 17.0) - 0.25, 1e-5);
+  EXPECT_NEAR(levels[1], std::log2(64.0 / 17.0) - 0.25, 1e-5);
+  FaceMipLevels(quad, 64, 64, 7, 0.0, &levels);
+  EXPECT_NEAR(levels[0], std::log2(64.0 / 17.0), 1e-5);
+  ScreenMesh edge_on = quad;
+  edge_on.pixels.row(1).setConstant(5.0);  // no area: the coarsest
+  FaceMipLevels(edge_on, 64, 64, 7, 0.0, &levels);
+  EXPECT_EQ(levels[0], 6.0f);
+
+  double single_spread = 0.0, mip_spread = 0.0;
+  for (const bool mipmap : {false, true}) {
+    SoftRasterizerOptions options;
+    options.mipmap = mipmap;
+    SoftRasterizer rasterizer(options, stripes);
+    EXPECT_EQ(rasterizer.num_mip_levels(), mipmap ? 6 : 1);  // 64 down to 2
+    SoftRenderOutput out;
+    rasterizer.Render(quad, 22, 22, cv::Mat(), false, &out);
+    double lo = 1.0, hi = 0.0;
+    for (int y = 5; y <= 15; ++y) {
+      for (int x = 5; x <= 15; ++x) {
+        lo = std::min(lo, double(out.color.at<cv::Vec3f>(y, x)[0]));
+        hi = std::max(hi, double(out.color.at<cv::Vec3f>(y, x)[0]));
+      }
+    }
+    (mipmap ? mip_spread : single_spread) = hi - lo;
+    if (mipmap) EXPECT_NEAR(out.color.at<cv::Vec3f>(10, 10)[0], 0.5, 0.02);
+  }
+  EXPECT_GT(single_spread, 0.5);
+  EXPECT_LT(mip_spread, 0.05);
 }
 
 // The hard blend's weights change fast with depth: a hidden layer 5 mm

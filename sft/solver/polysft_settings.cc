@@ -20,20 +20,20 @@ struct Setting {
 
 // An enum setting by its names.
 template <typename Enum>
-Setting EnumSetting(const char* key, Enum PolySftOptions::*member, std::vector<std::pair<Enum, const char*>> names) {
+Setting EnumSetting(const char* key, Enum& (*field)(PolySftOptions&), std::vector<std::pair<Enum, const char*>> names) {
   return {key,
-          [member, names](const PolySftOptions& o) {
+          [field, names](const PolySftOptions& o) {
             for (const auto& [value, name] : names) {
-              if (o.*member == value) return json(name);
+              if (field(const_cast<PolySftOptions&>(o)) == value) return json(name);
             }
             return json(nullptr);
           },
-          [member, names](const json& j, PolySftOptions* o) {
+          [field, names](const json& j, PolySftOptions* o) {
             const std::string name = j.get<std::string>();
             std::string allowed;
             for (const auto& [value, n] : names) {
               if (name == n) {
-                o->*member = value;
+                field(*o) = value;
                 return;
               }
               allowed += (allowed.empty() ? "" : ", ") + std::string(n);
@@ -98,6 +98,8 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("depth_softness", depth_softness),
         POLYFIT_SETTING("finest_sigma", finest_sigma),
         POLYFIT_SETTING("depth_gradient", rasterizer.depth_gradient),
+        POLYFIT_SETTING("mipmap", rasterizer.mipmap),
+        POLYFIT_SETTING("mip_level_bias", rasterizer.mip_level_bias),
         POLYFIT_SETTING("analytic_derivatives", rasterizer.analytic_derivatives),
         POLYFIT_SETTING("robust_scale", robust_scale),
         POLYFIT_SETTING("max_frames", max_frames),
@@ -118,9 +120,12 @@ const std::vector<Setting>& Settings() {
                            mode == "compact" ? UvDisplacement::kCompactField : UvDisplacement::kPerVertex;
                      }});
     s.push_back(EnumSetting<RobustLoss>(
-        "robust_loss", &PolySftOptions::robust_loss,
+        "robust_loss", [](PolySftOptions& o) -> RobustLoss& { return o.robust_loss; },
         {{RobustLoss::kNone, "none"}, {RobustLoss::kHuber, "huber"}, {RobustLoss::kCauchy, "cauchy"}}));
-    s.push_back(EnumSetting<GroundTruthStart>("ground_truth_start", &PolySftOptions::ground_truth_start,
+    s.push_back(EnumSetting<Compositing>(
+        "compositing", [](PolySftOptions& o) -> Compositing& { return o.rasterizer.compositing; }, {{Compositing::kSoftZ, "soft_z"}, {Compositing::kOver, "over"}}));
+    s.push_back(EnumSetting<GroundTruthStart>("ground_truth_start",
+                                              [](PolySftOptions& o) -> GroundTruthStart& { return o.ground_truth_start; },
                                               {{GroundTruthStart::kNone, "none"},
                                                {GroundTruthStart::kThisFrame, "this_frame"},
                                                {GroundTruthStart::kFrameBefore, "frame_before"}}));

@@ -51,6 +51,9 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.finest_sigma = 0.1;
   changed.rasterizer.depth_gradient = true;
   changed.rasterizer.analytic_derivatives = false;
+  changed.rasterizer.compositing = Compositing::kOver;
+  changed.rasterizer.mipmap = false;
+  changed.rasterizer.mip_level_bias = 0.5;
   changed.robust_loss = RobustLoss::kCauchy;
   changed.robust_scale = 0.3;
   changed.max_frames = 7;
