@@ -442,6 +442,7 @@ class PolySftController {
       }
       SoftRasterizerOptions options = rasterizer_options_;
       if (&level == &levels_.back() && options_.finest_sigma > 0.0) options.sigma = options_.finest_sigma;
+      if (&level == &levels_.back()) options.mipmap = options_.finest_mipmap;
       if (&level == &levels_.back()) finest_texture_ = texture;
       level.rasterizer = std::make_unique<SoftRasterizer>(options, texture);
       SoftRasterizerOptions serial = options;
@@ -460,6 +461,7 @@ class PolySftController {
     if (!ProjectVertices(level.camera, scene_.template_mesh.vertices, &screen, nullptr)) return;
     // Nearly hard: the soft silhouette's 1/2 level lies outside the edge.
     SoftRasterizerOptions hard = rasterizer_options_;
+    hard.mipmap = false;  // the silhouette alone is read
     hard.sigma = 1e-3;
     SoftRenderOutput render;
     SoftRasterizer(hard, scene_.texture)
@@ -777,6 +779,7 @@ class PolySftController {
       }
     }
     SoftRasterizerOptions sharp = rasterizer_options_;
+    sharp.mipmap = options_.finest_mipmap;
     sharp.sigma = options_.finest_sigma > 0.0 ? options_.finest_sigma : sharp.sigma;
     SoftRenderOutput render;
     if (corners.cols() > 0) {

@@ -42,12 +42,11 @@ struct PolySftOptions {
   // z-buffer hard enough to hide a fold's far layer (1 cm), its pull on
   // depth drove the hanging cloth 5.6 -> 36.8 mm off (docs/benchmarks.md).
   //
-  // Mip-mapped: the texture given each pyramid level is prefiltered to
-  // about one texel per pixel where the template is nearest, and a far or
-  // grazing part read from it aliases. Mip levels took the table's
-  // corner-lift from e3D 0.045-0.074 to 0.034-0.035 (five seeds) and the
-  // flags' 0.022-0.038 to 0.016-0.026, the falls and hanging cloths within
-  // 0.0003 (docs/benchmarks.md).
+  // Mip-mapped on the coarse levels (finest_mipmap: the finest): the
+  // texture given each pyramid level is prefiltered to about one texel
+  // per pixel where the template is nearest, and a far or grazing part
+  // read from it aliases, which misleads the coarse levels' search for
+  // the frame's motion (docs/benchmarks.md).
   SoftRasterizerOptions rasterizer = [] {
     SoftRasterizerOptions o;
     o.depth_gradient = false;
@@ -79,6 +78,12 @@ struct PolySftOptions {
   // packet 3.14 -> 2.70 mm, the rigid sheet 1.09 -> 0.46) and on the HD
   // sheet solved at 640 px (0.33 -> 0.29 mm; docs/benchmarks.md).
   double finest_sigma = 0.09;
+  // Whether the finest level's texture is mip-mapped too. Off: there the
+  // solve is after precision, and mip levels blur a sheet seen at about
+  // one texel per pixel (without masks the crease 2.26 -> 2.61 mm, the
+  // wave packet 3.53 -> 4.37); on the coarse levels alone they kept most
+  // of the cloth's gain (docs/benchmarks.md).
+  bool finest_mipmap = false;
   // Frames solved together; the oldest leaves the window (and is written)
   // when a new one enters. Two cost a quarter to a third less than three
   // at the same error on the sheets (within 0.06 mm) and 0.7-3.5 mm more

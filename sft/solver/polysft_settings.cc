@@ -99,6 +99,7 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("finest_sigma", finest_sigma),
         POLYFIT_SETTING("depth_gradient", rasterizer.depth_gradient),
         POLYFIT_SETTING("mipmap", rasterizer.mipmap),
+        POLYFIT_SETTING("finest_mipmap", finest_mipmap),
         POLYFIT_SETTING("mip_level_bias", rasterizer.mip_level_bias),
         POLYFIT_SETTING("analytic_derivatives", rasterizer.analytic_derivatives),
         POLYFIT_SETTING("robust_scale", robust_scale),

@@ -53,6 +53,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.rasterizer.analytic_derivatives = false;
   changed.rasterizer.compositing = Compositing::kOver;
   changed.rasterizer.mipmap = false;
+  changed.finest_mipmap = true;
   changed.rasterizer.mip_level_bias = 0.5;
   changed.robust_loss = RobustLoss::kCauchy;
   changed.robust_scale = 0.3;
