@@ -442,7 +442,10 @@ class PolySftController {
       }
       SoftRasterizerOptions options = rasterizer_options_;
       if (&level == &levels_.back() && options_.finest_sigma > 0.0) options.sigma = options_.finest_sigma;
-      if (&level == &levels_.back()) options.mipmap = options_.finest_mipmap;
+      if (&level == &levels_.back()) {
+        options.mipmap = options_.finest_mipmap;
+        options.compositing = options_.finest_compositing;
+      }
       if (&level == &levels_.back()) finest_texture_ = texture;
       level.rasterizer = std::make_unique<SoftRasterizer>(options, texture);
       SoftRasterizerOptions serial = options;
@@ -780,6 +783,7 @@ class PolySftController {
     }
     SoftRasterizerOptions sharp = rasterizer_options_;
     sharp.mipmap = options_.finest_mipmap;
+    sharp.compositing = options_.finest_compositing;
     sharp.sigma = options_.finest_sigma > 0.0 ? options_.finest_sigma : sharp.sigma;
     SoftRenderOutput render;
     if (corners.cols() > 0) {

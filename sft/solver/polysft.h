@@ -47,10 +47,16 @@ struct PolySftOptions {
   // per pixel where the template is nearest, and a far or grazing part
   // read from it aliases, which misleads the coarse levels' search for
   // the frame's motion (docs/benchmarks.md).
+  //
+  // Composited in depth order on the coarse levels (finest_compositing:
+  // the finest): a fold-over's near layer hides the far one there, where
+  // the soft z-buffer (3 cm) blended layers 1 cm apart at 0.72 of the
+  // front one's weight (docs/benchmarks.md).
   SoftRasterizerOptions rasterizer = [] {
     SoftRasterizerOptions o;
     o.depth_gradient = false;
     o.mipmap = true;
+    o.compositing = Compositing::kOver;
     return o;
   }();
   // The soft z-buffer's softness in metres at the template's mean depth
@@ -84,6 +90,11 @@ struct PolySftOptions {
   // wave packet 3.53 -> 4.37); on the coarse levels alone they kept most
   // of the cloth's gain (docs/benchmarks.md).
   bool finest_mipmap = false;
+  // The finest level's compositing. SoftRas' soft z-blend: the depth
+  // order composite there too cost the smooth bend 0.49 -> 0.69 mm and the
+  // real-like mixed sheet 0.70 -> 1.04, from its first frame on, which is
+  // not understood yet (docs/benchmarks.md).
+  Compositing finest_compositing = Compositing::kSoftZ;
   // Frames solved together; the oldest leaves the window (and is written)
   // when a new one enters. Two cost a quarter to a third less than three
   // at the same error on the sheets (within 0.06 mm) and 0.7-3.5 mm more

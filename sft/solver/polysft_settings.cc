@@ -123,8 +123,12 @@ const std::vector<Setting>& Settings() {
     s.push_back(EnumSetting<RobustLoss>(
         "robust_loss", [](PolySftOptions& o) -> RobustLoss& { return o.robust_loss; },
         {{RobustLoss::kNone, "none"}, {RobustLoss::kHuber, "huber"}, {RobustLoss::kCauchy, "cauchy"}}));
+    const std::vector<std::pair<Compositing, const char*>> compositing = {{Compositing::kSoftZ, "soft_z"},
+                                                                           {Compositing::kOver, "over"}};
     s.push_back(EnumSetting<Compositing>(
-        "compositing", [](PolySftOptions& o) -> Compositing& { return o.rasterizer.compositing; }, {{Compositing::kSoftZ, "soft_z"}, {Compositing::kOver, "over"}}));
+        "compositing", [](PolySftOptions& o) -> Compositing& { return o.rasterizer.compositing; }, compositing));
+    s.push_back(EnumSetting<Compositing>(
+        "finest_compositing", [](PolySftOptions& o) -> Compositing& { return o.finest_compositing; }, compositing));
     s.push_back(EnumSetting<GroundTruthStart>("ground_truth_start",
                                               [](PolySftOptions& o) -> GroundTruthStart& { return o.ground_truth_start; },
                                               {{GroundTruthStart::kNone, "none"},

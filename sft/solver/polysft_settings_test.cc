@@ -51,7 +51,8 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.finest_sigma = 0.1;
   changed.rasterizer.depth_gradient = true;
   changed.rasterizer.analytic_derivatives = false;
-  changed.rasterizer.compositing = Compositing::kOver;
+  changed.rasterizer.compositing = Compositing::kSoftZ;
+  changed.finest_compositing = Compositing::kOver;
   changed.rasterizer.mipmap = false;
   changed.finest_mipmap = true;
   changed.rasterizer.mip_level_bias = 0.5;

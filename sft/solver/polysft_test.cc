@@ -36,10 +36,11 @@ void ExpectFinite(const PolySftSummary& summary) {
 // keypoints (the baseline that the tests of those mechanisms measure
 // against).
 // Each frame from the last one's solution alone: without the flow start,
-// keypoints or relocalisation, and with the texture not mip-mapped (whose
-// coarse levels follow the fast fall below on their own:
-// MipMappedCoarseLevelsFollowAFallTheWarmStartLoses), so that the fall
-// has frames that the warm start loses.
+// keypoints or relocalisation, and with the coarse levels rendered as
+// before 2026-11-29 (the texture not mip-mapped, whose coarse levels
+// follow the fast fall below on their own:
+// MipMappedCoarseLevelsFollowAFallTheWarmStartLoses; SoftRas' blend), so
+// that the fall has frames that the warm start loses.
 PolySftOptions WarmStartAlone() {
   PolySftOptions options;
   options.num_threads = 2;
@@ -47,6 +48,7 @@ PolySftOptions WarmStartAlone() {
   options.keypoints_when_lost = false;
   options.relocalize = false;
   options.rasterizer.mipmap = false;
+  options.rasterizer.compositing = Compositing::kSoftZ;
   return options;
 }
 
@@ -426,6 +428,7 @@ TEST(PolySftTest, KeypointsComeOnOnlyOnceAFrameIsLost) {
   GenerateSheetScene(SmallScene(SheetMotion::kFall, 6), fall_dir.path().string());
   options.flow_start = false;
   options.rasterizer.mipmap = false;  // a fall that is lost (WarmStartAlone)
+  options.rasterizer.compositing = Compositing::kSoftZ;
   const PolySftSummary fall = SolvePolySft(options, LoadScene(fall_dir.path().string()));
   ExpectFinite(fall);
   EXPECT_TRUE(has_features(fall));
