@@ -153,7 +153,8 @@ void SampleFaceTexture(const TermContext& c, int f, double u, double v, Eigen::V
     SampleTexture(c.texture, u, v, color, d_du, d_dv);
     return;
   }
-  const double level = std::clamp(static_cast<double>(c.face_levels[f]), 0.0, levels - 1.0);
+  const double given = c.face_levels[f];  // a caller's level may be NaN: the coarsest then
+  const double level = std::isfinite(given) ? std::clamp(given, 0.0, levels - 1.0) : levels - 1.0;
   const int k = std::min(static_cast<int>(level), levels - 2);
   const double a = level - k;
   SampleTexture(c.mips[k], u, v, color, d_du, d_dv);
@@ -461,8 +462,14 @@ PixelBlend BlendPixel(const std::vector<TriangleTerm>& terms, const cv::Vec3f& b
     for (int j = 0; j < n; ++j) order[j] = j;
     // Nearest first (z is the normalised inverse depth); ties keep the
     // triangles' order, so that a render does not depend on the threads.
-    std::stable_sort(order.begin(), order.end(),
-                     [&terms](int a, int b) { return terms[a].depth.a > terms[b].depth.a; });
+    // An insertion sort: a pixel has a few terms, and std::stable_sort
+    // would take a buffer from the heap for every pixel.
+    for (int i = 1; i < n; ++i) {
+      const int j = order[i];
+      int k = i;
+      for (; k > 0 && terms[order[k - 1]].depth.a < terms[j].depth.a; --k) order[k] = order[k - 1];
+      order[k] = j;
+    }
     e.resize(kOverSlots * n);
     // Back to front: what lies behind each triangle, its colour (without
     // the background) and its coverage.
@@ -594,9 +601,10 @@ void ConcatenateTileGradients(const std::vector<std::vector<VertexGradient>>& ti
 }
 
 // What a render's triangle terms read: the options' softness and the
-// mesh's depth range, texture coordinates and edge flags.
+// mesh's depth range, texture coordinates, edge flags and, with mip levels,
+// each face's level (the mesh's own, or FaceMipLevels into *level_scratch).
 TermContext MakeTermContext(const ScreenMesh& mesh, const cv::Mat& texture, const std::vector<cv::Mat>& mips,
-                            const SoftRasterizerOptions& o) {
+                            const SoftRasterizerOptions& o, std::vector<float>* level_scratch) {
   const int num_faces = static_cast<int>(mesh.faces.cols());
   TermContext context{mesh, texture, mips};
   context.sigma = o.sigma;
@@ -606,6 +614,14 @@ TermContext MakeTermContext(const ScreenMesh& mesh, const cv::Mat& texture, cons
   context.depth_scale = 1.0 / (1.0 / mesh.depth_near - context.inv_far);
   context.has_uv = mesh.corner_texcoords.cols() == 3 * num_faces;
   context.has_flags = static_cast<int>(mesh.boundary_edges.size()) == num_faces;
+  if (!mips.empty()) {
+    if (static_cast<int>(mesh.face_mip_levels.size()) == num_faces) {
+      context.face_levels = mesh.face_mip_levels.data();
+    } else {
+      FaceMipLevels(mesh, texture.cols, texture.rows, static_cast<int>(mips.size()), o.mip_level_bias, level_scratch);
+      context.face_levels = level_scratch->data();
+    }
+  }
   return context;
 }
 
@@ -726,16 +742,7 @@ void SoftRasterizer::Render(const ScreenMesh& mesh, int width, int height, const
 
   const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
   std::vector<std::vector<int>>& tiles = out->tile_triangles;
-  TermContext context = MakeTermContext(mesh, texture_, mips_, o);
-  if (!mips_.empty()) {
-    if (static_cast<Eigen::Index>(mesh.face_mip_levels.size()) == mesh.faces.cols()) {
-      context.face_levels = mesh.face_mip_levels.data();
-    } else {
-      FaceMipLevels(mesh, texture_.cols, texture_.rows, static_cast<int>(mips_.size()), o.mip_level_bias,
-                    &out->face_mip_levels);
-      context.face_levels = out->face_mip_levels.data();
-    }
-  }
+  const TermContext context = MakeTermContext(mesh, texture_, mips_, o, &out->face_mip_levels);
   BinTrianglesIntoTiles(mesh, roi, context.reach, tiles_x, tiles_y, &tiles);
 
   // Per tile: its pixels' gradients, concatenated afterwards.

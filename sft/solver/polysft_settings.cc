@@ -48,6 +48,8 @@ Setting EnumSetting(const char* key, Enum& (*field)(PolySftOptions&), std::vecto
         [](const json& j, PolySftOptions* o) { j.get_to(o->field); } \
   }
 
+// One table, a line per key in metrics.json's order: long, but a list,
+// not a procedure.
 const std::vector<Setting>& Settings() {
   static const std::vector<Setting> settings = [] {
     std::vector<Setting> s = {
