@@ -422,7 +422,9 @@ struct TriangleBox {
 //                     behind it by its coverage, the surface's own colour:
 //                     I = sum_j T_j D_j C_j / A, T_j = prod_{k<j} (1 - D_k),
 //                     A = 1 - T_n = sum_j T_j D_j (the background shows
-//                     only where no triangle reaches, as with kSoftZ).
+//                     only where no triangle reaches, as with kSoftZ);
+//   kOverBackground   the same with the background an opaque last layer:
+//                     I = sum_j T_j D_j C_j + T_n C_b (A = 1).
 constexpr int kOverSlots = 5;
 
 struct PixelBlend {
@@ -455,7 +457,7 @@ PixelBlend BlendPixel(const std::vector<TriangleTerm>& terms, const cv::Vec3f& b
   }
   blend.silhouette = 1.0 - keep;
   std::vector<double>& e = scratch->e;
-  if (o.compositing == Compositing::kOver) {
+  if (o.compositing == Compositing::kOver || o.compositing == Compositing::kOverBackground) {
     const int n = static_cast<int>(terms.size());
     std::vector<int>& order = scratch->order;
     order.resize(n);
@@ -474,6 +476,10 @@ PixelBlend BlendPixel(const std::vector<TriangleTerm>& terms, const cv::Vec3f& b
     // Back to front: what lies behind each triangle, its colour (without
     // the background) and its coverage.
     double behind[3] = {0.0, 0.0, 0.0}, behind_alpha = 0.0;
+    if (o.compositing == Compositing::kOverBackground) {
+      for (int ch = 0; ch < 3; ++ch) behind[ch] = background[ch];
+      behind_alpha = 1.0;
+    }
     for (int i = n - 1; i >= 0; --i) {
       const TriangleTerm& term = terms[order[i]];
       double* slot = &e[kOverSlots * order[i]];
@@ -490,7 +496,7 @@ PixelBlend BlendPixel(const std::vector<TriangleTerm>& terms, const cv::Vec3f& b
       e[kOverSlots * order[i]] = transmitted;
       transmitted *= 1.0 - terms[order[i]].coverage.a;
     }
-    blend.e_sum = behind_alpha;  // A = 1 - prod (1 - D_j) > 0: each term has D_j > 0
+    blend.e_sum = behind_alpha;  // A > 0: 1, or 1 - prod (1 - D_j) where each term has D_j > 0
     for (int ch = 0; ch < 3; ++ch) blend.color[ch] = behind[ch] / behind_alpha;
     blend.e = e.data();
     return blend;
@@ -517,7 +523,7 @@ void AppendPixelGradients(const std::vector<TriangleTerm>& terms, const PixelBle
                           const SoftRasterizerOptions& o, std::vector<VertexGradient>* grads) {
   // Without the depth gradient the blend's weights move with coverage only.
   const double depth_scale = o.depth_gradient ? 1.0 / o.gamma : 0.0;
-  const bool over = o.compositing == Compositing::kOver;
+  const bool over = o.compositing == Compositing::kOver || o.compositing == Compositing::kOverBackground;
   const int first = static_cast<int>(grads->size());
   const int n = static_cast<int>(terms.size());
   for (int j = 0; j < n; ++j) {

@@ -10,6 +10,8 @@
 //   I   = sum_j w_j C_j + w_b C_b                          colour
 // or, with Compositing::kOver, each triangle laid over those behind it:
 //   I   = sum_j T_j D_j C_j / (1 - T_n),  T_j = prod_{k nearer} (1 - D_k)
+// or, with Compositing::kOverBackground, the same over the background:
+//   I   = sum_j T_j D_j C_j + T_n C_b
 // z_j is the normalised inverse depth of triangle j at p (1 nearest, 0
 // farthest; perspective-correct), C_j the texture's bilinear colour at the
 // triangle's interpolated texture coordinates (at the closest point of the
@@ -46,6 +48,13 @@ enum class Compositing {
   // behind it by D_j. The nearest layer wins, by its coverage at its
   // edges, as a camera's pixel sees it; gamma is not used.
   kOver,
+  // kOver with the background as the last, opaque layer: a pixel the
+  // surface covers by D shows D of its colour and 1 - D of the
+  // background's, as a camera's pixel over the object's rim does. Right
+  // only where the background is what lies behind the surface (not the
+  // observed frame, which already holds the surface: against it the rim's
+  // residual is not zero at the truth).
+  kOverBackground,
 };
 
 struct SoftRasterizerOptions {

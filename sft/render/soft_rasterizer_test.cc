@@ -181,19 +181,56 @@ TEST(SoftRasterizerTest, GradientsMatchFiniteDifferences) {
 // levels): exact derivatives too, with the depth order and the levels
 // held (they are piecewise constant and constants).
 TEST(SoftRasterizerTest, OverCompositingAndMipLevelsMatchFiniteDifferences) {
-  for (const bool over : {true, false}) {
+  for (const Compositing compositing : {Compositing::kOver, Compositing::kOverBackground, Compositing::kSoftZ}) {
     for (const bool mipmap : {false, true}) {
-      if (!over && !mipmap) continue;  // the test above
+      if (compositing == Compositing::kSoftZ && !mipmap) continue;  // the test above
       SoftRasterizerOptions options;
       options.num_threads = 1;
       options.gamma = 0.05;
-      options.compositing = over ? Compositing::kOver : Compositing::kSoftZ;
+      options.compositing = compositing;
       options.mipmap = mipmap;
       const FiniteDifferenceCheck check = CheckAgainstFiniteDifferences(options, SmoothTexture(128));
-      EXPECT_LT(check.large, check.checked / 500) << over << mipmap << " max error " << check.max_error;
-      EXPECT_GT(check.nonzero, 1000) << over << mipmap;
-      EXPECT_LT(check.max_error, 2e-2) << over << mipmap;
+      const int variant = 2 * static_cast<int>(compositing) + mipmap;
+      EXPECT_LT(check.large, check.checked / 500) << variant << " max error " << check.max_error;
+      EXPECT_GT(check.nonzero, 1000) << variant;
+      EXPECT_LT(check.max_error, 2e-2) << variant;
     }
+  }
+}
+
+// Over the background, a pixel shows its coverage's share of the surface
+// and the rest of the background, as a camera's pixel over an object's
+// rim does: I = S C + (1 - S) B for a surface of one colour C, at every
+// pixel (the rim's and the seams' between triangles alike). kOver shows C
+// wherever the surface reaches.
+TEST(SoftRasterizerTest, OverTheBackgroundARimPixelMixesByItsCoverage) {
+  const cv::Mat texture(8, 8, CV_32FC3, cv::Scalar(0.9, 0.5, 0.1));
+  cv::Mat background(kHeight, kWidth, CV_32FC3);
+  for (int y = 0; y < kHeight; ++y) {
+    for (int x = 0; x < kWidth; ++x) background.at<cv::Vec3f>(y, x) = cv::Vec3f(0.01f * x, 0.02f * y, 0.3f);
+  }
+  for (const Compositing compositing : {Compositing::kOverBackground, Compositing::kOver}) {
+    SoftRasterizerOptions options;
+    options.compositing = compositing;
+    SoftRenderOutput out;
+    SoftRasterizer(options, texture).Render(TestMesh(), kWidth, kHeight, background, false, &out);
+    double max_error = 0.0;
+    int rim = 0;
+    for (int y = 0; y < kHeight; ++y) {
+      for (int x = 0; x < kWidth; ++x) {
+        const double s = out.silhouette.at<float>(y, x);
+        rim += s > 0.05 && s < 0.95;
+        const cv::Vec3f b = background.at<cv::Vec3f>(y, x), c = out.color.at<cv::Vec3f>(y, x);
+        for (int ch = 0; ch < 3; ++ch) {
+          const double expected = compositing == Compositing::kOver && s > 0.0 ? texture.at<cv::Vec3f>(0, 0)[ch]
+                                                                               : s * texture.at<cv::Vec3f>(0, 0)[ch] +
+                                                                                     (1.0 - s) * b[ch];
+          max_error = std::max(max_error, std::abs(c[ch] - expected));
+        }
+      }
+    }
+    EXPECT_GT(rim, 20);
+    EXPECT_LT(max_error, 1e-5) << static_cast<int>(compositing);
   }
 }
 
@@ -458,7 +495,9 @@ TEST(SoftRasterizerTest, MipLevelsFollowTheFootprintAndRemoveAliasing) {
       }
     }
     (mipmap ? mip_spread : single_spread) = hi - lo;
-    if (mipmap) EXPECT_NEAR(out.color.at<cv::Vec3f>(10, 10)[0], 0.5, 0.02);
+    if (mipmap) {
+      EXPECT_NEAR(out.color.at<cv::Vec3f>(10, 10)[0], 0.5, 0.02);
+    }
   }
   EXPECT_GT(single_spread, 0.5);
   EXPECT_LT(mip_spread, 0.05);

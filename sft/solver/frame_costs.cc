@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <string>
 
 #include <ceres/dynamic_autodiff_cost_function.h>
 #include <ceres/jet.h>
@@ -228,7 +229,8 @@ bool RenderCost::Prepare(const double* theta, bool model_jacobian, bool render_g
     model.Evaluate(theta, &vertices_);
   }
   if (!ProjectVertices(data_.camera, vertices_, &screen_, model_jacobian ? &screen_jacobian_ : nullptr)) return false;
-  data_.rasterizer->Render(screen_, data_.camera.width, data_.camera.height, data_.image, render_gradients, render_,
+  data_.rasterizer->Render(screen_, data_.camera.width, data_.camera.height,
+                           data_.background.empty() ? data_.image : data_.background, render_gradients, render_,
                            data_.roi);
   if (!model_jacobian) return true;
   const int n = model.num_vertices();
@@ -549,7 +551,8 @@ bool InextensibilityCost::Evaluate(double const* const* parameters, double* resi
 }
 
 TemporalCost::TemporalCost(const JetDeformationModel* model, int patch, double length_scale, double weight, int order,
-                           const std::vector<const Eigen::Matrix3Xd*>& fixed, const Eigen::Vector3d& shift)
+                           const std::vector<const Eigen::Matrix3Xd*>& fixed, const Eigen::Vector3d& shift,
+                           const std::vector<int>& only)
     : model_(model), patch_(patch), scale_(weight / length_scale) {
   if (order != 1 && order != 2) throw std::invalid_argument("TemporalCost: the order must be 1 or 2");
   if (order != 2 && !shift.isZero()) throw std::invalid_argument("TemporalCost: a shift needs the order 2");
@@ -558,8 +561,18 @@ TemporalCost::TemporalCost(const JetDeformationModel* model, int patch, double l
     throw std::invalid_argument("TemporalCost: more fixed frames than the order");
   coefficients_ = order == 1 ? std::vector<double>{1.0, -1.0} : std::vector<double>{1.0, -2.0, 1.0};
   num_free_ = order + 1 - static_cast<int>(fixed.size());
-  for (int i = 0; i < model->num_vertices(); ++i) {
-    if (model->patch_of_vertex(i) == patch) vertices_.push_back(i);
+  if (only.empty()) {
+    for (int i = 0; i < model->num_vertices(); ++i) {
+      if (model->patch_of_vertex(i) == patch) vertices_.push_back(i);
+    }
+  } else {
+    for (int i : only) {
+      if (i < 0 || i >= model->num_vertices() || model->patch_of_vertex(i) != patch) {
+        throw std::invalid_argument("TemporalCost: vertex " + std::to_string(i) + " is not of patch " +
+                                    std::to_string(patch));
+      }
+    }
+    vertices_ = only;
   }
   // The target -sum_{f >= 1} c_f x_f + shift: the shift enters as a
   // fixed frame would.

@@ -47,6 +47,11 @@ class RenderCost : public ceres::CostFunction {
     ScreenMesh mesh;
     PinholeCamera camera;
     cv::Mat image;       // CV_32FC3
+    // What the surface is rendered over (CV_32FC3, the image's size):
+    // empty, the image itself (so that pixels the surface does not reach
+    // have no residual); or a background plate (sft/render/
+    // background_plate.h) for Compositing::kOverBackground.
+    cv::Mat background;
     cv::Mat mask;        // CV_32F or empty: M_lo
     cv::Mat mask_upper;  // CV_32F, M_hi; empty: M_lo
     cv::Rect roi;
@@ -312,12 +317,13 @@ double SampleOutsideDistance(const cv::Mat& distance, double x, double y, Eigen:
 // blocks (patch p's block of frame t-1, then of t-2) except the oldest
 // `fixed.size()` of them, given as data (3 by #V each, the most recent
 // first): frames before the window. Parameter blocks: this frame's, then
-// the earlier frames' that are not fixed.
+// the earlier frames' that are not fixed. `only`: the vertices of the
+// patch it holds (empty: all of them).
 class TemporalCost : public ceres::CostFunction {
  public:
   TemporalCost(const JetDeformationModel* model, int patch, double length_scale, double weight, int order,
                const std::vector<const Eigen::Matrix3Xd*>& fixed,
-               const Eigen::Vector3d& shift = Eigen::Vector3d::Zero());
+               const Eigen::Vector3d& shift = Eigen::Vector3d::Zero(), const std::vector<int>& only = {});
   // Order 1; `previous` given: the earlier frame is data.
   TemporalCost(const JetDeformationModel* model, int patch, double length_scale, double weight,
                const Eigen::Matrix3Xd* previous = nullptr);

@@ -292,6 +292,30 @@ TEST_F(FrameCostsTest, TheSecondOrderTemporalTermHoldsAFrameToTheLineThroughTheT
   EXPECT_THROW(TemporalCost(model_.get(), 0, 0.3, 1.5, 1, {&x[1], &x[2]}), std::invalid_argument);
 }
 
+// On some of the patch's vertices only (the ones a fold hides): their
+// rows of the whole patch's residual, exact derivatives, and a vertex of
+// another patch refused.
+TEST_F(FrameCostsTest, TheTemporalTermOnSomeVerticesIsThoseVerticesRows) {
+  ASSERT_EQ(model_->num_patches(), 1);
+  std::vector<double> frames[2] = {theta_, theta_};
+  frames[1][3] += 0.01;
+  Eigen::Matrix3Xd before;
+  model_->Evaluate(frames[1].data(), &before);
+  const TemporalCost all(model_.get(), 0, 0.3, 1.5, 1, {&before});
+  const std::vector<int> some = {2, 7, 11};
+  const TemporalCost held(model_.get(), 0, 0.3, 1.5, 1, {&before}, Eigen::Vector3d::Zero(), some);
+  ASSERT_EQ(held.num_residuals(), 9);
+  Eigen::Matrix3Xd r_all(3, model_->num_vertices()), r_some(3, 3);
+  const double* blocks[1] = {frames[0].data()};
+  ASSERT_TRUE(all.Evaluate(blocks, r_all.data(), nullptr));
+  ASSERT_TRUE(held.Evaluate(blocks, r_some.data(), nullptr));
+  for (int k = 0; k < 3; ++k) EXPECT_LT((r_some.col(k) - r_all.col(some[k])).norm(), 1e-15);
+  EXPECT_GT(r_some.norm(), 1e-4);
+  EXPECT_LT(RelativeJacobianError(held, frames[0], 1e-7), 1e-5);
+  EXPECT_THROW(TemporalCost(model_.get(), 0, 0.3, 1.5, 1, {&before}, Eigen::Vector3d::Zero(), {model_->num_vertices()}),
+               std::invalid_argument);
+}
+
 // With gravity folded in (the shift g dt^2), the target is InertiaResidual's
 // (k_g = k_i): the residual is the order-2 one less (w / L) g dt^2.
 TEST_F(FrameCostsTest, TheSecondOrderTemporalTermWithGravityHoldsAFrameWhereAFreeFallGoes) {

@@ -23,7 +23,9 @@
 #include "polyfit/util/atomic_file.h"
 #include "polyfit/util/json_number.h"
 #include "polyfit/util/parallel_for.h"
+#include "sft/render/background_plate.h"
 #include "sft/render/mask_distance.h"
+#include "sft/render/vertex_visibility.h"
 #include "sft/scene/sft_metrics.h"
 #include "sft/solver/brightness.h"
 #include "sft/solver/flow_matches.h"
@@ -36,6 +38,12 @@ namespace polyfit {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+// A vertex is hidden by its own surface where a nearer part lies this far
+// (times the template's size) in front of it: a fold's layers, not a
+// curved sheet's neighbouring triangles (PolySftOptions::
+// occluded_temporal_weight).
+constexpr double kOccludedDepthTolerance = 0.01;
 
 double Seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
 
@@ -57,6 +65,12 @@ struct FrameData {
   // estimate barely moves) at a third of the renders.
   Brightness brightness;
   std::vector<cv::Mat> compensated;
+  // Per level, what lies behind the surface (BackgroundPlate: the mask's
+  // region filled from around it), for levels composited over it
+  // (Compositing::kOverBackground); empty elsewhere. Its brightness-
+  // matched copy beside compensated (the match is per channel affine, and
+  // so is the plate's fill).
+  std::vector<cv::Mat> plates, compensated_plates;
   // Keypoint correspondences with the template (the finest level's
   // pixels; with PolySftOptions::feature_weight, or relocalize after a
   // frame that was not tracked), and the median
@@ -184,7 +198,7 @@ std::string PolySftOptions::Validate() const {
   if (max_iterations_per_level < 1) return "max_iterations_per_level must be >= 1";
   if (patience < 1) return "patience must be >= 1";
   for (double w : {photometric_weight, silhouette_weight, silhouette_reach_weight, feature_weight, flow_weight,
-                   inextensibility_weight, temporal_weight}) {
+                   inextensibility_weight, temporal_weight, occluded_temporal_weight}) {
     if (!(w >= 0.0) || !std::isfinite(w)) return "term weights must be finite and >= 0";
   }
   if (!(depth_softness >= 0.0) || !std::isfinite(depth_softness)) {
@@ -285,6 +299,9 @@ class PolySftController {
     if (use_inextensibility_) summary_.terms.emplace_back("inextensibility", o.inextensibility_weight);
     ChooseGravityPrior();
     if (use_temporal_) summary_.terms.emplace_back(gravity_shift_ ? "temporal_gravity" : "temporal", o.temporal_weight);
+    if (num_frames > 1 && o.occluded_temporal_weight > 0.0) {
+      summary_.terms.emplace_back("occluded_hold", o.occluded_temporal_weight);
+    }
     // Data terms are normalised to about 1 per unit weight: the regularisers
     // far above them decide the shape alone.
     const double data = std::max(use_photometric_ ? o.photometric_weight : 0.0, use_masks_ ? o.silhouette_weight : 0.0);
@@ -446,6 +463,10 @@ class PolySftController {
         options.mipmap = options_.finest_mipmap;
         options.compositing = options_.finest_compositing;
       }
+      // Without masks nothing says what lies behind the surface.
+      if (options.compositing == Compositing::kOverBackground && !scene_.has_masks()) {
+        options.compositing = Compositing::kOver;
+      }
       if (&level == &levels_.back()) finest_texture_ = texture;
       level.rasterizer = std::make_unique<SoftRasterizer>(options, texture);
       SoftRasterizerOptions serial = options;
@@ -579,6 +600,15 @@ class PolySftController {
         if (!lower.empty()) {
           cv::resize(lower, data->masks[l], size, 0, 0, cv::INTER_AREA);
           cv::resize(upper, data->masks_upper[l], size, 0, 0, cv::INTER_AREA);
+        }
+      }
+    }
+    if (!upper.empty()) {
+      data->plates.resize(levels);
+      for (int l = 0; l < levels; ++l) {
+        // One pixel more: a rim pixel the mask's rounding left out.
+        if (levels_[l].rasterizer->options().compositing == Compositing::kOverBackground) {
+          data->plates[l] = BackgroundPlate(data->images[l], data->masks_upper[l], 1);
         }
       }
     }
@@ -908,8 +938,13 @@ class PolySftController {
       if (frame.compensated[l].empty()) {
         frame.brightness = MatchFrameBrightness(*d.rasterizer, screen, level.camera, d.image, d.mask, d.roi);
         frame.compensated[l] = CompensateBrightness(d.image, frame.brightness);
+        if (!d.background.empty()) {
+          frame.compensated_plates.resize(levels_.size());
+          frame.compensated_plates[l] = CompensateBrightness(d.background, frame.brightness);
+        }
       }
       d.image = frame.compensated[l];
+      if (!d.background.empty()) d.background = frame.compensated_plates[l];
     }
     *out = std::move(d);
     return true;
@@ -935,6 +970,7 @@ class PolySftController {
     d.mesh = mesh_template_;
     d.camera = level.camera;
     d.image = frame.images[l];
+    if (static_cast<int>(frame.plates.size()) > l) d.background = frame.plates[l];
     if (use_masks_) {
       d.mask = frame.masks[l];
       d.mask_upper = frame.masks_upper[l];
@@ -1022,6 +1058,7 @@ class PolySftController {
         }
       }
     }
+    AddOccludedHold(k, problem);
     if (!use_temporal_) return;
     const double w = std::sqrt(options_.temporal_weight / model_.num_vertices());
     // Frames before k, most recent first: the window's, then the finalised.
@@ -1047,6 +1084,48 @@ class PolySftController {
       for (const auto& earlier : earlier_blocks) frames.push_back(earlier[p]);
       problem->AddResidualBlock(new CompressedCost(new TemporalCost(&model_, p, size_, w, order, fixed, shift)),
                                 nullptr, frames);
+    }
+  }
+
+  // PolySftOptions::occluded_temporal_weight: window frame k's vertices
+  // that another part of its surface hides (where its estimate is now)
+  // held to where the frame before put them.
+  void AddOccludedHold(size_t k, ceres::Problem* problem) {
+    if (options_.occluded_temporal_weight <= 0.0) return;
+    const Eigen::Matrix3Xd* fixed = nullptr;
+    std::vector<double*> before;
+    if (k > 0) {
+      before = Blocks(window_[k - 1]->theta);
+    } else if (!finals_.empty()) {
+      fixed = &finals_[0];
+    } else {
+      return;  // the first frame
+    }
+    Eigen::Matrix3Xd vertices;
+    model_.Evaluate(window_[k]->theta.data(), &vertices);
+    const LevelData& finest = levels_.back();
+    ScreenMesh screen = mesh_template_;
+    if (!ProjectVertices(finest.camera, vertices, &screen, nullptr)) return;
+    const std::vector<std::uint8_t> occluded =
+        OccludedVertices(screen, finest.camera.width, finest.camera.height, kOccludedDepthTolerance * size_);
+    std::vector<std::vector<int>> per_patch(model_.num_patches());
+    for (int v = 0; v < model_.num_vertices(); ++v) {
+      if (occluded[v]) per_patch[model_.patch_of_vertex(v)].push_back(v);
+    }
+    const double w = std::sqrt(options_.occluded_temporal_weight / model_.num_vertices());
+    const std::vector<double*> blocks = Blocks(window_[k]->theta);
+    for (int p = 0; p < model_.num_patches(); ++p) {
+      if (per_patch[p].empty()) continue;
+      std::vector<double*> frames = {blocks[p]};
+      std::vector<const Eigen::Matrix3Xd*> data;
+      if (fixed != nullptr) {
+        data.push_back(fixed);
+      } else {
+        frames.push_back(before[p]);
+      }
+      problem->AddResidualBlock(
+          new CompressedCost(new TemporalCost(&model_, p, size_, w, 1, data, Eigen::Vector3d::Zero(), per_patch[p])),
+          nullptr, frames);
     }
   }
 

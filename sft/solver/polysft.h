@@ -142,6 +142,13 @@ struct PolySftOptions {
   // turns is. A scene that states neither gets the temporal term as
   // configured, and a warning says the prior is off.
   bool gravity_prior = false;
+  // Where the surface folds over itself, the part it hides has no image
+  // to go by: each frame's vertices that a nearer part of its own surface
+  // hides (by more than 1% of the template's size, where the estimate is
+  // now) are held to where the frame before put them, at this weight
+  // (TemporalCost of order 1 on those vertices alone; normalised as the
+  // temporal term). 0: off. A scene that never folds over pays nothing.
+  double occluded_temporal_weight = 0.0;
   // A segmentation's mask is a few pixels off: within this many pixels
   // (of the full-size frame) of the mask's border, the silhouette may
   // cover or not at no cost, so that a mask a little too large or too

@@ -70,6 +70,7 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("temporal_weight", temporal_weight),
         POLYFIT_SETTING("temporal_order", temporal_order),
         POLYFIT_SETTING("gravity_prior", gravity_prior),
+        POLYFIT_SETTING("occluded_temporal_weight", occluded_temporal_weight),
         POLYFIT_SETTING("silhouette_band", silhouette_band),
         POLYFIT_SETTING("silhouette_reach_weight", silhouette_reach_weight),
         POLYFIT_SETTING("feature_weight", feature_weight),
@@ -126,7 +127,8 @@ const std::vector<Setting>& Settings() {
         "robust_loss", [](PolySftOptions& o) -> RobustLoss& { return o.robust_loss; },
         {{RobustLoss::kNone, "none"}, {RobustLoss::kHuber, "huber"}, {RobustLoss::kCauchy, "cauchy"}}));
     const std::vector<std::pair<Compositing, const char*>> compositing = {{Compositing::kSoftZ, "soft_z"},
-                                                                           {Compositing::kOver, "over"}};
+                                                                           {Compositing::kOver, "over"},
+                                                                           {Compositing::kOverBackground, "over_background"}};
     s.push_back(EnumSetting<Compositing>(
         "compositing", [](PolySftOptions& o) -> Compositing& { return o.rasterizer.compositing; }, compositing));
     s.push_back(EnumSetting<Compositing>(

@@ -40,6 +40,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.temporal_weight = 0.3;
   changed.temporal_order = 2;
   changed.gravity_prior = true;
+  changed.occluded_temporal_weight = 3.0;
   changed.atlas.initial_patches = 4;
   changed.silhouette_band = 4.5;
   changed.match_brightness = false;
@@ -52,7 +53,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.rasterizer.depth_gradient = true;
   changed.rasterizer.analytic_derivatives = false;
   changed.rasterizer.compositing = Compositing::kSoftZ;
-  changed.finest_compositing = Compositing::kOver;
+  changed.finest_compositing = Compositing::kOverBackground;
   changed.rasterizer.mipmap = false;
   changed.finest_mipmap = true;
   changed.rasterizer.mip_level_bias = 0.5;
