@@ -33,7 +33,8 @@ def test_polysft_equals_the_command_line(scene, tmp_path):
     subprocess.run([tool("polysft"), "--scene", str(scene), "--out", str(tmp_path / "cli"), "--max-frames", "3",
                     "--threads", "1"], check=True, capture_output=True)
     assert summary.is_solution_usable() and len(summary.frames) == 3 and frames == [0, 1, 2]
-    assert [name for name, _ in summary.terms] == ["photometric", "silhouette", "inextensibility", "temporal"]
+    assert [name for name, _ in summary.terms] == ["photometric", "silhouette", "inextensibility", "occluded_hold",
+                                                "temporal"]
     metrics = json.loads((tmp_path / "cli" / "metrics.json").read_text())
     py_metrics = json.loads((tmp_path / "py" / "metrics.json").read_text())
     assert py_metrics["settings"] == metrics["settings"]

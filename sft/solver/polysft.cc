@@ -298,10 +298,10 @@ class PolySftController {
     if (use_flow_ && o.flow_weight > 0.0) summary_.terms.emplace_back("flow", o.flow_weight);
     if (use_inextensibility_) summary_.terms.emplace_back("inextensibility", o.inextensibility_weight);
     ChooseGravityPrior();
-    if (use_temporal_) summary_.terms.emplace_back(gravity_shift_ ? "temporal_gravity" : "temporal", o.temporal_weight);
     if (num_frames > 1 && o.occluded_temporal_weight > 0.0) {
       summary_.terms.emplace_back("occluded_hold", o.occluded_temporal_weight);
     }
+    if (use_temporal_) summary_.terms.emplace_back(gravity_shift_ ? "temporal_gravity" : "temporal", o.temporal_weight);
     // Data terms are normalised to about 1 per unit weight: the regularisers
     // far above them decide the shape alone.
     const double data = std::max(use_photometric_ ? o.photometric_weight : 0.0, use_masks_ ? o.silhouette_weight : 0.0);
