@@ -588,6 +588,7 @@ class PolySftController {
     if (!data->frame.mask.empty()) {
       if (summary_.silhouette_band_px < 0.0) MeasureSilhouetteBand(*data, t);
       MaskBounds(data->frame.mask, summary_.silhouette_band_px, &lower, &upper);
+      if (options_.relax_mask_border) RelaxBinaryBorder(&lower, &upper);
     }
     for (int l = 0; l < levels; ++l) {
       const cv::Size size(levels_[l].camera.width, levels_[l].camera.height);

@@ -48,15 +48,22 @@ struct PolySftOptions {
   // read from it aliases, which misleads the coarse levels' search for
   // the frame's motion (docs/benchmarks.md).
   //
-  // Composited in depth order on the coarse levels (finest_compositing:
-  // the finest): a fold-over's near layer hides the far one there, where
-  // the soft z-buffer (3 cm) blended layers 1 cm apart at 0.72 of the
-  // front one's weight (docs/benchmarks.md).
+  // Composited in depth order over what lies behind the surface
+  // (Compositing::kOverBackground; finest_compositing: the finest level):
+  // a fold-over's near layer hides the far one, where the soft z-buffer
+  // (3 cm) blended layers 1 cm apart at 0.72 of the front one's weight;
+  // and a rim pixel reads its coverage's share of the surface over a
+  // background plate (the frame with the mask's region filled from
+  // around it: sft/render/background_plate.h), as the camera saw it,
+  // where over the observed frame itself its residual was not zero at the
+  // exact surface. Without masks nothing says what lies behind, and the
+  // composite is kOver (the surface's colour wherever it reaches).
+  // Together with relax_mask_border: docs/benchmarks.md.
   SoftRasterizerOptions rasterizer = [] {
     SoftRasterizerOptions o;
     o.depth_gradient = false;
     o.mipmap = true;
-    o.compositing = Compositing::kOver;
+    o.compositing = Compositing::kOverBackground;
     return o;
   }();
   // The soft z-buffer's softness in metres at the template's mean depth
@@ -90,11 +97,9 @@ struct PolySftOptions {
   // wave packet 3.53 -> 4.37); on the coarse levels alone they kept most
   // of the cloth's gain (docs/benchmarks.md).
   bool finest_mipmap = false;
-  // The finest level's compositing. SoftRas' soft z-blend: the depth
-  // order composite there too cost the smooth bend 0.49 -> 0.69 mm and the
-  // real-like mixed sheet 0.70 -> 1.04, from its first frame on, which is
-  // not understood yet (docs/benchmarks.md).
-  Compositing finest_compositing = Compositing::kSoftZ;
+  // The finest level's compositing (rasterizer.compositing: the coarse
+  // levels').
+  Compositing finest_compositing = Compositing::kOverBackground;
   // Frames solved together; the oldest leaves the window (and is written)
   // when a new one enters. Two cost a quarter to a third less than three
   // at the same error on the sheets (within 0.06 mm) and 0.7-3.5 mm more
@@ -167,6 +172,16 @@ struct PolySftOptions {
   // (the template is registered to that frame; MaskBorderOffset), so that
   // exact masks keep their precision.
   double silhouette_band = -1.0;
+  // A mask is binary (the scene format: foreground > 127), and of a pixel
+  // on its border it says only on which side of 1/2 the object covers it:
+  // the silhouette's bounds there are [1/2, 1] inside and [0, 1/2] outside
+  // (RelaxBinaryBorder, sft/solver/silhouette_band.h). Matched as 1 and 0,
+  // a straight edge at a fixed sub-pixel offset (a sheet facing the
+  // camera: its top edge covers its border pixels by 0.6, read as 1) is
+  // pulled outwards along its whole length, and the sheet bends toward
+  // the camera. (That pull used to offset the inward one of SoftRas' rim
+  // over the observed frame: with kSoftZ, relaxing it alone is worse.)
+  bool relax_mask_border = true;
   // The silhouette's long reach (SilhouetteReachCost) on the pyramid's
   // coarsest level: every vertex is pulled inside the mask's outline from
   // wherever it is, so that a surface that moved further than the

@@ -72,6 +72,7 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("gravity_prior", gravity_prior),
         POLYFIT_SETTING("occluded_temporal_weight", occluded_temporal_weight),
         POLYFIT_SETTING("silhouette_band", silhouette_band),
+        POLYFIT_SETTING("relax_mask_border", relax_mask_border),
         POLYFIT_SETTING("silhouette_reach_weight", silhouette_reach_weight),
         POLYFIT_SETTING("feature_weight", feature_weight),
         POLYFIT_SETTING("feature_huber_px", feature_huber_px),

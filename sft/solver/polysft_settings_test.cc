@@ -43,6 +43,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.occluded_temporal_weight = 3.0;
   changed.atlas.initial_patches = 4;
   changed.silhouette_band = 4.5;
+  changed.relax_mask_border = false;
   changed.match_brightness = false;
   changed.predict_motion = true;
   changed.ground_truth_start = GroundTruthStart::kFrameBefore;
@@ -53,7 +54,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.rasterizer.depth_gradient = true;
   changed.rasterizer.analytic_derivatives = false;
   changed.rasterizer.compositing = Compositing::kSoftZ;
-  changed.finest_compositing = Compositing::kOverBackground;
+  changed.finest_compositing = Compositing::kOver;
   changed.rasterizer.mipmap = false;
   changed.finest_mipmap = true;
   changed.rasterizer.mip_level_bias = 0.5;

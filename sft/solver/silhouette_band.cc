@@ -25,6 +25,22 @@ void MaskBounds(const cv::Mat& mask, double band, cv::Mat* lower, cv::Mat* upper
   *upper = dilated;
 }
 
+void RelaxBinaryBorder(cv::Mat* lower, cv::Mat* upper) {
+  const cv::Mat square = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3));
+  // Pixels of `bound` on the other side of 1/2 from a neighbour (8-connected;
+  // the image's edge is no border) set to 1/2.
+  auto relax = [&](cv::Mat* bound, bool inside) {
+    const cv::Mat in = *bound >= 0.5f, out = *bound < 0.5f;
+    cv::Mat near_other;
+    cv::dilate(inside ? out : in, near_other, square, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+    cv::Mat relaxed = bound->clone();  // not shared with the other bound or the mask
+    relaxed.setTo(0.5f, (inside ? in : out) & near_other);
+    *bound = relaxed;
+  };
+  relax(lower, true);
+  relax(upper, false);
+}
+
 namespace {
 
 // The regions of a binary image with their holes filled: only outer

@@ -15,6 +15,16 @@ namespace polyfit {
 // that radius (rounded to whole pixels). At 0, both are the mask.
 void MaskBounds(const cv::Mat& mask, double band, cv::Mat* lower, cv::Mat* upper);
 
+// A binary mask (the scene format's: foreground > 127, a camera's
+// coverage or a segmentation thresholded at 1/2) says of a pixel on its
+// border only on which side of 1/2 the object covers it: there the bounds
+// become [1/2, 1] inside and [0, 1/2] outside. Without this, an edge
+// that crosses its border pixels at 0.6 reads as 1, and a straight edge
+// at a fixed sub-pixel offset (a sheet facing the camera) is pulled
+// outwards along its whole length by up to half a pixel. lower and upper:
+// MaskBounds' (CV_32F, 0 or 1), modified in place (their own buffers).
+void RelaxBinaryBorder(cv::Mat* lower, cv::Mat* upper);
+
 // How far (px) a mask's border lies from a silhouette known to be right
 // (the template's, at the first frame, to which it is registered): over
 // the pixels on either side of the mask's border, the mean (trimmed by 10%

@@ -51,5 +51,38 @@ TEST(SilhouetteBand, BoundsAreTheMaskErodedAndDilatedByTheBand) {
   EXPECT_EQ(cv::countNonZero(upper < mask), 0);
 }
 
+// A binary mask of a straight edge crossing its border pixels at a third:
+// the bounds there become [1/2, 1] inside and [0, 1/2] outside, so that the
+// coverage the camera saw (and a soft silhouette near it) costs nothing,
+// while a silhouette a pixel off still does. The image's edge is no border,
+// and the mask itself is left as it was.
+TEST(SilhouetteBand, ABinaryMasksBorderPixelsAreBoundedByAHalf) {
+  cv::Mat mask = cv::Mat::zeros(20, 30, CV_32F);
+  mask.colRange(0, 12).setTo(1.0f);  // the edge at x = 11.17 thresholds to columns 0-11
+  const cv::Mat kept = mask.clone();
+  cv::Mat lower, upper;
+  MaskBounds(mask, 0.0, &lower, &upper);
+  RelaxBinaryBorder(&lower, &upper);
+  EXPECT_EQ(cv::norm(mask, kept, cv::NORM_INF), 0.0);
+  for (int y = 0; y < 20; ++y) {
+    for (int x = 0; x < 30; ++x) {
+      const float lo = lower.at<float>(y, x), hi = upper.at<float>(y, x);
+      ASSERT_EQ(lo, x < 11 ? 1.0f : x == 11 ? 0.5f : 0.0f) << x << "," << y;
+      ASSERT_EQ(hi, x <= 11 ? 1.0f : x == 12 ? 0.5f : 0.0f) << x << "," << y;
+    }
+  }
+  // The edge's true coverage of column 11 (2/3) and 12 (0) lies within
+  // the bounds; a silhouette one pixel short (column 11 at 0) does not.
+  EXPECT_TRUE(2.0f / 3.0f >= lower.at<float>(5, 11) && 2.0f / 3.0f <= upper.at<float>(5, 11));
+  EXPECT_LT(0.0f, lower.at<float>(5, 11));
+  // With a band, the eroded and dilated bounds' borders.
+  MaskBounds(mask, 3.0, &lower, &upper);
+  RelaxBinaryBorder(&lower, &upper);
+  EXPECT_EQ(lower.at<float>(5, 8), 0.5f);
+  EXPECT_EQ(lower.at<float>(5, 7), 1.0f);
+  EXPECT_EQ(upper.at<float>(5, 15), 0.5f);
+  EXPECT_EQ(upper.at<float>(5, 16), 0.0f);
+}
+
 }  // namespace
 }  // namespace polyfit
