@@ -66,8 +66,9 @@ struct PolySftOptions {
     o.compositing = Compositing::kOverBackground;
     return o;
   }();
-  // The soft z-buffer's softness in metres at the template's mean depth
-  // Z: the rasterizer's gamma becomes depth_softness / (Z^2 (1/near -
+  // With Compositing::kSoftZ only (the depth-ordered composites have no
+  // softness): the soft z-buffer's softness in metres at the template's
+  // mean depth Z: the rasterizer's gamma becomes depth_softness / (Z^2 (1/near -
   // 1/far)), so that a layer this far behind another weighs e times less,
   // whatever the scene's scale and the depth range the normalised inverse
   // depth spans (the template's depth +- its size, its near end clamped
