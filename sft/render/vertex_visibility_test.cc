@@ -2,7 +2,7 @@
 
 #include <gtest/gtest.h>
 
-#include "sft/camera/pinhole_camera.h"
+#include "sft/camera/test_camera.h"
 
 namespace polyfit {
 namespace {
@@ -27,16 +27,6 @@ void AddGrid(double x0, double y0, double depth, Eigen::Matrix3Xd* vertices, Eig
   }
 }
 
-PinholeCamera Camera() {
-  PinholeCamera camera;
-  camera.fx = camera.fy = 200.0;
-  camera.cx = 80.0;
-  camera.cy = 60.0;
-  camera.width = 160;
-  camera.height = 120;
-  return camera;
-}
-
 // A fold-over's two layers: a far grid and a near one over its left half.
 // The far grid's vertices under the near one are hidden, the rest seen;
 // the near grid is seen everywhere.
@@ -48,8 +38,8 @@ TEST(VertexVisibilityTest, TheLayerBehindAFoldIsHiddenWhereTheNearOneCoversIt) {
     AddGrid(-0.45, -0.25, 1.0, &vertices, &faces);      // near: x in [-0.45, -0.05]
     ScreenMesh screen;
     screen.faces = faces;
-    ASSERT_TRUE(ProjectVertices(Camera(), vertices, &screen, nullptr));
-    const std::vector<std::uint8_t> occluded = OccludedVertices(screen, 160, 120, 0.01);
+    ASSERT_TRUE(ProjectVertices(TestCamera(), vertices, &screen, nullptr));
+    const std::vector<std::uint8_t> occluded = OccludedVertices(screen, 320, 240, 0.01);
     for (int v = 0; v < 50; ++v) {
       // The near grid spans x in [-0.45, -0.05] at depth 1, and the far
       // grid's points project inside it where x / (1 + gap) < -0.05 (its
@@ -72,8 +62,8 @@ TEST(VertexVisibilityTest, ASingleSheetAndVerticesOutsideTheImageAreSeen) {
   AddGrid(2.0, 0.0, 1.0, &vertices, &faces);                           // beyond the image's right edge
   ScreenMesh screen;
   screen.faces = faces;
-  ASSERT_TRUE(ProjectVertices(Camera(), vertices, &screen, nullptr));
-  const std::vector<std::uint8_t> occluded = OccludedVertices(screen, 160, 120, 0.002);
+  ASSERT_TRUE(ProjectVertices(TestCamera(), vertices, &screen, nullptr));
+  const std::vector<std::uint8_t> occluded = OccludedVertices(screen, 320, 240, 0.002);
   for (int v = 0; v < 50; ++v) EXPECT_EQ(occluded[v], 0) << v;
 }
 
