@@ -264,9 +264,11 @@ class PolySftController {
       frame_cost_[t] = cost;  // whether it is tracked, for RefineAtlas
       if (RefineAtlas(t) && !SolveWindow(&cost, &iterations)) break;
       RecoverLostFrame(t, &cost, &iterations);
-      if (t > 0 && CostRatio(cost) > kLostCostRatio) KeypointsFromNowOn(t);
+      const bool lost = t > 0 && CostRatio(cost) > kLostCostRatio;
+      if (lost) KeypointsFromNowOn(t);
       frame_time_[t] = Seconds(frame_start);
       frame_cost_[t] = cost;
+      if (!lost) tracked_costs_.push_back(cost);
       frame_iterations_[t] = iterations;
       if (static_cast<int>(window_.size()) >= options_.window_size) FinalizeOldestFrame();
     }
@@ -532,9 +534,23 @@ class PolySftController {
     return t > 0 && CostRatio(frame_cost_[t]) > kLostCostRatio;
   }
 
-  // A frame's cost against the first frame's.
+  // A frame's cost against what the frames tracked so far cost (their
+  // median; the first frame's alone at first): a frame is lost when it
+  // fits kLostCostRatio times worse. Not against the first frame's alone:
+  // where the template is registered, the render matches the frame to
+  // its noise, and a deforming surface's misfit (a hanging cloth tracked
+  // within 3 mm costs 2-8 times its first frame) or a finer render's
+  // lower floor would read as lost (docs/benchmarks.md).
   static constexpr double kLostCostRatio = 4.0;
-  double CostRatio(double cost) const { return cost / std::max(frame_cost_[0], 1e-12); }
+  double CostRatio(double cost) const {
+    double floor = frame_cost_[0];
+    if (tracked_costs_.size() > 1) {
+      std::vector<double> costs = tracked_costs_;
+      std::nth_element(costs.begin(), costs.begin() + costs.size() / 2, costs.end());
+      floor = costs[costs.size() / 2];
+    }
+    return cost / std::max(floor, 1e-12);
+  }
 
   // A solved frame whose motion may be carried on (and whose misfit a
   // split may take): seen, in the texture's colours, and where it is. With
@@ -1419,7 +1435,7 @@ class PolySftController {
     if (solved && again < *cost) {
       char buffer[200];
       std::snprintf(buffer, sizeof(buffer),
-                    "frame %d: lost (cost %.0f times the first frame's); %s and solved again: cost %.3g -> %.3g",
+                    "frame %d: lost (cost %.0f times the tracked frames'); %s and solved again: cost %.3g -> %.3g",
                     window_.back()->frame.index, CostRatio(*cost), how, *cost, again);
       summary_.warnings.emplace_back(buffer);
       *cost = again;
@@ -1479,7 +1495,7 @@ class PolySftController {
     if (Lost(data)) {
       char buffer[200];
       std::snprintf(buffer, sizeof(buffer),
-                    "frame %d: cost %.3g is %.0f times the first frame's: tracking may be lost (motion too large "
+                    "frame %d: cost %.3g is %.0f times the tracked frames': tracking may be lost (motion too large "
                     "between frames?)",
                     data.frame.index, cost, CostRatio(cost));
       summary_.warnings.emplace_back(buffer);
@@ -1586,6 +1602,7 @@ class PolySftController {
   int recovery_ = 0;  // solving a lost frame again (RecoverLostFrame): its kRecovery start
   Eigen::Matrix3Xd previous_truth_;  // the last frame's ground truth (ground_truth_start kFrameBefore)
   std::vector<double> frame_time_, frame_cost_;
+  std::vector<double> tracked_costs_;  // the final costs of the frames not lost, in order
   std::vector<int> frame_iterations_;
   int solves_ = 0, unconverged_solves_ = 0;
 };

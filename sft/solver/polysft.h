@@ -212,8 +212,8 @@ struct PolySftOptions {
   // with it, no longer: docs/benchmarks.md.) Needs the photometric term.
   double feature_weight = 0.0;
   // With feature_weight 0: keypoint correspondences at weight 100 from the
-  // frame after the first lost one (cost over 4 times the first frame's)
-  // on, so that a scene pays for them only once it needs them (a warning
+  // frame after the first lost one (cost over 4 times the median of the
+  // frames tracked before) on, so that a scene pays for them only once it needs them (a warning
   // says from when). With the flow start and relocalize, on the simulated
   // cloth: the table 0.053 -> 0.046, the flag 0.029 -> 0.026, the fall
   // 0.050 -> 0.022 (e3D); the sheets that are never lost unchanged, the
@@ -228,8 +228,8 @@ struct PolySftOptions {
   //  - a frame after one that was not tracked (lost, or an empty mask)
   //    starts there where its keypoints disagree with its warm start and
   //    that fits its coarsest level better;
-  //  - a frame lost after its solve (cost over 4 times the first frame's)
-  //    whose keypoints disagree with the surface is solved again from
+  //  - a frame lost after its solve (cost over 4 times the median of the
+  //    frames tracked before) whose keypoints disagree with the surface is solved again from
   //    there (if that start fits the coarsest level better than its own
   //    did), the lower final cost kept; trace.csv's `recovery` is 2 on
   //    those rows.
@@ -277,7 +277,8 @@ struct PolySftOptions {
   // stays within the pyramid's reach and takes fewer iterations, and a
   // motion that reverses between two frames is not overshot. Only the
   // motion of two tracked frames is carried on (seen, fitting within 4
-  // times the first frame's cost, colours correlated with the texture's).
+  // times the median cost of the frames tracked before, colours
+  // correlated with the texture's).
   // Off by default: a sheet turning edge-on is still carried past where
   // it can be found again (docs/benchmarks.md).
   bool predict_motion = false;
