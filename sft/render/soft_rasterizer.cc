@@ -473,8 +473,8 @@ PixelBlend BlendPixel(const std::vector<TriangleTerm>& terms, const cv::Vec3f& b
       order[k] = j;
     }
     e.resize(kOverSlots * n);
-    // Back to front: what lies behind each triangle, its colour (without
-    // the background) and its coverage.
+    // Back to front: what lies behind each triangle, its colour (with the
+    // background only for kOverBackground) and its coverage.
     double behind[3] = {0.0, 0.0, 0.0}, behind_alpha = 0.0;
     if (o.compositing == Compositing::kOverBackground) {
       for (int ch = 0; ch < 3; ++ch) behind[ch] = background[ch];

@@ -18,7 +18,9 @@
 // triangle for pixels outside it; from the face's mip level with mipmap),
 // C_b the background (a colour, or an
 // image: the observed frame, so that pixels the object does not cover match
-// exactly and only the object's own pixels carry residuals).
+// exactly and only the object's own pixels carry residuals; for
+// kOverBackground, what lies behind the object: sft/render/
+// background_plate.h).
 //
 // Each triangle touches only pixels within sqrt(cutoff * sigma) of it
 // (beyond, D_j < 1e-4): triangles are binned into 8 x 8 tiles, and pixels
