@@ -197,9 +197,16 @@ std::string PolySftOptions::Validate() const {
   if (max_image_width < 0) return "max_image_width must be >= 0";
   if (max_iterations_per_level < 1) return "max_iterations_per_level must be >= 1";
   if (patience < 1) return "patience must be >= 1";
-  for (double w : {photometric_weight, silhouette_weight, silhouette_reach_weight, feature_weight, flow_weight,
-                   inextensibility_weight, temporal_weight, occluded_temporal_weight}) {
-    if (!(w >= 0.0) || !std::isfinite(w)) return "term weights must be finite and >= 0";
+  const std::pair<const char*, double> weights[] = {{"photometric_weight", photometric_weight},
+                                                     {"silhouette_weight", silhouette_weight},
+                                                     {"silhouette_reach_weight", silhouette_reach_weight},
+                                                     {"feature_weight", feature_weight},
+                                                     {"flow_weight", flow_weight},
+                                                     {"inextensibility_weight", inextensibility_weight},
+                                                     {"temporal_weight", temporal_weight},
+                                                     {"occluded_temporal_weight", occluded_temporal_weight}};
+  for (const auto& [name, w] : weights) {
+    if (!(w >= 0.0) || !std::isfinite(w)) return std::string(name) + " must be finite and >= 0";
   }
   if (!(depth_softness >= 0.0) || !std::isfinite(depth_softness)) {
     return "depth_softness must be finite and >= 0 (m; 0: rasterizer.gamma as given)";
@@ -469,7 +476,6 @@ class PolySftController {
       if (options.compositing == Compositing::kOverBackground && !scene_.has_masks()) {
         options.compositing = Compositing::kOver;
       }
-      if (&level == &levels_.back()) finest_texture_ = texture;
       level.rasterizer = std::make_unique<SoftRasterizer>(options, texture);
       SoftRasterizerOptions serial = options;
       serial.num_threads = 1;
@@ -828,14 +834,9 @@ class PolySftController {
         }
       }
     }
-    SoftRasterizerOptions sharp = rasterizer_options_;
-    sharp.mipmap = options_.finest_mipmap;
-    sharp.compositing = options_.finest_compositing;
-    sharp.sigma = options_.finest_sigma > 0.0 ? options_.finest_sigma : sharp.sigma;
     SoftRenderOutput render;
     if (corners.cols() > 0) {
-      SoftRasterizer(sharp, finest_texture_)
-          .Render(screen, level.camera.width, level.camera.height, first.images.back(), false, &render);
+      level.rasterizer->Render(screen, level.camera.width, level.camera.height, first.images.back(), false, &render);
     } else {
       render.color = first.images.back();
     }
@@ -1588,7 +1589,6 @@ class PolySftController {
   // The template's keypoints on the surface (with use_features_), and the
   // finest level's texture they are rendered with.
   std::unique_ptr<TextureFeatures> features_;
-  cv::Mat finest_texture_;
   ScreenMesh mesh_template_;
   double size_ = 0.0;                         // the template's bounding-box diagonal
   SoftRasterizerOptions rasterizer_options_;  // options_.rasterizer, gamma from depth_softness
