@@ -101,7 +101,10 @@ struct FrameData {
 };
 
 // Stops a level once `patience` iterations in a row improved the cost by
-// less than the tolerance, and records the trace.
+// less than the tolerance, and records the trace. A rejected step is no
+// sign of convergence (the trust region shrinks and the next step is
+// tried): it neither counts nor is compared against, and its row has the
+// cost where the solve stays (Ceres reports the rejected candidate's).
 class WindowCallback : public ceres::IterationCallback {
  public:
   WindowCallback(const PolySftOptions& options, std::vector<SftIterationSummary>* trace, SftIterationSummary row,
@@ -112,9 +115,11 @@ class WindowCallback : public ceres::IterationCallback {
     SftIterationSummary row = row_;
     row.iteration = iterations_++;
     row.time_s = Seconds(start_);
-    row.cost = s.cost;
+    const bool rejected = s.iteration > 0 && !s.step_is_successful;
+    row.cost = rejected ? last_cost_ : s.cost;
     if (e3d_) row.e3d = e3d_();
     trace_->push_back(row);
+    if (rejected) return ceres::SOLVER_CONTINUE;
     if (s.iteration > 0) {
       const double improvement = (last_cost_ - s.cost) / std::max(last_cost_, 1e-300);
       stalled_ = improvement < options_.improvement_tolerance ? stalled_ + 1 : 0;
