@@ -105,6 +105,8 @@ class JetDeformationModel {
   // The atlas. #V patch indices.
   const std::vector<int>& vertex_patches() const { return vertex_patch_; }
   int patch_of_vertex(int i) const { return vertex_patch_[i]; }
+  // Patch p's centre c_p, about which it turns (frame coordinates).
+  const Eigen::Vector3d& centre(int p) const { return centres_[p]; }
   // Vertices per patch.
   std::vector<int> PatchSizes() const;
   // Only the patch jet with a compact uv field splits (per-vertex uv and
@@ -136,9 +138,24 @@ class JetDeformationModel {
   // definition EvaluateVertex differentiates by hand (patch jet only), for
   // automatic differentiation.
   template <typename T>
-  void VertexOnPatch(int i, int p, const T* block, T* x, T* normal) const;
+  void VertexOnPatch(int i, int p, const T* block, T* x, T* normal) const {
+    PointOnPatch(uv_(0, i), uv_(1, i), uv_monomials_.rows() > 0 ? uv_monomials_.col(i).data() : nullptr, detail_[i],
+                 p, block, x, normal);
+  }
+  // The midpoint of the template's edge (i, j) where patch p puts it, and
+  // p's normal there: the point half-way in (u, v) and in detail, so that
+  // two patches meeting at an angle along the edge's middle agree on it.
+  template <typename T>
+  void EdgeMidpointOnPatch(int i, int j, int p, const T* block, T* x, T* normal) const;
 
  private:
+  // The surface point at template (u0, v0) with detail e where patch p
+  // puts it: uv_monomials are the uv field's monomials at (u0, v0) without
+  // the constant (null without a compact field).
+  template <typename T>
+  void PointOnPatch(double u0, double v0, const double* uv_monomials, double detail, int p, const T* block, T* x,
+                    T* normal) const;
+
   void EvaluateTextureSpace(int i, const double* block, double* x, double* jacobian) const;
   void EvaluatePatchJet(int i, int p, const double* block, double* x, double* jacobian) const;
   JetDeformationOptions options_;
@@ -163,20 +180,30 @@ class JetDeformationModel {
 };
 
 template <typename T>
-void JetDeformationModel::VertexOnPatch(int i, int p, const T* block, T* x, T* normal) const {
+void JetDeformationModel::EdgeMidpointOnPatch(int i, int j, int p, const T* block, T* x, T* normal) const {
+  const double u0 = 0.5 * (uv_(0, i) + uv_(0, j)), v0 = 0.5 * (uv_(1, i) + uv_(1, j));
+  double monomials[kMaxJetCoefficients];
+  const bool compact = uv_monomials_.rows() > 0;
+  if (compact) JetMonomials(options_.uv_order, u0, v0, monomials);
+  PointOnPatch(u0, v0, compact ? monomials + 1 : nullptr, 0.5 * (detail_[i] + detail_[j]), p, block, x, normal);
+}
+
+template <typename T>
+void JetDeformationModel::PointOnPatch(double u0, double v0, const double* uv_monomials, double detail, int p,
+                                       const T* block, T* x, T* normal) const {
   const int order = patch_.order, num_alpha = NumJetCoefficients(order);
   T alpha[kMaxJetCoefficients];
   for (int k = 0; k < num_alpha; ++k) alpha[k] = T(patch_.coefficients[k]) + (k >= 3 ? block[k - 3] : T(0.0));
   const int m = static_cast<int>(uv_monomials_.rows());
   T du(0.0), dv(0.0);
   for (int k = 0; k < m; ++k) {
-    du += block[num_dalpha_ + k] * uv_monomials_(k, i);
-    dv += block[num_dalpha_ + m + k] * uv_monomials_(k, i);
+    du += block[num_dalpha_ + k] * uv_monomials[k];
+    dv += block[num_dalpha_ + m + k] * uv_monomials[k];
   }
-  const T u = T(uv_(0, i)) + du, v = T(uv_(1, i)) + dv;
+  const T u = T(u0) + du, v = T(v0) + dv;
   const JetHeightDerivatives<T> d = EvaluateJetDerivatives(order, alpha, u, v);
   const Eigen::Vector3d& c = centres_[p];
-  const T phi[3] = {u - c.x(), v - c.y(), d.z + detail_[i] - c.z()};
+  const T phi[3] = {u - c.x(), v - c.y(), d.z + detail - c.z()};
   T local_normal[3], moved[3], turned[3];
   JetNormal(d, local_normal);
   ceres::AngleAxisRotatePoint(block + rotation_offset(), phi, moved);

@@ -1,7 +1,6 @@
 #include "sft/solver/frame_costs.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <string>
 
@@ -125,20 +124,40 @@ void RenderCost::PixelResiduals(int y, int x, double* r, double* jacobian_scale,
   }
 }
 
-bool RenderCost::GatherPatches(int pixel, PixelPatches* out) const {
+void RenderCost::GatherPatches(int pixel, PixelPatches* out) const {
+  // Each patch's pull on the pixel: the sum of its vertices' |derivatives|.
+  constexpr int kMaxSeen = 4 * kMaxPatchesPerPixel;
+  int seen[kMaxSeen];
+  double pull[kMaxSeen];
+  int size = 0;
   const std::vector<int>& vertex_patch = data_.model->vertex_patches();
-  out->size = 0;
   for (int k = render_->begin[pixel]; k < render_->end[pixel]; ++k) {
-    const int p = vertex_patch[render_->gradients[k].vertex];
+    const VertexGradient& g = render_->gradients[k];
+    const int p = vertex_patch[g.vertex];
     int j = 0;
-    while (j < out->size && out->patches[j] < p) ++j;
-    if (j < out->size && out->patches[j] == p) continue;
-    if (out->size == kMaxPatchesPerPixel) return false;
-    for (int m = out->size; m > j; --m) out->patches[m] = out->patches[m - 1];
-    out->patches[j] = p;
-    ++out->size;
+    while (j < size && seen[j] != p) ++j;
+    if (j == size) {
+      if (size == kMaxSeen) continue;
+      seen[size] = p;
+      pull[size++] = 0.0;
+    }
+    for (int a = 0; a < 4; ++a) {
+      for (int c = 0; c < 3; ++c) pull[j] += std::abs(g.d[a][c]);
+    }
   }
-  return true;
+  // More patches than a pixel's block holds (layers of a crumpled fold):
+  // the strongest keep their pull, the others lose it (the cost is kept).
+  if (size > kMaxPatchesPerPixel) {
+    for (int i = 0; i < kMaxPatchesPerPixel; ++i) {
+      const int best = static_cast<int>(std::max_element(pull + i, pull + size) - pull);
+      std::swap(seen[i], seen[best]);
+      std::swap(pull[i], pull[best]);
+    }
+    size = kMaxPatchesPerPixel;
+  }
+  std::sort(seen, seen + size);
+  std::copy(seen, seen + size, out->patches);
+  out->size = size;
 }
 
 RenderCost::Accumulator& RenderCost::FindAccumulator(ThreadState* state, const PixelPatches& patches, int block) const {
@@ -179,6 +198,7 @@ void RenderCost::ChainPixelJacobian(int pixel, const PixelPatches& patches, int 
     const VertexGradient& g = render_->gradients[k];
     const int slot = static_cast<int>(
         std::find(patches.patches, patches.patches + patches.size, vertex_patch[g.vertex]) - patches.patches);
+    if (slot == patches.size) continue;  // a patch past kMaxPatchesPerPixel
     const double* s0 = screen_theta_.data() + static_cast<size_t>(3 * g.vertex) * block;
     const double* s1 = s0 + block;
     const double* s2 = s1 + block;
@@ -261,11 +281,11 @@ void RenderCost::ResetThreads(int threads, double** jacobians) const {
   }
 }
 
-bool RenderCost::AddPixelJacobian(ThreadState* state, int pixel, int r0, const double* r, double jacobian_scale,
+void RenderCost::AddPixelJacobian(ThreadState* state, int pixel, int r0, const double* r, double jacobian_scale,
                                   bool in_band, double** jacobians, bool normal) const {
   const int b = data_.model->block_size();
   PixelPatches patches;
-  if (!GatherPatches(pixel, &patches)) return false;
+  GatherPatches(pixel, &patches);
   const int m = patches.size * b;
   double* local = state->local.data();
   ChainPixelJacobian(pixel, patches, b, local);
@@ -280,7 +300,7 @@ bool RenderCost::AddPixelJacobian(ThreadState* state, int pixel, int r0, const d
       }
     }
   }
-  if (!normal) return true;
+  if (!normal) return;
   Accumulator& a = FindAccumulator(state, patches, b);
   // The silhouette's row is zero in the band and wherever the coverage is
   // saturated (most of the surface's pixels): its residual counts, its row
@@ -296,7 +316,6 @@ bool RenderCost::AddPixelJacobian(ThreadState* state, int pixel, int r0, const d
     a.values[a.count + ch] = r[ch];
   }
   a.count += rows;
-  return true;
 }
 
 bool RenderCost::Compute(const double* theta, double* residuals, double** jacobians, bool normal,
@@ -314,7 +333,6 @@ bool RenderCost::Compute(const double* theta, double* residuals, double** jacobi
   // which a frame that is nearly lost magnifies).
   const int parts = threads == 1 ? 1 : std::min(roi.height, 4 * threads);
   ResetThreads(parts, jacobians);
-  std::atomic<bool> ok(true);
   ParallelFor(
       parts, threads,
       [&](int, int part) {
@@ -335,12 +353,12 @@ bool RenderCost::Compute(const double* theta, double* residuals, double** jacobi
             for (int ch = 0; ch < channels_; ++ch) state.squared_norm += r[ch] * r[ch];
             const int pixel = y * data_.camera.width + x;
             if (!want_jacobian || render_->end[pixel] == render_->begin[pixel]) continue;  // a zero row
-            if (!AddPixelJacobian(&state, pixel, r0, r, jacobian_scale, in_band, jacobians, normal)) ok = false;
+            AddPixelJacobian(&state, pixel, r0, r, jacobian_scale, in_band, jacobians, normal);
           }
         }
       },
       1);
-  return ok;
+  return true;
 }
 
 bool RenderCost::VertexResiduals(const double* theta, Eigen::VectorXd* squared_residuals,
@@ -625,30 +643,30 @@ namespace {
 struct SeamResidual {
   template <typename T>
   bool operator()(T const* const* parameters, T* residuals) const {
-    for (size_t v = 0; v < vertices.size(); ++v) {
+    for (size_t e = 0; e < edges.size(); ++e) {
       T xa[3], na[3], xb[3], nb[3];
-      model->VertexOnPatch(vertices[v], a, parameters[0], xa, na);
-      model->VertexOnPatch(vertices[v], b, parameters[1], xb, nb);
-      PatchBoundaryResidual::Difference(xa, na, xb, nb, position_scale, normal_weight, residuals + 6 * v);
+      model->EdgeMidpointOnPatch(edges[e][0], edges[e][1], a, parameters[0], xa, na);
+      model->EdgeMidpointOnPatch(edges[e][0], edges[e][1], b, parameters[1], xb, nb);
+      PatchBoundaryResidual::Difference(xa, na, xb, nb, position_scale, normal_weight, residuals + 6 * e);
     }
     return true;
   }
   const JetDeformationModel* model;
   int a, b;
-  std::vector<int> vertices;
+  std::vector<Eigen::Vector2i> edges;
   double position_scale, normal_weight;
 };
 
 }  // namespace
 
 ceres::CostFunction* CreateSeamCost(const JetDeformationModel* model, int patch_a, int patch_b,
-                                    const std::vector<int>& seam_vertices, double length_scale, double position_weight,
-                                    double normal_weight) {
+                                    const std::vector<Eigen::Vector2i>& seam_edges, double length_scale,
+                                    double position_weight, double normal_weight) {
   auto* cost = new ceres::DynamicAutoDiffCostFunction<SeamResidual, 8>(
-      new SeamResidual{model, patch_a, patch_b, seam_vertices, position_weight / length_scale, normal_weight});
+      new SeamResidual{model, patch_a, patch_b, seam_edges, position_weight / length_scale, normal_weight});
   cost->AddParameterBlock(model->block_size());
   cost->AddParameterBlock(model->block_size());
-  cost->SetNumResiduals(6 * static_cast<int>(seam_vertices.size()));
+  cost->SetNumResiduals(6 * static_cast<int>(seam_edges.size()));
   return cost;
 }
 

@@ -117,7 +117,8 @@ class RenderCost : public ceres::CostFunction {
     // One pixel's 4 Jacobian rows over its patches' blocks (row-major).
     std::vector<double> local;
   };
-  // Sorted patches of a pixel's vertices; false when more than the maximum.
+  // Sorted patches of a pixel's vertices (at most kMaxPatchesPerPixel: the
+  // strongest pulls).
   struct PixelPatches {
     int patches[kMaxPatchesPerPixel];
     int size = 0;
@@ -132,13 +133,13 @@ class RenderCost : public ceres::CostFunction {
   bool Prepare(const double* theta, bool model_jacobian, bool render_gradients) const;
   void ResetThreads(int threads, double** jacobians) const;
   // The pixel's Jacobian rows, into the dense Jacobians and/or its patches'
-  // normal equations; false when its vertices span too many patches.
-  bool AddPixelJacobian(ThreadState* state, int pixel, int r0, const double* r, double jacobian_scale, bool in_band,
+  // normal equations.
+  void AddPixelJacobian(ThreadState* state, int pixel, int r0, const double* r, double jacobian_scale, bool in_band,
                         double** jacobians, bool normal) const;
   // The pixel's residuals (RGB, silhouette), the scale of its RGB Jacobian
   // rows (robust loss) and whether its silhouette is within the band.
   void PixelResiduals(int y, int x, double* r, double* jacobian_scale, bool* in_band) const;
-  bool GatherPatches(int pixel, PixelPatches* out) const;
+  void GatherPatches(int pixel, PixelPatches* out) const;
   Accumulator& FindAccumulator(ThreadState* state, const PixelPatches& patches, int block) const;
   void ChainPixelJacobian(int pixel, const PixelPatches& patches, int block, double* local) const;
   static void Flush(Accumulator* a);
@@ -341,17 +342,20 @@ class TemporalCost : public ceres::CostFunction {
   Eigen::Matrix3Xd fixed_sum_;
 };
 
-// Continuity across the seam of patches a < b (the paper's eq. 5, as
-// cost_functions/patch_boundary_residual.h, on this model): each vertex of
-// one with a neighbour in the other is where both patches put it, with the
-// same normal,
-//   r = (w_x (X_a(i) - X_b(i)) / L, w_n (n_a(i) - n_b(i)))       6 per vertex
-// (L: the template's mean edge length). At a split both are zero: children
-// start as their parent
-// (automatic differentiation: seams are short). Parameter blocks: a's, b's.
+// Continuity across the seam of patches a < b (the paper's eq. 5 on this
+// model, as cost_functions/patch_boundary_residual.h): the middle of each
+// template edge from one patch to the other is where both patches put it,
+// with the same normal,
+//   r = (w_x (X_a(m) - X_b(m)) / L, w_n (n_a(m) - n_b(m)))       6 per edge
+// (L: the template's mean edge length). Each patch reaches half an edge
+// past its own vertices, so two patches that meet at an angle along the
+// edges' middles (a fold on the seam) cost nothing, and a gap or a shear
+// costs its length in edges; at a split both are zero, children starting
+// as their parent (automatic differentiation: seams are short).
+// Parameter blocks: a's, b's.
 ceres::CostFunction* CreateSeamCost(const JetDeformationModel* model, int patch_a, int patch_b,
-                                    const std::vector<int>& seam_vertices, double length_scale, double position_weight,
-                                    double normal_weight);
+                                    const std::vector<Eigen::Vector2i>& seam_edges, double length_scale,
+                                    double position_weight, double normal_weight);
 
 // The uv fields of patches a and b alike (their compact fields'
 // coefficients): r = w (duv_a - duv_b), so that patches share how the

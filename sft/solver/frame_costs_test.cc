@@ -504,11 +504,57 @@ TEST_F(AtlasCostsTest, CostsOverPatchBlocksAreExact) {
   two_frames[3] += 0.01;
   EXPECT_LT(RelativeJacobianError(temporal, two_frames, 1e-7), 1e-5);
   std::unique_ptr<ceres::CostFunction> seam(
-      CreateSeamCost(model_.get(), pair[0], pair[1], {seam_edge[0], seam_edge[1]}, 0.01, 1.0, 0.1));
+      CreateSeamCost(model_.get(), pair[0], pair[1], {seam_edge}, 0.01, 1.0, 0.1));
   EXPECT_LT(RelativeJacobianError(*seam, pair_theta, 1e-7), 1e-5);
   std::unique_ptr<ceres::CostFunction> shared_uv(CreateSharedUvCost(model_.get(), 3.0));
   EXPECT_EQ(shared_uv->num_residuals(), model_->num_duv());
   EXPECT_LT(RelativeJacobianError(*shared_uv, pair_theta, 1e-7), 1e-8);
+}
+
+// The sheet seen from so far that a pixel covers most of it: its vertices
+// span more patches than a pixel's block holds. The evaluation does not
+// fail (it did, and the solve with it); the strongest pulls are kept, the
+// same in the dense Jacobian and in the normal equations.
+TEST_F(AtlasCostsTest, APixelOverMorePatchesThanItsBlockHoldsIsEvaluated) {
+  for (int p = 0; p < 4; ++p) {
+    const std::vector<int> child = SplitPatchVertices(scene_.template_mesh, model_->vertex_patches(), p, 4);
+    ASSERT_FALSE(child.empty());
+    theta_ = model_->InheritParameters(model_->SplitPatch(p, child), theta_);
+  }
+  ASSERT_GT(model_->num_patches(), 8);
+  for (size_t k = 0; k < theta_.size(); ++k) theta_[k] += 0.001 * std::cos(0.3 + 7.0 * k);
+  SoftRasterizerOptions options;
+  options.sigma = 2.0;
+  const SoftRasterizer rasterizer(options, scene_.texture);
+  const SftFrame frame = LoadFrame(scene_, 1);
+  RenderCost::Data data = RenderData(rasterizer, frame);
+  data.camera.fx /= 100.0;
+  data.camera.fy /= 100.0;
+  const RenderCost cost(std::move(data));
+  const int m = cost.num_residuals(), P = model_->num_parameters(), b = model_->block_size();
+  std::vector<double> r(m);
+  std::vector<std::vector<double>> j(model_->num_patches(), std::vector<double>(static_cast<size_t>(m) * b));
+  std::vector<const double*> parameters;
+  std::vector<double*> jacobians;
+  for (int p = 0; p < model_->num_patches(); ++p) {
+    parameters.push_back(theta_.data() + b * p);
+    jacobians.push_back(j[p].data());
+  }
+  ASSERT_TRUE(cost.Evaluate(parameters.data(), r.data(), jacobians.data()));
+  Eigen::MatrixXd full(m, P);
+  for (int p = 0; p < model_->num_patches(); ++p) {
+    full.middleCols(b * p, b) =
+        Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(j[p].data(), m, b);
+  }
+  EXPECT_TRUE(full.allFinite());
+  EXPECT_GT(full.cwiseAbs().maxCoeff(), 0.0);
+  ExpectNormalEquationsOf(cost, theta_, full, Eigen::Map<const Eigen::VectorXd>(r.data(), m));
+  // Some pixel's row lost a pull: its Jacobian is not all of the finite
+  // differences', but most of it.
+  double largest = 0.0;
+  const double error = RelativeJacobianError(cost, theta_, 1e-6, &largest);
+  EXPECT_GT(error, 1e-3);
+  EXPECT_LT(error, 0.5);
 }
 
 // Keypoints on faces whose corners span two or more patches: residuals
@@ -711,7 +757,7 @@ TEST_F(AtlasCostsTest, SeamsAreContinuousWhenChildrenStartAndNotOnceTheyDiffer) 
   ASSERT_GE(all.seams.size(), 3u);  // four quarters: at least three seams
   const int b = model_->block_size();
   for (const AtlasTerms::Seam& s : all.seams) {
-    std::unique_ptr<ceres::CostFunction> seam(CreateSeamCost(model_.get(), s.a, s.b, s.vertices, 0.01, 1.0, 1.0));
+    std::unique_ptr<ceres::CostFunction> seam(CreateSeamCost(model_.get(), s.a, s.b, s.edges, 0.01, 1.0, 1.0));
     std::vector<double> blocks(theta_.begin() + b * s.a, theta_.begin() + b * (s.a + 1));
     blocks.insert(blocks.end(), theta_.begin() + b * s.b, theta_.begin() + b * (s.b + 1));
     const double* parameters[2] = {blocks.data(), blocks.data() + b};
@@ -721,6 +767,76 @@ TEST_F(AtlasCostsTest, SeamsAreContinuousWhenChildrenStartAndNotOnceTheyDiffer) 
     blocks[b + 2] += 0.05;  // a jet coefficient of the second patch
     ASSERT_TRUE(seam->Evaluate(parameters, r.data(), nullptr));
     EXPECT_GT(Eigen::Map<Eigen::VectorXd>(r.data(), r.size()).cwiseAbs().maxCoeff(), 1e-4);
+  }
+}
+
+// A flat grid split down the middle into two patches: the right one
+// turned about the line through the middles of the edges across (a fold
+// on the seam) costs nothing; moved off it by 0.3 of an edge, each edge
+// across costs 0.3 w.
+TEST(SeamCostTest, AFoldAlongTheSeamIsFreeAndAGapCostsItsLength) {
+  const int nx = 9, ny = 6;
+  const double h = 0.02;
+  Eigen::Matrix3Xd vertices(3, nx * ny);
+  std::vector<int> child(nx * ny);
+  for (int j = 0; j < ny; ++j) {
+    for (int i = 0; i < nx; ++i) {
+      vertices.col(j * nx + i) = Eigen::Vector3d(h * i, h * j, 0.5);
+      child[j * nx + i] = i <= 4 ? 0 : 1;
+    }
+  }
+  std::vector<Eigen::Vector2i> edges;
+  for (int j = 0; j < ny; ++j) {
+    for (int i = 0; i < nx; ++i) {
+      const int v = j * nx + i;
+      if (i + 1 < nx) edges.emplace_back(v, v + 1);
+      if (j + 1 < ny) edges.emplace_back(v, v + nx);
+      if (i + 1 < nx && j + 1 < ny) edges.emplace_back(v, v + nx + 1);
+    }
+  }
+  JetDeformationModel model(JetDeformationOptions(), vertices);
+  const PatchSplit split = model.SplitPatch(0, child);
+  ASSERT_EQ(model.num_patches(), 2);
+  const AtlasTerms terms = GroupAtlasTerms(model, edges, std::vector<double>(edges.size(), h));
+  ASSERT_EQ(terms.seams.size(), 1u);
+  ASSERT_EQ(terms.seams[0].edges.size(), 2u * ny - 1);  // across and diagonal
+  const int b = model.block_size();
+  std::vector<double> theta = model.InheritParameters(split, std::vector<double>(b, 0.0));
+  const int turned = model.patch_of_vertex(nx - 1);
+
+  // The hinge: the world line x = 4.5 h, z = 0.5, in the frame's coordinates.
+  const PatchFrame& frame = model.patch().frame;
+  const Eigen::Vector3d hinge = frame.rotation.transpose() * (Eigen::Vector3d(4.5 * h, 0.0, 0.5) - frame.translation) /
+                                frame.scale;
+  const Eigen::Vector3d axis = frame.rotation.transpose() * Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d omega = 0.7 * axis;  // 40 degrees
+  Eigen::Matrix3d rotation;
+  ceres::AngleAxisToRotationMatrix(omega.data(), rotation.data());
+  double* block = theta.data() + b * turned;
+  Eigen::Map<Eigen::Vector3d>(block + model.rotation_offset()) = omega;
+  Eigen::Map<Eigen::Vector3d>(block + model.translation_offset()) =
+      (Eigen::Matrix3d::Identity() - rotation) * (hinge - model.centre(turned));
+
+  const double w = 2.0;
+  std::unique_ptr<ceres::CostFunction> seam(CreateSeamCost(&model, 0, 1, terms.seams[0].edges, h, w, 0.0));
+  std::vector<double> r(seam->num_residuals());
+  auto evaluate = [&] {
+    const double* parameters[2] = {theta.data(), theta.data() + b};
+    ASSERT_TRUE(seam->Evaluate(parameters, r.data(), nullptr));
+  };
+  evaluate();
+  EXPECT_LT(Eigen::Map<Eigen::VectorXd>(r.data(), r.size()).cwiseAbs().maxCoeff(), 1e-12);
+  // The fold is really there: the right patch's far column is off the plane.
+  Eigen::Matrix3Xd folded;
+  model.Evaluate(theta.data(), &folded);
+  EXPECT_GT(std::abs(folded(2, nx - 1) - 0.5), 2.0 * h);
+
+  // A gap of 0.3 h along the world z axis.
+  Eigen::Map<Eigen::Vector3d>(block + model.translation_offset()) +=
+      frame.rotation.transpose() * Eigen::Vector3d(0.0, 0.0, 0.3 * h) / frame.scale;
+  evaluate();
+  for (size_t e = 0; e < terms.seams[0].edges.size(); ++e) {
+    EXPECT_NEAR(Eigen::Map<Eigen::Vector3d>(r.data() + 6 * e).norm(), 0.3 * w, 1e-9);
   }
 }
 

@@ -31,7 +31,7 @@ AtlasTerms GroupAtlasTerms(const JetDeformationModel& model, const std::vector<E
                            const std::vector<double>& rest_lengths) {
   AtlasTerms terms;
   std::map<std::pair<int, int>, int> group_of;
-  std::map<std::pair<int, int>, std::vector<int>> seam_vertices;
+  std::map<std::pair<int, int>, std::vector<Eigen::Vector2i>> seam_edges;
   for (size_t e = 0; e < edges.size(); ++e) {
     const int a = model.patch_of_vertex(edges[e][0]), b = model.patch_of_vertex(edges[e][1]);
     const std::pair<int, int> key(std::min(a, b), std::max(a, b));
@@ -43,16 +43,9 @@ AtlasTerms GroupAtlasTerms(const JetDeformationModel& model, const std::vector<E
     }
     terms.edge_groups[it->second].edges.push_back(edges[e]);
     terms.edge_groups[it->second].rest_lengths.push_back(rest_lengths[e]);
-    if (a != b) {
-      seam_vertices[key].push_back(edges[e][0]);
-      seam_vertices[key].push_back(edges[e][1]);
-    }
+    if (a != b) seam_edges[key].push_back(edges[e]);
   }
-  for (auto& [key, vertices] : seam_vertices) {
-    std::sort(vertices.begin(), vertices.end());
-    vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
-    terms.seams.push_back({key.first, key.second, std::move(vertices)});
-  }
+  for (auto& [key, across] : seam_edges) terms.seams.push_back({key.first, key.second, std::move(across)});
   return terms;
 }
 

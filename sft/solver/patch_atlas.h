@@ -56,12 +56,15 @@ struct PatchAtlasOptions {
   int min_vertices = 20;
   // Seam continuity (SeamCost): positions (in template edge lengths) and
   // normals. Normals are left free by default: a crease on a seam is a
-  // real shape, and only the images should decide it.
-  double seam_position_weight = 1.0;
+  // real shape, and only the images should decide it. The positions are
+  // held loosely: ten times stiffer, on simulated cloth the seams held the
+  // true shape's folds back (from the truth, the table's e3D 0.012 against
+  // 0.0055) and the coarse levels held the patches' large motion back
+  // (docs/benchmarks.md, "Looser seams").
+  double seam_position_weight = 0.1;
   // The same on the pyramid's coarse levels, which place a frame's large
-  // motion: stiffer there, so that the patches move together where the
-  // images are too coarse to tell them apart.
-  double coarse_seam_position_weight = 10.0;
+  // motion.
+  double coarse_seam_position_weight = 0.1;
   double seam_normal_weight = 0.0;
   // Neighbouring patches' uv fields alike (SharedUvCost), per seam: small
   // patches that each slide on their own lose a smooth bend that one patch
@@ -80,8 +83,8 @@ struct AtlasTerms {
     std::vector<double> rest_lengths;
   };
   struct Seam {
-    int a = 0, b = 0;           // a < b
-    std::vector<int> vertices;  // of either patch, with a neighbour in the other
+    int a = 0, b = 0;                    // a < b
+    std::vector<Eigen::Vector2i> edges;  // the template's edges from one patch to the other
   };
   std::vector<EdgeGroup> edge_groups;
   std::vector<Seam> seams;
