@@ -20,7 +20,8 @@ std::string PatchAtlasOptions::Validate() const {
   }
   if (children < 2 || children > 8) return "atlas.children must be in [2, 8]";
   if (min_vertices < 4) return "atlas.min_vertices must be >= 4";
-  if (!(seam_position_weight >= 0.0) || !(coarse_seam_position_weight >= 0.0) || !(seam_normal_weight >= 0.0) ||
+  if (!(seam_position_weight >= 0.0) || !(coarse_seam_position_weight >= 0.0) ||
+      !(seen_seam_position_weight >= 0.0) || !(seam_normal_weight >= 0.0) ||
       !(seam_uv_weight >= 0.0)) {
     return "atlas seam weights must be >= 0";
   }

@@ -56,15 +56,22 @@ struct PatchAtlasOptions {
   int min_vertices = 20;
   // Seam continuity (SeamCost): positions (in template edge lengths) and
   // normals. Normals are left free by default: a crease on a seam is a
-  // real shape, and only the images should decide it. The positions are
-  // held loosely: ten times stiffer, on simulated cloth the seams held the
-  // true shape's folds back (from the truth, the table's e3D 0.012 against
-  // 0.0055) and the coarse levels held the patches' large motion back
-  // (docs/benchmarks.md, "Looser seams").
-  double seam_position_weight = 0.1;
+  // real shape, and only the images should decide it.
+  double seam_position_weight = 1.0;
   // The same on the pyramid's coarse levels, which place a frame's large
-  // motion.
-  double coarse_seam_position_weight = 0.1;
+  // motion: stiffer there, so that the patches move together where the
+  // images are too coarse to tell them apart.
+  double coarse_seam_position_weight = 10.0;
+  // The positions' weight, on every level, on a seam between two patches
+  // the frame sees whole (with masks, every vertex but 5% inside the
+  // image): there the silhouette and the texture hold each patch, and the
+  // stiffer seams held a simulated cloth's true folds back (from the
+  // truth, the table's e3D 0.012 against 0.0055) and its patches' large
+  // motion (docs/benchmarks.md, "Looser seams"). Where a patch is out of
+  // view or has no silhouette, the seams above carry it (loose there, a
+  // sheet leaving the image drifted 3.3 -> 18 mm, a flag without masks
+  // 0.025 -> 0.057).
+  double seen_seam_position_weight = 0.1;
   double seam_normal_weight = 0.0;
   // Neighbouring patches' uv fields alike (SharedUvCost), per seam: small
   // patches that each slide on their own lose a smooth bend that one patch

@@ -1084,11 +1084,14 @@ class PolySftController {
     }
     const PatchAtlasOptions& atlas = options_.atlas;
     const double position_weight = coarse ? atlas.coarse_seam_position_weight : atlas.seam_position_weight;
-    if (!atlas_terms_.seams.empty() && (position_weight > 0.0 || atlas.seam_normal_weight > 0.0)) {
+    if (!atlas_terms_.seams.empty()) {
       size_t count = 0;
       for (const AtlasTerms::Seam& seam : atlas_terms_.seams) count += seam.edges.size();
-      const double wx = std::sqrt(position_weight / count), wn = std::sqrt(atlas.seam_normal_weight / count);
+      const std::vector<std::uint8_t> seen = SeenPatches(*window_[k]);
+      const double wn = std::sqrt(atlas.seam_normal_weight / count);
       for (const AtlasTerms::Seam& seam : atlas_terms_.seams) {
+        const double wx =
+            std::sqrt((seen[seam.a] && seen[seam.b] ? atlas.seen_seam_position_weight : position_weight) / count);
         problem->AddResidualBlock(
             new CompressedCost(CreateSeamCost(&model_, seam.a, seam.b, seam.edges, mean_edge_, wx, wn)), nullptr,
             blocks[seam.a], blocks[seam.b]);
@@ -1126,6 +1129,27 @@ class PolySftController {
       problem->AddResidualBlock(new CompressedCost(new TemporalCost(&model_, p, size_, w, order, fixed, shift)),
                                 nullptr, frames);
     }
+  }
+
+  // The patches of a frame (#patches flags) that its images see whole:
+  // with masks (the silhouette holds their borders), and all but 5% of
+  // their vertices inside the image where the frame's estimate is now.
+  std::vector<std::uint8_t> SeenPatches(const FrameData& frame) const {
+    std::vector<std::uint8_t> seen(model_.num_patches(), 0);
+    if (!use_masks_ || frame.mask_empty) return seen;
+    Eigen::Matrix3Xd vertices;
+    model_.Evaluate(frame.theta.data(), &vertices);
+    const PinholeCamera& camera = levels_.back().camera;
+    std::vector<int> inside(model_.num_patches(), 0), all(model_.num_patches(), 0);
+    for (int v = 0; v < model_.num_vertices(); ++v) {
+      const int p = model_.patch_of_vertex(v);
+      ++all[p];
+      if (!(vertices(2, v) > 0.0)) continue;
+      const Eigen::Vector2d pixel = camera.Project(vertices.col(v));
+      inside[p] += pixel.x() >= 0.0 && pixel.y() >= 0.0 && pixel.x() < camera.width && pixel.y() < camera.height;
+    }
+    for (int p = 0; p < model_.num_patches(); ++p) seen[p] = inside[p] >= 0.95 * all[p];
+    return seen;
   }
 
   // PolySftOptions::occluded_temporal_weight: window frame k's vertices

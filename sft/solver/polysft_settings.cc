@@ -95,6 +95,7 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("min_patch_vertices", atlas.min_vertices),
         POLYFIT_SETTING("seam_position_weight", atlas.seam_position_weight),
         POLYFIT_SETTING("coarse_seam_position_weight", atlas.coarse_seam_position_weight),
+        POLYFIT_SETTING("seen_seam_position_weight", atlas.seen_seam_position_weight),
         POLYFIT_SETTING("seam_normal_weight", atlas.seam_normal_weight),
         POLYFIT_SETTING("seam_uv_weight", atlas.seam_uv_weight),
         POLYFIT_SETTING("sigma", rasterizer.sigma),

@@ -70,6 +70,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.atlas.min_vertices = 12;
   changed.atlas.seam_position_weight = 3.0;
   changed.atlas.coarse_seam_position_weight = 30.0;
+  changed.atlas.seen_seam_position_weight = 0.3;
   changed.atlas.seam_normal_weight = 0.01;
   changed.atlas.seam_uv_weight = 1.0;
   const nlohmann::json written = PolySftSettingsToJson(changed);
