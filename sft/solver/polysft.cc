@@ -1092,9 +1092,11 @@ class PolySftController {
       for (const AtlasTerms::Seam& seam : atlas_terms_.seams) {
         const double wx =
             std::sqrt((seen[seam.a] && seen[seam.b] ? atlas.seen_seam_position_weight : position_weight) / count);
-        problem->AddResidualBlock(
-            new CompressedCost(CreateSeamCost(&model_, seam.a, seam.b, seam.edges, mean_edge_, wx, wn)), nullptr,
-            blocks[seam.a], blocks[seam.b]);
+        if (wx > 0.0 || wn > 0.0) {
+          problem->AddResidualBlock(
+              new CompressedCost(CreateSeamCost(&model_, seam.a, seam.b, seam.edges, mean_edge_, wx, wn)), nullptr,
+              blocks[seam.a], blocks[seam.b]);
+        }
         if (atlas.seam_uv_weight > 0.0) {
           problem->AddResidualBlock(
               CreateSharedUvCost(&model_, std::sqrt(atlas.seam_uv_weight / atlas_terms_.seams.size())), nullptr,
