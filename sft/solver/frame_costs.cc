@@ -125,29 +125,27 @@ void RenderCost::PixelResiduals(int y, int x, double* r, double* jacobian_scale,
 }
 
 void RenderCost::GatherPatches(int pixel, PixelPatches* out) const {
-  // Each patch's pull on the pixel: the sum of its vertices' |derivatives|.
   constexpr int kMaxSeen = 4 * kMaxPatchesPerPixel;
   int seen[kMaxSeen];
-  double pull[kMaxSeen];
   int size = 0;
   const std::vector<int>& vertex_patch = data_.model->vertex_patches();
   for (int k = render_->begin[pixel]; k < render_->end[pixel]; ++k) {
-    const VertexGradient& g = render_->gradients[k];
-    const int p = vertex_patch[g.vertex];
-    int j = 0;
-    while (j < size && seen[j] != p) ++j;
-    if (j == size) {
-      if (size == kMaxSeen) continue;
-      seen[size] = p;
-      pull[size++] = 0.0;
-    }
-    for (int a = 0; a < 4; ++a) {
-      for (int c = 0; c < 3; ++c) pull[j] += std::abs(g.d[a][c]);
-    }
+    const int p = vertex_patch[render_->gradients[k].vertex];
+    if (size < kMaxSeen && std::find(seen, seen + size, p) == seen + size) seen[size++] = p;
   }
   // More patches than a pixel's block holds (layers of a crumpled fold):
-  // the strongest keep their pull, the others lose it (the cost is kept).
+  // those that pull it most (the sum of their vertices' |derivatives|)
+  // keep their pull, the others lose it (the cost is kept).
   if (size > kMaxPatchesPerPixel) {
+    double pull[kMaxSeen] = {};
+    for (int k = render_->begin[pixel]; k < render_->end[pixel]; ++k) {
+      const VertexGradient& g = render_->gradients[k];
+      const int j = static_cast<int>(std::find(seen, seen + size, vertex_patch[g.vertex]) - seen);
+      if (j == size) continue;
+      for (int a = 0; a < 4; ++a) {
+        for (int c = 0; c < 3; ++c) pull[j] += std::abs(g.d[a][c]);
+      }
+    }
     for (int i = 0; i < kMaxPatchesPerPixel; ++i) {
       const int best = static_cast<int>(std::max_element(pull + i, pull + size) - pull);
       std::swap(seen[i], seen[best]);

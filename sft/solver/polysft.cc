@@ -733,7 +733,7 @@ class PolySftController {
     if (!features_ || frame->mask_empty) return false;
     if (!use_features_ && frame->features.empty()) SeekKeypoints(frame);
     frame->feature_error = FeatureError(*frame);
-    return std::isfinite(frame->feature_error) && KeypointsAgree(*frame);
+    return frame->feature_error <= FoundFeatureError();  // false for NaN: no matches
   }
 
   // The frame's keypoint correspondences with the template's texture.
@@ -1069,6 +1069,10 @@ class PolySftController {
   // blocks of the patches it joins.
   void AddRegularizers(size_t k, bool coarse, ceres::Problem* problem) {
     const std::vector<double*> blocks = Blocks(window_[k]->theta);
+    // Where the frame's estimate is as its problem is built (the seams'
+    // and the occluded hold's choices).
+    Eigen::Matrix3Xd vertices;
+    model_.Evaluate(window_[k]->theta.data(), &vertices);
     auto of = [&](const std::vector<double*>& all, const std::vector<int>& patches) {
       std::vector<double*> some;
       for (int p : patches) some.push_back(all[p]);
@@ -1087,7 +1091,7 @@ class PolySftController {
     if (!atlas_terms_.seams.empty()) {
       size_t count = 0;
       for (const AtlasTerms::Seam& seam : atlas_terms_.seams) count += seam.edges.size();
-      const std::vector<std::uint8_t> seen = SeenPatches(*window_[k]);
+      const std::vector<std::uint8_t> seen = SeenPatches(*window_[k], vertices);
       const double wn = std::sqrt(atlas.seam_normal_weight / count);
       for (const AtlasTerms::Seam& seam : atlas_terms_.seams) {
         const double wx =
@@ -1104,7 +1108,7 @@ class PolySftController {
         }
       }
     }
-    AddOccludedHold(k, problem);
+    AddOccludedHold(k, vertices, problem);
     if (!use_temporal_) return;
     const double w = std::sqrt(options_.temporal_weight / model_.num_vertices());
     // Frames before k, most recent first: the window's, then the finalised.
@@ -1135,12 +1139,10 @@ class PolySftController {
 
   // The patches of a frame (#patches flags) that its images see whole:
   // with masks (the silhouette holds their borders), and all but 5% of
-  // their vertices inside the image where the frame's estimate is now.
-  std::vector<std::uint8_t> SeenPatches(const FrameData& frame) const {
+  // their vertices inside the image where its estimate (3 by #V) is.
+  std::vector<std::uint8_t> SeenPatches(const FrameData& frame, const Eigen::Matrix3Xd& vertices) const {
     std::vector<std::uint8_t> seen(model_.num_patches(), 0);
     if (!use_masks_ || frame.mask_empty) return seen;
-    Eigen::Matrix3Xd vertices;
-    model_.Evaluate(frame.theta.data(), &vertices);
     const PinholeCamera& camera = levels_.back().camera;
     std::vector<int> inside(model_.num_patches(), 0), all(model_.num_patches(), 0);
     for (int v = 0; v < model_.num_vertices(); ++v) {
@@ -1157,7 +1159,7 @@ class PolySftController {
   // PolySftOptions::occluded_temporal_weight: window frame k's vertices
   // that another part of its surface hides (where its estimate is now)
   // held to where the frame before put them.
-  void AddOccludedHold(size_t k, ceres::Problem* problem) {
+  void AddOccludedHold(size_t k, const Eigen::Matrix3Xd& vertices, ceres::Problem* problem) {
     if (options_.occluded_temporal_weight <= 0.0) return;
     const Eigen::Matrix3Xd* fixed = nullptr;
     std::vector<double*> before;
@@ -1168,8 +1170,6 @@ class PolySftController {
     } else {
       return;  // the first frame
     }
-    Eigen::Matrix3Xd vertices;
-    model_.Evaluate(window_[k]->theta.data(), &vertices);
     const LevelData& finest = levels_.back();
     ScreenMesh screen = mesh_template_;
     if (!ProjectVertices(finest.camera, vertices, &screen, nullptr)) return;
@@ -1549,7 +1549,7 @@ class PolySftController {
   // it fits far worse than the tracked frames and no keypoints find it
   // (tracking probably lost).
   void FinalizeFrame(FrameData& data, double time_s, double cost, int iterations) {
-    if (Lost(data) && !(std::isfinite(data.feature_error) && KeypointsAgree(data))) {
+    if (Lost(data) && !(data.feature_error <= FoundFeatureError())) {
       char buffer[200];
       std::snprintf(buffer, sizeof(buffer),
                     "frame %d: cost %.3g is %.0f times the tracked frames': tracking may be lost (motion too large "
