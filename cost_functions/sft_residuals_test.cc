@@ -5,6 +5,7 @@
 
 #include "cost_functions/compressed_cost.h"
 #include "cost_functions/edge_inextensibility.h"
+#include "cost_functions/hinge_bending.h"
 #include "cost_functions/temporal_consistency.h"
 
 namespace polyfit {
@@ -52,6 +53,73 @@ TEST(EdgeInextensibilityResidualTest, ValueAndJacobian) {
   ASSERT_TRUE(cost->Evaluate(coincident, &residual, jacobians));
   EXPECT_TRUE(std::isfinite(jc[0]) && std::isfinite(jd[2]));
   EXPECT_NEAR(residual, -3.0, 1e-12);
+}
+
+// Two triangles on the edge (0,0,0) -> (1,0,0), the second turned about
+// it by `fold` radians away from the first's normal (0, 0, 1).
+void Hinge(double fold, double* x_i, double* x_j, double* x_k, double* x_l) {
+  const double corners[4][3] = {
+      {0.0, 0.0, 0.0}, {1.0, 0.0, 0.0}, {0.3, 1.0, 0.0}, {0.6, -std::cos(fold), -std::sin(fold)}};
+  double* out[4] = {x_i, x_j, x_k, x_l};
+  for (int v = 0; v < 4; ++v) {
+    for (int c = 0; c < 3; ++c) out[v][c] = corners[v][c];
+  }
+}
+
+TEST(HingeBendingResidualTest, TheAngleIsTheFoldAndSignedAndItsJacobianIsRight) {
+  double x[4][3];
+  for (double fold : {0.0, 0.4, -0.4, 1.5, -2.5, 3.0}) {
+    Hinge(fold, x[0], x[1], x[2], x[3]);
+    EXPECT_NEAR(SignedDihedralAngle<double>(x[0], x[1], x[2], x[3]), fold, 1e-12) << fold;
+  }
+  // Swapping the two faces (and so the edge's direction) keeps the angle.
+  Hinge(0.7, x[0], x[1], x[2], x[3]);
+  EXPECT_NEAR(SignedDihedralAngle<double>(x[1], x[0], x[3], x[2]), 0.7, 1e-12);
+
+  std::unique_ptr<ceres::CostFunction> cost(HingeBendingResidual::Create(0.2, 3.0));
+  double* parameters[4] = {x[0], x[1], x[2], x[3]};
+  double residual = 0.0;
+  ASSERT_TRUE(cost->Evaluate(parameters, &residual, nullptr));
+  EXPECT_NEAR(residual, 3.0 * (0.7 - 0.2), 1e-12);
+  double jacobians[4][3];
+  double* jacobian_blocks[4] = {jacobians[0], jacobians[1], jacobians[2], jacobians[3]};
+  ASSERT_TRUE(cost->Evaluate(parameters, &residual, jacobian_blocks));
+  const double h = 1e-6;
+  for (int v = 0; v < 4; ++v) {
+    for (int c = 0; c < 3; ++c) {
+      const double saved = x[v][c];
+      double plus = 0.0, minus = 0.0;
+      x[v][c] = saved + h;
+      cost->Evaluate(parameters, &plus, nullptr);
+      x[v][c] = saved - h;
+      cost->Evaluate(parameters, &minus, nullptr);
+      x[v][c] = saved;
+      EXPECT_NEAR(jacobians[v][c], (plus - minus) / (2 * h), 1e-7) << v << " " << c;
+    }
+  }
+}
+
+TEST(HingeBendingResidualTest, AFoldThroughPiIsNotAFullTurnAndACollapsedFaceIsFinite) {
+  double x[4][3];
+  // Rest folded to 3.0 rad, now to -3.0 (through pi): 0.28 rad, not 6.
+  Hinge(-3.0, x[0], x[1], x[2], x[3]);
+  std::unique_ptr<ceres::CostFunction> cost(HingeBendingResidual::Create(3.0, 1.0));
+  double* parameters[4] = {x[0], x[1], x[2], x[3]};
+  double residual = 0.0;
+  ASSERT_TRUE(cost->Evaluate(parameters, &residual, nullptr));
+  EXPECT_NEAR(residual, 2.0 * M_PI - 6.0, 1e-12);
+  // The fourth vertex on the edge: no angle, and finite derivatives.
+  x[3][0] = 0.5;
+  x[3][1] = x[3][2] = 0.0;
+  double jacobians[4][3];
+  double* jacobian_blocks[4] = {jacobians[0], jacobians[1], jacobians[2], jacobians[3]};
+  ASSERT_TRUE(cost->Evaluate(parameters, &residual, jacobian_blocks));
+  EXPECT_NEAR(residual, -3.0, 1e-12);
+  for (const auto& block : jacobians) {
+    for (double d : block) EXPECT_TRUE(std::isfinite(d));
+  }
+  EXPECT_THROW(HingeBendingResidual::Create(std::nan(""), 1.0), std::invalid_argument);
+  EXPECT_THROW(HingeBendingResidual::Create(0.0, -1.0), std::invalid_argument);
 }
 
 TEST(TemporalConsistencyResidualTest, ValueAndJacobian) {

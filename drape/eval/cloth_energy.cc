@@ -1,22 +1,20 @@
 #include "drape/eval/cloth_energy.h"
 
 #include <cmath>
-#include <map>
 #include <stdexcept>
 #include <string>
+#include <utility>
+
+#include "cost_functions/hinge_bending.h"
+#include "polyfit/mesh/hinge_rest.h"
+#include "polyfit/mesh/unique_edges.h"
 
 namespace polyfit {
 namespace {
 
 double SignedDihedral(const Eigen::Vector3d& xi, const Eigen::Vector3d& xj, const Eigen::Vector3d& xk,
                       const Eigen::Vector3d& xl) {
-  // Faces (i, j, k) and (j, i, l) share the edge i -> j.
-  const Eigen::Vector3d e = xj - xi;
-  const Eigen::Vector3d n1 = e.cross(xk - xi);
-  const Eigen::Vector3d n2 = (xl - xi).cross(e);
-  const double en = e.norm();
-  if (!(en > 0.0) || !(n1.norm() > 0.0) || !(n2.norm() > 0.0)) return 0.0;
-  return std::atan2(n1.cross(n2).dot(e) / en, n1.dot(n2));
+  return SignedDihedralAngle(xi.data(), xj.data(), xk.data(), xl.data());
 }
 
 }  // namespace
@@ -26,7 +24,6 @@ ClothRest PrepareClothRest(const TriangleMesh& rest) {
   out.faces = rest.faces;
   const int nf = static_cast<int>(rest.faces.cols());
   out.vertex_area.assign(rest.num_vertices(), 0.0);
-  std::map<std::pair<int, int>, std::vector<std::pair<int, int>>> edge_faces;  // (min, max) -> (face, opposite)
   for (int f = 0; f < nf; ++f) {
     const Eigen::Vector3i t = rest.faces.col(f);
     const Eigen::Vector3d x0 = rest.vertices.col(t[0]), x1 = rest.vertices.col(t[1]), x2 = rest.vertices.col(t[2]);
@@ -40,29 +37,17 @@ ClothRest PrepareClothRest(const TriangleMesh& rest) {
     dm << e1.dot(tangent), e2.dot(tangent), e1.dot(bitangent), e2.dot(bitangent);
     out.face_area.push_back(area);
     out.face_inverse.push_back(dm.inverse());
-    for (int c = 0; c < 3; ++c) {
-      out.vertex_area[t[c]] += area / 3.0;
-      const int a = t[c], b = t[(c + 1) % 3];
-      edge_faces[{std::min(a, b), std::max(a, b)}].emplace_back(f, t[(c + 2) % 3]);
-    }
+    for (int c = 0; c < 3; ++c) out.vertex_area[t[c]] += area / 3.0;
   }
-  for (const auto& [edge, faces] : edge_faces) {
-    out.edges.push_back({edge.first, edge.second});
-    out.edge_length.push_back((rest.vertices.col(edge.first) - rest.vertices.col(edge.second)).norm());
-    if (faces.size() != 2) continue;
-    // Orient the edge as it runs in the first face.
-    const Eigen::Vector3i t = rest.faces.col(faces[0].first);
-    int i = edge.first, j = edge.second;
-    for (int c = 0; c < 3; ++c) {
-      if (t[c] == edge.second && t[(c + 1) % 3] == edge.first) std::swap(i, j);
-    }
-    const std::array<int, 4> hinge{i, j, faces[0].second, faces[1].second};
-    out.hinges.push_back(hinge);
-    out.hinge_angle.push_back(SignedDihedral(rest.vertices.col(i), rest.vertices.col(j), rest.vertices.col(hinge[2]),
-                                             rest.vertices.col(hinge[3])));
-    const double length = out.edge_length.back();
-    out.hinge_weight.push_back(3.0 * length * length / (out.face_area[faces[0].first] + out.face_area[faces[1].first]));
+  const Eigen::Matrix2Xi edges = UniqueEdges(rest);
+  for (Eigen::Index e = 0; e < edges.cols(); ++e) {
+    out.edges.push_back({edges(0, e), edges(1, e)});
+    out.edge_length.push_back((rest.vertices.col(edges(0, e)) - rest.vertices.col(edges(1, e))).norm());
   }
+  HingeRest hinges = MeasureHingeRest(rest);
+  for (const MeshHinge& hinge : hinges.hinges) out.hinges.push_back(hinge.vertices);
+  out.hinge_angle = std::move(hinges.angles);
+  out.hinge_weight = std::move(hinges.weights);
   return out;
 }
 

@@ -35,6 +35,26 @@ std::vector<std::pair<std::uint64_t, int>> SortedEdgeCorners(const TriangleMesh&
   return edges;
 }
 
+std::vector<MeshHinge> InteriorHinges(const TriangleMesh& mesh) {
+  const std::vector<std::pair<std::uint64_t, int>> edges = SortedEdgeCorners(mesh);
+  std::vector<MeshHinge> hinges;
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i;
+    while (j < edges.size() && edges[j].first == edges[i].first) ++j;
+    if (j - i == 2) {
+      const int first = edges[i].second, second = edges[i + 1].second;
+      const int f = first / 3, c = first % 3, g = second / 3, d = second % 3;
+      MeshHinge hinge;
+      hinge.vertices = {mesh.faces(c, f), mesh.faces((c + 1) % 3, f), mesh.faces((c + 2) % 3, f),
+                        mesh.faces((d + 2) % 3, g)};
+      hinge.faces = {f, g};
+      hinges.push_back(hinge);
+    }
+    i = j;
+  }
+  return hinges;
+}
+
 AdjacencyList FaceFaceAdjacency(const TriangleMesh& mesh) {
   const int num_faces = mesh.num_faces();
   std::vector<std::pair<std::uint64_t, int>> edges = SortedEdgeCorners(mesh);

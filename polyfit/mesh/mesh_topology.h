@@ -2,6 +2,7 @@
 #ifndef POLYFIT_MESH_MESH_TOPOLOGY_H_
 #define POLYFIT_MESH_MESH_TOPOLOGY_H_
 
+#include <array>
 #include <cstdint>
 #include <utility>
 #include <vector>
@@ -25,6 +26,16 @@ struct AdjacencyList {
 // (min vertex << 32) | max vertex, the corner 3 f + c for the edge from
 // corner c to corner c + 1 of face f. Equal edges are consecutive.
 std::vector<std::pair<std::uint64_t, int>> SortedEdgeCorners(const TriangleMesh& mesh);
+
+// Two faces sharing an edge: (i, j, k) and (j, i, l), the edge i -> j as it
+// runs in the first (the lower index).
+struct MeshHinge {
+  std::array<int, 4> vertices;  // i, j, k, l
+  std::array<int, 2> faces;
+};
+// The hinges of the edges with exactly two faces, ordered by the edge's
+// (min, max) vertices.
+std::vector<MeshHinge> InteriorHinges(const TriangleMesh& mesh);
 
 // Faces sharing an edge with each face (all of them at non-manifold edges).
 AdjacencyList FaceFaceAdjacency(const TriangleMesh& mesh);

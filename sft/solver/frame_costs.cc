@@ -2,12 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <string>
+#include <utility>
 
 #include <ceres/dynamic_autodiff_cost_function.h>
 #include <ceres/jet.h>
 
-#include "cost_functions/edge_inextensibility.h"
 #include "cost_functions/patch_boundary_residual.h"
 #include "cost_functions/temporal_consistency.h"
 #include "polyfit/util/parallel_for.h"
@@ -500,71 +501,125 @@ void RenderTermCallback::PrepareForEvaluation(bool evaluate_jacobians, bool new_
       [&](int, int i) { terms_[i]->Prepare(evaluate_jacobians, new_evaluation_point); }, 1);
 }
 
-InextensibilityCost::InextensibilityCost(const JetDeformationModel* model, const std::vector<int>& patches,
-                                         const std::vector<Eigen::Vector2i>& edges,
-                                         const std::vector<double>& rest_lengths, double weight)
-    : model_(model), patches_(patches), rest_lengths_(rest_lengths), weight_(weight) {
+template <int N, typename Functor>
+VertexTupleCost<N, Functor>::VertexTupleCost(const JetDeformationModel* model, const std::vector<int>& patches,
+                                             const std::vector<std::array<int, N>>& tuples,
+                                             std::vector<Functor> functors)
+    : model_(model), patches_(patches), functors_(std::move(functors)) {
+  if (functors_.size() != tuples.size()) throw std::invalid_argument("VertexTupleCost: one functor per tuple");
   std::vector<int> local(model->num_vertices(), -1);
-  for (const Eigen::Vector2i& e : edges) {
-    Eigen::Vector2i mapped;
-    for (int k = 0; k < 2; ++k) {
-      if (local[e[k]] < 0) {
-        local[e[k]] = static_cast<int>(vertices_.size());
-        vertices_.push_back(e[k]);
+  for (const std::array<int, N>& tuple : tuples) {
+    std::array<int, N> mapped;
+    for (int k = 0; k < N; ++k) {
+      if (local[tuple[k]] < 0) {
+        local[tuple[k]] = static_cast<int>(vertices_.size());
+        vertices_.push_back(tuple[k]);
+        const auto slot = std::find(patches.begin(), patches.end(), model->patch_of_vertex(tuple[k]));
+        if (slot == patches.end()) throw std::invalid_argument("VertexTupleCost: a vertex outside the patches");
+        slots_.push_back(static_cast<int>(slot - patches.begin()));
       }
-      mapped[k] = local[e[k]];
+      mapped[k] = local[tuple[k]];
     }
-    edges_.push_back(mapped);
+    tuples_.push_back(mapped);
   }
-  set_num_residuals(static_cast<int>(edges.size()));
+  set_num_residuals(static_cast<int>(tuples_.size()));
   for (size_t p = 0; p < patches.size(); ++p) mutable_parameter_block_sizes()->push_back(model->block_size());
 }
 
-bool InextensibilityCost::Evaluate(double const* const* parameters, double* residuals, double** jacobians) const {
+namespace {
+
+template <typename Functor, typename T, size_t... k>
+void CallOnPoints(const Functor& functor, const T (&points)[sizeof...(k)][3], T* residual,
+                  std::index_sequence<k...>) {
+  functor(points[k]..., residual);
+}
+
+}  // namespace
+
+template <int N, typename Functor>
+bool VertexTupleCost<N, Functor>::Evaluate(double const* const* parameters, double* residuals,
+                                           double** jacobians) const {
   const bool want_jacobian = jacobians != nullptr;
   const int b = model_->block_size(), n = static_cast<int>(vertices_.size());
-  // Which of this cost's blocks each vertex's patch is.
-  auto slot_of = [&](int vertex) {
-    return static_cast<int>(std::find(patches_.begin(), patches_.end(), model_->patch_of_vertex(vertex)) -
-                            patches_.begin());
-  };
   positions_.resize(3, n);
   if (want_jacobian) jacobian_.resize(3 * n, b);
   for (int v = 0; v < n; ++v) {
     const int i = vertices_[v];
-    model_->EvaluateVertex(i, model_->patch_of_vertex(i), parameters[slot_of(i)], positions_.col(v).data(),
+    model_->EvaluateVertex(i, model_->patch_of_vertex(i), parameters[slots_[v]], positions_.col(v).data(),
                            want_jacobian ? jacobian_.data() + static_cast<size_t>(3 * v) * b : nullptr);
   }
   if (want_jacobian) {
     for (size_t p = 0; p < patches_.size(); ++p) {
-      if (jacobians[p] != nullptr) std::fill(jacobians[p], jacobians[p] + edges_.size() * b, 0.0);
+      if (jacobians[p] != nullptr) std::fill(jacobians[p], jacobians[p] + tuples_.size() * b, 0.0);
     }
   }
-  using J6 = ceres::Jet<double, 6>;
-  for (size_t e = 0; e < edges_.size(); ++e) {
-    const int i = edges_[e][0], j = edges_[e][1];
-    const EdgeInextensibilityResidual functor(rest_lengths_[e], weight_);
+  using J = ceres::Jet<double, 3 * N>;
+  const auto order = std::make_index_sequence<N>();
+  for (size_t t = 0; t < tuples_.size(); ++t) {
+    const std::array<int, N>& tuple = tuples_[t];
     if (!want_jacobian) {
-      functor(positions_.col(i).data(), positions_.col(j).data(), &residuals[e]);
+      double points[N][3];
+      for (int end = 0; end < N; ++end) {
+        for (int k = 0; k < 3; ++k) points[end][k] = positions_(k, tuple[end]);
+      }
+      CallOnPoints(functors_[t], points, &residuals[t], order);
       continue;
     }
-    J6 xi[3], xj[3], r;
-    for (int k = 0; k < 3; ++k) {
-      xi[k] = J6(positions_(k, i), k);
-      xj[k] = J6(positions_(k, j), 3 + k);
+    J points[N][3], r;
+    for (int end = 0; end < N; ++end) {
+      for (int k = 0; k < 3; ++k) points[end][k] = J(positions_(k, tuple[end]), 3 * end + k);
     }
-    functor(xi, xj, &r);
-    residuals[e] = r.a;
-    for (int end = 0; end < 2; ++end) {
-      const int v = edges_[e][end];
-      double* out = jacobians[slot_of(vertices_[v])];
+    CallOnPoints(functors_[t], points, &r, order);
+    residuals[t] = r.a;
+    for (int end = 0; end < N; ++end) {
+      double* out = jacobians[slots_[tuple[end]]];
       if (out == nullptr) continue;
-      Eigen::Map<Eigen::RowVectorXd> row(out + e * b, b);
-      row.noalias() += r.v.segment<3>(3 * end).transpose() * jacobian_.middleRows(3 * v, 3);
+      Eigen::Map<Eigen::RowVectorXd> row(out + t * b, b);
+      row.noalias() += r.v.template segment<3>(3 * end).transpose() * jacobian_.middleRows(3 * tuple[end], 3);
     }
   }
   return true;
 }
+
+template class VertexTupleCost<2, EdgeInextensibilityResidual>;
+template class VertexTupleCost<4, HingeBendingResidual>;
+
+namespace {
+
+std::vector<std::array<int, 2>> AsArrays(const std::vector<Eigen::Vector2i>& edges) {
+  std::vector<std::array<int, 2>> out;
+  out.reserve(edges.size());
+  for (const Eigen::Vector2i& e : edges) out.push_back({e[0], e[1]});
+  return out;
+}
+
+std::vector<EdgeInextensibilityResidual> EdgeFunctors(const std::vector<double>& rest_lengths, double weight) {
+  std::vector<EdgeInextensibilityResidual> out;
+  out.reserve(rest_lengths.size());
+  for (double length : rest_lengths) out.emplace_back(length, weight);
+  return out;
+}
+
+std::vector<HingeBendingResidual> HingeFunctors(const std::vector<double>& rest_angles,
+                                                const std::vector<double>& weights) {
+  if (rest_angles.size() != weights.size()) throw std::invalid_argument("BendingCost: one weight per hinge");
+  std::vector<HingeBendingResidual> out;
+  out.reserve(rest_angles.size());
+  for (size_t h = 0; h < rest_angles.size(); ++h) out.emplace_back(rest_angles[h], weights[h]);
+  return out;
+}
+
+}  // namespace
+
+InextensibilityCost::InextensibilityCost(const JetDeformationModel* model, const std::vector<int>& patches,
+                                         const std::vector<Eigen::Vector2i>& edges,
+                                         const std::vector<double>& rest_lengths, double weight)
+    : VertexTupleCost(model, patches, AsArrays(edges), EdgeFunctors(rest_lengths, weight)) {}
+
+BendingCost::BendingCost(const JetDeformationModel* model, const std::vector<int>& patches,
+                         const std::vector<std::array<int, 4>>& hinges, const std::vector<double>& rest_angles,
+                         const std::vector<double>& weights)
+    : VertexTupleCost(model, patches, hinges, HingeFunctors(rest_angles, weights)) {}
 
 TemporalCost::TemporalCost(const JetDeformationModel* model, int patch, double length_scale, double weight, int order,
                            const std::vector<const Eigen::Matrix3Xd*>& fixed, const Eigen::Vector3d& shift,

@@ -6,6 +6,7 @@
 #ifndef POLYFIT_SFT_SOLVER_FRAME_COSTS_H_
 #define POLYFIT_SFT_SOLVER_FRAME_COSTS_H_
 
+#include <array>
 #include <vector>
 
 #include <ceres/cost_function.h>
@@ -14,6 +15,8 @@
 #include <opencv2/core.hpp>
 
 #include "cost_functions/compressed_cost.h"
+#include "cost_functions/edge_inextensibility.h"
+#include "cost_functions/hinge_bending.h"
 #include "sft/model/jet_deformation.h"
 #include "sft/render/soft_rasterizer.h"
 #include "sft/scene/scene.h"
@@ -221,25 +224,43 @@ class CompressedRenderCost : public NormalEquationsCost {
   mutable std::vector<double> theta_;
 };
 
-// Edge inextensibility (EdgeInextensibilityResidual) over edges whose
-// vertices belong to `patches` (one patch, or the two of a seam; sorted):
-// parameter blocks, those patches' blocks.
-class InextensibilityCost : public ceres::CostFunction {
+// A term on a few vertices at a time (N: an edge's 2, a hinge's 4) over
+// vertices of `patches` (those of the tuples' vertices, sorted): one
+// residual per tuple, functors[t](x_1, .., x_N, &r) (a cost_functions/
+// functor); parameter blocks, those patches' blocks.
+template <int N, typename Functor>
+class VertexTupleCost : public ceres::CostFunction {
  public:
-  InextensibilityCost(const JetDeformationModel* model, const std::vector<int>& patches,
-                      const std::vector<Eigen::Vector2i>& edges, const std::vector<double>& rest_lengths,
-                      double weight);
+  VertexTupleCost(const JetDeformationModel* model, const std::vector<int>& patches,
+                  const std::vector<std::array<int, N>>& tuples, std::vector<Functor> functors);
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
 
  private:
   const JetDeformationModel* model_;
   std::vector<int> patches_;
-  std::vector<int> vertices_;           // the edges' vertices
-  std::vector<Eigen::Vector2i> edges_;  // into vertices_
-  std::vector<double> rest_lengths_;
-  double weight_;
+  std::vector<int> vertices_;               // the tuples' vertices
+  std::vector<int> slots_;                  // per vertex of vertices_, its patch's block among patches_
+  std::vector<std::array<int, N>> tuples_;  // into vertices_
+  std::vector<Functor> functors_;
   mutable Eigen::Matrix3Xd positions_;
   mutable Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> jacobian_;  // 3 per vertex
+};
+
+// Edge inextensibility (EdgeInextensibilityResidual, weight w) over edges.
+class InextensibilityCost : public VertexTupleCost<2, EdgeInextensibilityResidual> {
+ public:
+  InextensibilityCost(const JetDeformationModel* model, const std::vector<int>& patches,
+                      const std::vector<Eigen::Vector2i>& edges, const std::vector<double>& rest_lengths,
+                      double weight);
+};
+
+// Bending (HingeBendingResidual) over hinges (i, j, k, l), each with its
+// rest angle and weight.
+class BendingCost : public VertexTupleCost<4, HingeBendingResidual> {
+ public:
+  BendingCost(const JetDeformationModel* model, const std::vector<int>& patches,
+              const std::vector<std::array<int, 4>>& hinges, const std::vector<double>& rest_angles,
+              const std::vector<double>& weights);
 };
 
 // The silhouette's long reach: every vertex of patch p projects inside the

@@ -257,6 +257,35 @@ TEST_F(FrameCostsTest, InextensibilityAndTemporalJacobiansMatchFiniteDifferences
   EXPECT_LT(RelativeJacobianError(temporal, theta_, 1e-7), 1e-5);
 }
 
+// Bending: r = w (theta - theta_rest) per hinge; zero on the template
+// (the model is the template at zero parameters), and its Jacobian is
+// the chain through the model's.
+TEST_F(FrameCostsTest, BendingIsZeroOnTheTemplateAndItsJacobianMatchesFiniteDifferences) {
+  const TriangleMesh& mesh = scene_.template_mesh;
+  std::vector<std::array<int, 4>> hinges;
+  std::vector<double> rest, weights;
+  for (const MeshHinge& hinge : InteriorHinges(mesh)) {
+    const auto& [i, j, k, l] = hinge.vertices;
+    hinges.push_back(hinge.vertices);
+    rest.push_back(SignedDihedralAngle(mesh.vertices.col(i).data(), mesh.vertices.col(j).data(),
+                                       mesh.vertices.col(k).data(), mesh.vertices.col(l).data()));
+    weights.push_back(1.5);
+  }
+  ASSERT_GT(hinges.size(), 100u);
+  const BendingCost bending(model_.get(), {0}, hinges, rest, weights);
+  const std::vector<double> zero(theta_.size(), 0.0);
+  std::vector<double> r(hinges.size());
+  const double* at_rest[1] = {zero.data()};
+  ASSERT_TRUE(bending.Evaluate(at_rest, r.data(), nullptr));
+  for (double v : r) EXPECT_NEAR(v, 0.0, 1e-9);
+  const double* bent[1] = {theta_.data()};
+  ASSERT_TRUE(bending.Evaluate(bent, r.data(), nullptr));
+  double largest = 0.0;
+  for (double v : r) largest = std::max(largest, std::abs(v));
+  EXPECT_GT(largest, 1e-3);  // theta_ bends the sheet
+  EXPECT_LT(RelativeJacobianError(bending, theta_, 1e-7), 1e-5);
+}
+
 // Order 2: r = (w / L) (x_t - 2 x_t-1 + x_t-2), alike whether the earlier
 // frames are parameters or data.
 TEST_F(FrameCostsTest, TheSecondOrderTemporalTermHoldsAFrameToTheLineThroughTheTwoBefore) {
@@ -506,6 +535,22 @@ TEST_F(AtlasCostsTest, CostsOverPatchBlocksAreExact) {
   std::unique_ptr<ceres::CostFunction> seam(
       CreateSeamCost(model_.get(), pair[0], pair[1], {seam_edge}, 0.01, 1.0, 0.1));
   EXPECT_LT(RelativeJacobianError(*seam, pair_theta, 1e-7), 1e-5);
+  // A hinge over more than one patch.
+  bool across_patches = false;
+  for (const MeshHinge& hinge : InteriorHinges(scene_.template_mesh)) {
+    std::vector<int> patches;
+    for (int i : hinge.vertices) patches.push_back(model_->patch_of_vertex(i));
+    std::sort(patches.begin(), patches.end());
+    patches.erase(std::unique(patches.begin(), patches.end()), patches.end());
+    if (patches.size() < 2) continue;
+    std::vector<double> blocks;
+    for (int p : patches) blocks.insert(blocks.end(), theta_.begin() + b * p, theta_.begin() + b * (p + 1));
+    const BendingCost bending(model_.get(), patches, {hinge.vertices}, {0.1}, {2.0});
+    EXPECT_LT(RelativeJacobianError(bending, blocks, 1e-7), 1e-5);
+    across_patches = true;
+    break;
+  }
+  EXPECT_TRUE(across_patches);
   std::unique_ptr<ceres::CostFunction> shared_uv(CreateSharedUvCost(model_.get(), 3.0));
   EXPECT_EQ(shared_uv->num_residuals(), model_->num_duv());
   EXPECT_LT(RelativeJacobianError(*shared_uv, pair_theta, 1e-7), 1e-8);

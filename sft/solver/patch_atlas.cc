@@ -29,7 +29,7 @@ std::string PatchAtlasOptions::Validate() const {
 }
 
 AtlasTerms GroupAtlasTerms(const JetDeformationModel& model, const std::vector<Eigen::Vector2i>& edges,
-                           const std::vector<double>& rest_lengths) {
+                           const std::vector<double>& rest_lengths, const HingeRest* hinges) {
   AtlasTerms terms;
   std::map<std::pair<int, int>, int> group_of;
   std::map<std::pair<int, int>, std::vector<Eigen::Vector2i>> seam_edges;
@@ -47,6 +47,21 @@ AtlasTerms GroupAtlasTerms(const JetDeformationModel& model, const std::vector<E
     if (a != b) seam_edges[key].push_back(edges[e]);
   }
   for (auto& [key, across] : seam_edges) terms.seams.push_back({key.first, key.second, std::move(across)});
+  if (hinges == nullptr) return terms;
+  std::map<std::vector<int>, int> hinge_group_of;
+  for (size_t h = 0; h < hinges->hinges.size(); ++h) {
+    const std::array<int, 4>& vertices = hinges->hinges[h].vertices;
+    std::vector<int> patches;
+    for (int v : vertices) patches.push_back(model.patch_of_vertex(v));
+    std::sort(patches.begin(), patches.end());
+    patches.erase(std::unique(patches.begin(), patches.end()), patches.end());
+    auto [it, added] = hinge_group_of.emplace(patches, static_cast<int>(terms.hinge_groups.size()));
+    if (added) terms.hinge_groups.push_back({patches, {}, {}, {}});
+    AtlasTerms::HingeGroup& group = terms.hinge_groups[it->second];
+    group.hinges.push_back(vertices);
+    group.rest_angles.push_back(hinges->angles[h]);
+    group.weights.push_back(hinges->weights[h]);
+  }
   return terms;
 }
 

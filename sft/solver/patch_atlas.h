@@ -23,11 +23,13 @@
 #ifndef POLYFIT_SFT_SOLVER_PATCH_ATLAS_H_
 #define POLYFIT_SFT_SOLVER_PATCH_ATLAS_H_
 
+#include <array>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "polyfit/mesh/hinge_rest.h"
 #include "polyfit/mesh/triangle_mesh.h"
 #include "sft/model/jet_deformation.h"
 
@@ -93,12 +95,20 @@ struct AtlasTerms {
     int a = 0, b = 0;                    // a < b
     std::vector<Eigen::Vector2i> edges;  // the template's edges from one patch to the other
   };
+  struct HingeGroup {
+    std::vector<int> patches;  // one to four, sorted
+    std::vector<std::array<int, 4>> hinges;
+    std::vector<double> rest_angles;
+    std::vector<double> weights;  // HingeRest's
+  };
   std::vector<EdgeGroup> edge_groups;
   std::vector<Seam> seams;
+  std::vector<HingeGroup> hinge_groups;  // with `hinges` only
 };
 
+// Edges, and hinges where given, grouped by the patches of their vertices.
 AtlasTerms GroupAtlasTerms(const JetDeformationModel& model, const std::vector<Eigen::Vector2i>& edges,
-                           const std::vector<double>& rest_lengths);
+                           const std::vector<double>& rest_lengths, const HingeRest* hinges = nullptr);
 
 // #V entries: for the vertices of `patch`, which of up to `children` ACVD
 // cells of its faces takes them; empty when it does not split into

@@ -208,6 +208,7 @@ std::string PolySftOptions::Validate() const {
                                                      {"feature_weight", feature_weight},
                                                      {"flow_weight", flow_weight},
                                                      {"inextensibility_weight", inextensibility_weight},
+                                                     {"bending_weight", bending_weight},
                                                      {"temporal_weight", temporal_weight},
                                                      {"occluded_temporal_weight", occluded_temporal_weight}};
   for (const auto& [name, w] : weights) {
@@ -258,7 +259,7 @@ class PolySftController {
     CheckTemplate();
     PrepareTemplateData();
     SplitInitialPatches();
-    atlas_terms_ = GroupAtlasTerms(model_, edges_, rest_lengths_);
+    atlas_terms_ = GroupAtlasTerms(model_, edges_, rest_lengths_, Hinges());
     render_groups_ = MakePatchGroups(model_, scene_.template_mesh.faces);
     BuildPyramid();
     CreateRasterizers();
@@ -312,6 +313,7 @@ class PolySftController {
     use_flow_ = use_photometric_ && num_frames > 1 && (o.flow_weight > 0.0 || o.flow_start);
     if (use_flow_ && o.flow_weight > 0.0) summary_.terms.emplace_back("flow", o.flow_weight);
     if (use_inextensibility_) summary_.terms.emplace_back("inextensibility", o.inextensibility_weight);
+    if (o.bending_weight > 0.0) summary_.terms.emplace_back("bending", o.bending_weight);
     ChooseGravityPrior();
     if (num_frames > 1 && o.occluded_temporal_weight > 0.0) {
       summary_.terms.emplace_back("occluded_hold", o.occluded_temporal_weight);
@@ -411,6 +413,7 @@ class PolySftController {
       }
     }
     for (double length : rest_lengths_) mean_edge_ += length / rest_lengths_.size();
+    if (options_.bending_weight > 0.0) hinges_ = MeasureHingeRest(mesh);
     ScreenMesh screen = mesh_template_;
     ProjectVertices(scene_.camera, mesh.vertices, &screen, nullptr);
     template_pixels_ = 0.0;
@@ -1086,6 +1089,16 @@ class PolySftController {
             of(blocks, g.patches));
       }
     }
+    if (options_.bending_weight > 0.0) {
+      const double k = std::sqrt(options_.bending_weight);
+      for (const AtlasTerms::HingeGroup& g : atlas_terms_.hinge_groups) {
+        std::vector<double> weights(g.weights.size());
+        for (size_t h = 0; h < weights.size(); ++h) weights[h] = k * std::sqrt(g.weights[h]);
+        problem->AddResidualBlock(new CompressedCost(new BendingCost(&model_, g.patches, g.hinges, g.rest_angles,
+                                                                     weights)),
+                                  nullptr, of(blocks, g.patches));
+      }
+    }
     const PatchAtlasOptions& atlas = options_.atlas;
     const double position_weight = coarse ? atlas.coarse_seam_position_weight : atlas.seam_position_weight;
     if (!atlas_terms_.seams.empty()) {
@@ -1361,7 +1374,7 @@ class PolySftController {
     const PatchSplit split = model_.SplitPatch(p, child);
     for (auto& frame : window_) frame->theta = model_.InheritParameters(split, frame->theta);
     if (!finals_.empty()) previous_final_theta_ = model_.InheritParameters(split, previous_final_theta_);
-    atlas_terms_ = GroupAtlasTerms(model_, edges_, rest_lengths_);
+    atlas_terms_ = GroupAtlasTerms(model_, edges_, rest_lengths_, Hinges());
     render_groups_ = MakePatchGroups(model_, scene_.template_mesh.faces);
     Eigen::VectorXd step;
     const double gain = PredictedDecrease(&step) - before;
@@ -1369,6 +1382,8 @@ class PolySftController {
     const double step_pixels = step.size() == model_.num_parameters() ? LargestStepPixels(newest, step, child) : 0.0;
     if (gain > options_.atlas.split_significance * noise && step_pixels >= options_.atlas.split_min_step_pixels) {
       summary_.splits.push_back({newest.frame.index, p, split.num_children, ratios[p], gain / noise, step_pixels});
+      // Each frame's start too, which RecoverLostFrame compares against.
+      for (auto& frame : window_) frame->start = model_.InheritParameters(split, frame->start);
       failed_ratio_.assign(model_.num_patches(), 0.0);  // the patches are numbered anew
       return true;
     }
@@ -1532,6 +1547,8 @@ class PolySftController {
     return true;
   }
 
+  const HingeRest* Hinges() const { return options_.bending_weight > 0.0 ? &hinges_ : nullptr; }
+
   bool Fail(const std::string& message) {
     summary_.termination_type = TerminationType::kFailure;
     summary_.message = message + "; frames before the window are kept";
@@ -1650,6 +1667,7 @@ class PolySftController {
   SoftRasterizerOptions rasterizer_options_;  // options_.rasterizer, gamma from depth_softness
   std::vector<Eigen::Vector2i> edges_;
   std::vector<double> rest_lengths_;
+  HingeRest hinges_;  // with PolySftOptions::bending_weight only
   double template_pixels_ = 0.0;
   std::vector<LevelData> levels_;
   std::deque<std::unique_ptr<FrameData>> window_;

@@ -132,6 +132,11 @@ struct PolySftOptions {
   double silhouette_weight = 1.0;
   double inextensibility_weight = 10.0;  // k_mi
   double temporal_weight = 0.1;          // k_tc
+  // Bending (HingeBendingResidual at every interior edge of the template,
+  // the discrete-shell weights 3 |e|^2 / (A_1 + A_2)): the cost is this
+  // weight / 2 times the integral of the squared mean curvature (times 4)
+  // away from the template's rest shape, per frame. 0: off.
+  double bending_weight = 0.0;
   // What the temporal term holds each frame to (TemporalCost): 1, the
   // frame before (the paper's: a surface that moves fast is held back);
   // 2, the line through the two frames before (constant velocity, inertia

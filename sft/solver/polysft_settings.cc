@@ -67,6 +67,7 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("photometric_weight", photometric_weight),
         POLYFIT_SETTING("silhouette_weight", silhouette_weight),
         POLYFIT_SETTING("inextensibility_weight", inextensibility_weight),
+        POLYFIT_SETTING("bending_weight", bending_weight),
         POLYFIT_SETTING("temporal_weight", temporal_weight),
         POLYFIT_SETTING("temporal_order", temporal_order),
         POLYFIT_SETTING("gravity_prior", gravity_prior),

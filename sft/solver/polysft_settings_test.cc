@@ -37,6 +37,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.photometric_weight = 0.5;
   changed.silhouette_weight = 2.0;
   changed.inextensibility_weight = 20.0;
+  changed.bending_weight = 1e-4;
   changed.temporal_weight = 0.3;
   changed.temporal_order = 2;
   changed.gravity_prior = true;
