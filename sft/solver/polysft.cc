@@ -11,6 +11,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 
 #include <ceres/ceres.h>
 #include <nlohmann/json.hpp>
@@ -1038,6 +1039,11 @@ class PolySftController {
   // The frame's parameters fit its coarsest level better than `other`
   // (the rule by which a start replaces another).
   bool FitsCoarsestBetter(const FrameData& frame, const std::vector<double>& other) const {
+    // Both in the atlas as it is now (a split extends every kept start).
+    const size_t size = static_cast<size_t>(model_.num_parameters());
+    if (frame.theta.size() != size || other.size() != size) {
+      throw std::logic_error("PolySfT: parameters from before a split compared with the atlas after it");
+    }
     return CoarseImageCost(frame, frame.theta.data()) < CoarseImageCost(frame, other.data());
   }
 
