@@ -19,6 +19,8 @@
 
 #include "cost_functions/compressed_cost.h"
 #include "cost_functions/gravity_inertia_residuals.h"
+#include "cost_functions/hinge_bending.h"
+#include "polyfit/mesh/hinge_rest.h"
 #include "polyfit/mesh/mesh_io.h"
 #include "polyfit/mesh/unique_edges.h"
 #include "polyfit/util/atomic_file.h"
@@ -210,6 +212,7 @@ std::string PolySftOptions::Validate() const {
                                                      {"flow_weight", flow_weight},
                                                      {"inextensibility_weight", inextensibility_weight},
                                                      {"bending_weight", bending_weight},
+                                                     {"new_crease_bending_weight", new_crease_bending_weight},
                                                      {"temporal_weight", temporal_weight},
                                                      {"occluded_temporal_weight", occluded_temporal_weight}};
   for (const auto& [name, w] : weights) {
@@ -228,6 +231,7 @@ std::string PolySftOptions::Validate() const {
   if (!(robust_scale > 0.0)) return "robust_scale must be > 0";
   if (!(silhouette_band <= 100.0)) return "silhouette_band must be <= 100 px (negative: measured)";
   if (max_frames < 0) return "max_frames must be >= 0";
+  if (!(new_crease_angle_deg > 0.0 && new_crease_angle_deg <= 180.0)) return "new_crease_angle_deg must be in (0, 180]";
   return {};
 }
 
@@ -278,6 +282,7 @@ class PolySftController {
       frame_cost_[t] = cost;  // whether it is tracked, for RefineAtlas
       if (RefineAtlas(t) && !SolveWindow(&cost, &iterations)) break;
       RecoverLostFrame(t, &cost, &iterations);
+      SecondOpinionOnNewCrease(t, &cost, &iterations);
       const bool misfit = t > 0 && CostRatio(cost) > kLostCostRatio;
       const bool lost = misfit && !FoundByKeypoints(window_.back().get());
       if (misfit) KeypointsFromNowOn(t);
@@ -414,7 +419,7 @@ class PolySftController {
       }
     }
     for (double length : rest_lengths_) mean_edge_ += length / rest_lengths_.size();
-    if (options_.bending_weight > 0.0) hinges_ = MeasureHingeRest(mesh);
+    if (options_.bending_weight > 0.0 || options_.new_crease_bending_weight > 0.0) hinges_ = MeasureHingeRest(mesh);
     ScreenMesh screen = mesh_template_;
     ProjectVertices(scene_.camera, mesh.vertices, &screen, nullptr);
     template_pixels_ = 0.0;
@@ -1095,8 +1100,9 @@ class PolySftController {
             of(blocks, g.patches));
       }
     }
-    if (options_.bending_weight > 0.0) {
-      const double k = std::sqrt(options_.bending_weight);
+    const double bending = options_.bending_weight + (bending_prior_on_ ? options_.new_crease_bending_weight : 0.0);
+    if (bending > 0.0) {
+      const double k = std::sqrt(bending);
       for (const AtlasTerms::HingeGroup& g : atlas_terms_.hinge_groups) {
         std::vector<double> weights(g.weights.size());
         for (size_t h = 0; h < weights.size(); ++h) weights[h] = k * std::sqrt(g.weights[h]);
@@ -1467,39 +1473,44 @@ class PolySftController {
   void RecoverLostFrame(int t, double* cost, int* iterations) {
     FrameData& newest = *window_.back();
     if (t == 0 || newest.mask_empty) return;
-    if (options_.recover_lost_frames && use_masks_ && !newest.frame.mask.empty()) {
-      SolveAgainFrom(kRecoveryMask, "moved onto its mask", [&] { return MoveOntoMask(&newest); }, cost, iterations);
+    auto lost = [&] {
+      char why[80];
+      std::snprintf(why, sizeof(why), "lost (cost %.0f times the tracked frames')", CostRatio(*cost));
+      return std::string(why);
+    };
+    if (options_.recover_lost_frames && use_masks_ && !newest.frame.mask.empty() && CostRatio(*cost) > kLostCostRatio) {
+      SolveAgainFrom(kRecoveryMask, lost(), "moved onto its mask", [&](int*) { return MoveOntoMask(&newest); }, cost,
+                     iterations);
     }
-    if (options_.relocalize && use_photometric_ && !newest.relocalized) {
+    if (options_.relocalize && use_photometric_ && !newest.relocalized && CostRatio(*cost) > kLostCostRatio) {
       // Not where its keypoints find the surface already (its misfit is
       // the model's: a fold one jet cannot hold), nor where the template
       // placed on them fits the coarsest level worse than the frame's own
       // start did (a surface too deformed for one rigid motion).
-      auto place = [&] {
+      auto place = [&](int*) {
         if (newest.features.empty()) SeekKeypoints(&newest);
         if (KeypointsAgree(newest)) return false;
         return PlaceOnKeypoints(&newest) && FitsCoarsestBetter(newest, newest.start);
       };
-      newest.relocalized = SolveAgainFrom(kRecoveryKeypoints, "placed on its keypoints", place, cost, iterations);
+      newest.relocalized =
+          SolveAgainFrom(kRecoveryKeypoints, lost(), "placed on its keypoints", place, cost, iterations);
     }
   }
 
-  // trace.csv's `recovery`: the re-solve's start (RecoverLostFrame).
+  // trace.csv's `recovery`: the re-solve's start (RecoverLostFrame,
+  // SecondOpinionOnNewCrease).
   static constexpr int kRecoveryMask = 1;
   static constexpr int kRecoveryKeypoints = 2;
+  static constexpr int kRecoveryBending = 3;
 
-  // The window solved again from `restart`'s change to the newest frame,
-  // where that frame is lost and the change was made; kept (true) where it
-  // ends at a lower cost.
-  bool SolveAgainFrom(int recovery, const char* how, const std::function<bool()>& restart, double* cost,
-                      int* iterations) {
-    if (!(CostRatio(*cost) > kLostCostRatio)) return false;
+  // The window solved again from `restart`'s change to the newest frame
+  // (which may solve it itself, counting its iterations in `more`), where
+  // the change was made; kept (true) where it ends at a lower cost, and
+  // said in a warning that begins with `why`.
+  bool SolveAgainFrom(int recovery, const std::string& why, const char* how,
+                      const std::function<bool(int* more)>& restart, double* cost, int* iterations) {
     std::vector<std::vector<double>> before;
     for (const auto& frame : window_) before.push_back(frame->theta);
-    if (!restart()) {
-      for (size_t k = 0; k < window_.size(); ++k) window_[k]->theta = before[k];
-      return false;
-    }
     // A failed attempt leaves no trace but its rows (SolveWindow fails the
     // run only through Fail).
     const TerminationType termination = summary_.termination_type;
@@ -1507,14 +1518,12 @@ class PolySftController {
     recovery_ = recovery;
     double again = 0.0;
     int more = 0;
-    const bool solved = SolveWindow(&again, &more);
+    const bool solved = restart(&more) && SolveWindow(&again, &more);
     recovery_ = 0;
     if (solved && again < *cost) {
-      char buffer[200];
-      std::snprintf(buffer, sizeof(buffer),
-                    "frame %d: lost (cost %.0f times the tracked frames'); %s and solved again: cost %.3g -> %.3g",
-                    window_.back()->frame.index, CostRatio(*cost), how, *cost, again);
-      summary_.warnings.emplace_back(buffer);
+      char buffer[100];
+      std::snprintf(buffer, sizeof(buffer), "; %s and solved again: cost %.3g -> %.3g", how, *cost, again);
+      summary_.warnings.emplace_back("frame " + std::to_string(window_.back()->frame.index) + ": " + why + buffer);
       *cost = again;
       *iterations += more;
       return true;
@@ -1523,6 +1532,51 @@ class PolySftController {
     summary_.message = message;
     for (size_t k = 0; k < window_.size(); ++k) window_[k]->theta = before[k];
     return false;
+  }
+
+  // PolySftOptions::new_crease_bending_weight: a frame whose solve made a
+  // new crease solved again from its start under a bending prior, then
+  // without it from there, the lower cost kept.
+  void SecondOpinionOnNewCrease(int t, double* cost, int* iterations) {
+    FrameData& newest = *window_.back();
+    if (t == 0 || newest.mask_empty || !(options_.new_crease_bending_weight > 0.0) || hinges_.hinges.empty()) return;
+    const double crease = NewCreaseDegrees();
+    if (!(crease > options_.new_crease_angle_deg)) return;
+    char why[80];
+    std::snprintf(why, sizeof(why), "a new crease (%.0f deg)", crease);
+    auto bent = [&](int* more) {
+      newest.theta = newest.start;
+      bending_prior_on_ = true;
+      double bent_cost = 0.0;
+      const bool solved = SolveWindow(&bent_cost, more);
+      bending_prior_on_ = false;
+      return solved;
+    };
+    SolveAgainFrom(kRecoveryBending, why, "from its start under a bending prior", bent, cost, iterations);
+  }
+
+  // The largest change of a hinge's dihedral angle (degrees) from the frame
+  // before to the newest.
+  double NewCreaseDegrees() const {
+    Eigen::Matrix3Xd now, before;
+    if (window_.size() >= 2) {
+      model_.Evaluate(window_[window_.size() - 2]->theta.data(), &before);
+    } else if (!finals_.empty()) {
+      before = finals_.front();
+    } else {
+      return 0.0;
+    }
+    model_.Evaluate(window_.back()->theta.data(), &now);
+    double largest = 0.0;
+    for (const MeshHinge& hinge : hinges_.hinges) {
+      const auto& [i, j, k, l] = hinge.vertices;
+      double change = SignedDihedralAngle(now.col(i).data(), now.col(j).data(), now.col(k).data(), now.col(l).data()) -
+                      SignedDihedralAngle(before.col(i).data(), before.col(j).data(), before.col(k).data(),
+                                          before.col(l).data());
+      change = std::abs(std::remainder(change, 2.0 * M_PI));
+      largest = std::max(largest, change);
+    }
+    return largest * 180.0 / M_PI;
   }
 
   // Translates the frame's surface parallel to the image, at its mean
@@ -1553,7 +1607,7 @@ class PolySftController {
     return true;
   }
 
-  const HingeRest* Hinges() const { return options_.bending_weight > 0.0 ? &hinges_ : nullptr; }
+  const HingeRest* Hinges() const { return hinges_.hinges.empty() ? nullptr : &hinges_; }
 
   bool Fail(const std::string& message) {
     summary_.termination_type = TerminationType::kFailure;
@@ -1673,7 +1727,10 @@ class PolySftController {
   SoftRasterizerOptions rasterizer_options_;  // options_.rasterizer, gamma from depth_softness
   std::vector<Eigen::Vector2i> edges_;
   std::vector<double> rest_lengths_;
-  HingeRest hinges_;  // with PolySftOptions::bending_weight only
+  // With PolySftOptions::bending_weight or new_crease_bending_weight only;
+  // the latter's prior is on during its second opinion.
+  HingeRest hinges_;
+  bool bending_prior_on_ = false;
   double template_pixels_ = 0.0;
   std::vector<LevelData> levels_;
   std::deque<std::unique_ptr<FrameData>> window_;

@@ -137,6 +137,17 @@ struct PolySftOptions {
   // weight / 2 times the integral of the squared mean curvature (times 4)
   // away from the template's rest shape, per frame. 0: off.
   double bending_weight = 0.0;
+  // A solve can mirror part of the surface in depth about a hinge, which
+  // projects nearly alike: the flag's corner folded back away from the
+  // camera at one row of edges where the truth bends on toward it, at
+  // half the cost of the truth's basin (docs/benchmarks.md). A frame whose
+  // solve changed some hinge's dihedral angle by more than
+  // new_crease_angle_deg since the frame before is solved again from its
+  // start under a bending prior of new_crease_bending_weight, then
+  // without it from there, and the lower final cost kept (a warning, and
+  // trace.csv's recovery 3). 0: off.
+  double new_crease_bending_weight = 1e-4;
+  double new_crease_angle_deg = 60.0;
   // What the temporal term holds each frame to (TemporalCost): 1, the
   // frame before (the paper's: a surface that moves fast is held back);
   // 2, the line through the two frames before (constant velocity, inertia
@@ -358,8 +369,10 @@ struct SftIterationSummary {
   double cost = 0.0;
   int patches = 1;
   double e3d = std::numeric_limits<double>::quiet_NaN();
-  // 1 on the re-solve of a lost frame moved onto its mask
-  // (PolySftOptions::recover_lost_frames).
+  // On a frame's re-solve: 1 a lost frame moved onto its mask
+  // (PolySftOptions::recover_lost_frames), 2 placed on its keypoints
+  // (relocalize), 3 a new crease's second opinion under a bending prior
+  // (new_crease_bending_weight).
   int recovery = 0;
 };
 

@@ -38,6 +38,8 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.silhouette_weight = 2.0;
   changed.inextensibility_weight = 20.0;
   changed.bending_weight = 1e-4;
+  changed.new_crease_bending_weight = 3e-4;
+  changed.new_crease_angle_deg = 45.0;
   changed.temporal_weight = 0.3;
   changed.temporal_order = 2;
   changed.gravity_prior = true;
