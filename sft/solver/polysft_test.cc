@@ -27,6 +27,13 @@ SheetSceneOptions SmallScene(SheetMotion motion, int frames) {
   return o;
 }
 
+void ExpectSameToTheBit(const PolySftSummary& a, const PolySftSummary& b) {
+  ASSERT_EQ(a.frames.size(), b.frames.size());
+  for (size_t f = 0; f < a.frames.size(); ++f) {
+    EXPECT_EQ((a.frames[f].vertices - b.frames[f].vertices).cwiseAbs().maxCoeff(), 0.0) << "frame " << f;
+  }
+}
+
 void ExpectFinite(const PolySftSummary& summary) {
   for (const SftFrameSummary& f : summary.frames) {
     ASSERT_TRUE(f.vertices.allFinite()) << "frame " << f.index;
@@ -213,10 +220,7 @@ TEST(PolySftTest, TheOccludedHoldCostsNothingWhereNothingIsHidden) {
   };
   EXPECT_FALSE(has_hold(a));
   EXPECT_TRUE(has_hold(b));
-  ASSERT_EQ(a.frames.size(), b.frames.size());
-  for (size_t f = 0; f < a.frames.size(); ++f) {
-    EXPECT_EQ((a.frames[f].vertices - b.frames[f].vertices).cwiseAbs().maxCoeff(), 0.0) << f;
-  }
+  ExpectSameToTheBit(a, b);
   EXPECT_LT(b.mean_rmse_mm, 0.5 * b.template_rmse_mm);
 }
 
@@ -286,10 +290,7 @@ TEST(PolySftTest, ANewCreaseGetsASecondOpinionUnderABendingPrior) {
   PolySftOptions every = on;
   every.new_crease_angle_deg = 1e-3;
   const PolySftSummary a = SolvePolySft(off, scene), b = SolvePolySft(on, scene), c = SolvePolySft(every, scene);
-  ASSERT_EQ(a.frames.size(), b.frames.size());
-  for (size_t f = 0; f < a.frames.size(); ++f) {
-    EXPECT_EQ((a.frames[f].vertices - b.frames[f].vertices).cwiseAbs().maxCoeff(), 0.0) << f;
-  }
+  ExpectSameToTheBit(a, b);
   ExpectFinite(c);
   const int again = static_cast<int>(
       std::count_if(c.trace.begin(), c.trace.end(), [](const SftIterationSummary& r) { return r.recovery == 3; }));
