@@ -140,8 +140,8 @@ struct PolySftOptions {
   // A solve can mirror part of the surface in depth about a hinge, which
   // projects nearly alike: the flag's corner folded back away from the
   // camera at one row of edges where the truth bends on toward it, at
-  // half the cost of the truth's basin (docs/benchmarks.md). A frame whose
-  // solve changed some hinge's dihedral angle by more than
+  // twice the cost the truth's basin reaches (docs/benchmarks.md). A
+  // frame whose solve changed some hinge's dihedral angle by more than
   // new_crease_angle_deg since the frame before is solved again from its
   // start under a bending prior of new_crease_bending_weight, then
   // without it from there, and the lower final cost kept (a warning, and
