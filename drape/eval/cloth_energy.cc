@@ -10,14 +10,6 @@
 #include "polyfit/mesh/unique_edges.h"
 
 namespace polyfit {
-namespace {
-
-double SignedDihedral(const Eigen::Vector3d& xi, const Eigen::Vector3d& xj, const Eigen::Vector3d& xk,
-                      const Eigen::Vector3d& xl) {
-  return SignedDihedralAngle(xi.data(), xj.data(), xk.data(), xl.data());
-}
-
-}  // namespace
 
 ClothRest PrepareClothRest(const TriangleMesh& rest) {
   ClothRest out;
@@ -76,7 +68,8 @@ ClothMeasures MeasureCloth(const ClothRest& rest, const Eigen::Matrix3Xd& x, con
   }
   for (size_t h = 0; h < rest.hinges.size(); ++h) {
     const std::array<int, 4>& k = rest.hinges[h];
-    const double angle = SignedDihedral(x.col(k[0]), x.col(k[1]), x.col(k[2]), x.col(k[3]));
+    const double angle =
+        SignedDihedralAngle(x.col(k[0]).data(), x.col(k[1]).data(), x.col(k[2]).data(), x.col(k[3]).data());
     const double d = angle - rest.hinge_angle[h];
     m.bending_energy += material.bending * rest.hinge_weight[h] * d * d;
   }
