@@ -737,6 +737,15 @@ TEST(PolySftTest, InvalidOptionsThrow) {
   options = PolySftOptions();
   options.inextensibility_weight = std::nan("");
   EXPECT_FALSE(options.Validate().empty());
+  options = PolySftOptions();
+  options.bending_weight = -1.0;
+  EXPECT_NE(options.Validate().find("bending_weight"), std::string::npos);
+  options = PolySftOptions();
+  options.new_crease_bending_weight = std::nan("");
+  EXPECT_NE(options.Validate().find("new_crease_bending_weight"), std::string::npos);
+  options = PolySftOptions();
+  options.new_crease_angle_deg = 0.0;
+  EXPECT_NE(options.Validate().find("new_crease_angle_deg"), std::string::npos);
 }
 
 }  // namespace
