@@ -1054,10 +1054,13 @@ class PolySftController {
 
   // The image terms' cost of a frame at parameters theta, at the coarsest
   // level (infinite when the surface is behind the camera).
-  double CoarseImageCost(const FrameData& frame, const double* theta) const {
+  double CoarseImageCost(const FrameData& frame, const double* theta) const { return ImageCost(0, frame, theta); }
+
+  // The same at level l.
+  double ImageCost(int l, const FrameData& frame, const double* theta) const {
     RenderCost::Data d;
     ScreenMesh screen;
-    if (!ImageTermData(0, frame, theta, levels_[0].rasterizer.get(), &d, &screen)) {
+    if (!ImageTermData(l, frame, theta, levels_[l].rasterizer.get(), &d, &screen)) {
       return std::numeric_limits<double>::infinity();
     }
     if (d.roi.area() <= 0) return 0.0;
@@ -1237,6 +1240,47 @@ class PolySftController {
     return solver;
   }
 
+  // PolySftOptions::check_coarse_levels before level l, for the window's
+  // frames from `first` on (`entry`: each as the solve began).
+  void CheckCoarseLevels(int l, size_t first, const std::vector<std::vector<double>>& entry) {
+    bool moved = false;
+    for (size_t k = first; k < window_.size(); ++k) moved |= window_[k]->theta != entry[k - first];
+    if (!moved) return;
+    ++summary_.coarse_moves_checked;
+    const double now = LevelCost(l, first);
+    std::vector<std::vector<double>> moved_to;
+    for (size_t k = first; k < window_.size(); ++k) {
+      moved_to.push_back(window_[k]->theta);
+      window_[k]->theta = entry[k - first];
+    }
+    if (LevelCost(l, first) < now) {
+      ++summary_.coarse_moves_undone;
+      return;
+    }
+    for (size_t k = first; k < window_.size(); ++k) window_[k]->theta = moved_to[k - first];
+  }
+
+  // What level l's solve of the window's frames from `first` on would
+  // start at: their image terms and regularisers (infinite when a surface
+  // is behind the camera).
+  double LevelCost(int l, size_t first) {
+    double cost = 0.0;
+    ceres::Problem problem;
+    for (size_t k = first; k < window_.size(); ++k) {
+      if (!window_[k]->mask_empty && (use_photometric_ || use_masks_)) {
+        cost += 0.5 * ImageCost(l, *window_[k], window_[k]->theta.data());
+      }
+      AddRegularizers(k, l + 1 < static_cast<int>(levels_.size()), &problem);
+    }
+    double regularizers = 0.0;
+    ceres::Problem::EvaluateOptions evaluate;
+    evaluate.num_threads = ResolveNumThreads(options_.num_threads);
+    if (problem.NumResidualBlocks() > 0 && !problem.Evaluate(evaluate, &regularizers, nullptr, nullptr, nullptr)) {
+      return std::numeric_limits<double>::infinity();
+    }
+    return cost + regularizers;
+  }
+
   // The first of the window's frames that the coarse levels' solves
   // change. They only bring the newest frame into the basin: an older
   // frame whose last solve settled at every level and that is tracked is
@@ -1256,7 +1300,12 @@ class PolySftController {
     const size_t coarse_first_free = FirstCoarseFreeFrame();
     // Cleared by any level solve of a frame that reaches its iteration cap.
     for (size_t k = coarse_first_free; k < window_.size(); ++k) window_[k]->settled = true;
+    std::vector<std::vector<double>> entry;  // the frames the coarse levels solve, as they begin
+    if (options_.check_coarse_levels) {
+      for (size_t k = coarse_first_free; k < window_.size(); ++k) entry.push_back(window_[k]->theta);
+    }
     for (int l = 0; l < static_cast<int>(levels_.size()); ++l) {
+      if (l > 0 && options_.check_coarse_levels) CheckCoarseLevels(l, coarse_first_free, entry);
       // A lone frame's pixels are split over the threads by the rasterizer;
       // a window's frames are rendered side by side.
       const size_t first_free = l + 1 < static_cast<int>(levels_.size()) ? coarse_first_free : 0;
@@ -1841,6 +1890,7 @@ void WriteSftOutputs(const std::string& directory, const SftScene& scene, const 
       {"active_terms", terms},
       {"silhouette_band_px", summary.silhouette_band_px},
       {"pyramid_levels", summary.pyramid_levels},
+      {"coarse_moves", {{"checked", summary.coarse_moves_checked}, {"undone", summary.coarse_moves_undone}}},
       {"warnings", summary.warnings},
       {"settings", PolySftSettingsToJson(options)}};
   WriteFileAtomically((fs::path(directory) / "metrics.json").string(),

@@ -112,6 +112,19 @@ struct PolySftOptions {
   // 5-38% less CPU time on every generated scene at the same error (the
   // flag, lost either way, 2 mm worse; docs/benchmarks.md).
   bool coarse_levels_newest_only = true;
+  // Before each finer level, the frames that the coarser levels moved go
+  // back to where the window's solve began wherever that costs the finer
+  // level less (its image terms and regularisers, as its solve would
+  // start): the coarse levels are to bring a far start into the basin, not
+  // to take a near one out of it. Blurred, they settle millimetres off a
+  // surface whose truth the finer levels prefer, and those stay in the
+  // basin they are handed: the table's cloth started from its truth every
+  // frame, mean e3D 0.0133 -> 0.0122 (its lifting corner's frames 12-14
+  // 0.0022-0.0092 -> 0.0015-0.0032, polysft_test); tracked, the flags
+  // 0.0165 -> 0.0153, the tables 0.0162 -> 0.0167, the rest within 0.3 mm
+  // (docs/benchmarks.md). Two renders of the moved frames and their
+  // regularisers per finer level; metrics.json counts the checks.
+  bool check_coarse_levels = true;
   // Levels of the image pyramid, coarsest first (3: 1/4, 1/2, full size).
   // 0: as many as bring the coarsest level to at most 128 px wide, and at
   // least 3 (3 at 320 px, 4 at 640, 5 at 1920): a frame's motion must fall
@@ -414,6 +427,10 @@ struct PolySftSummary {
   // The pyramid's levels (chosen by width when PolySftOptions::
   // pyramid_levels is 0).
   int pyramid_levels = 0;
+  // How often a frame went back to its start before a finer level
+  // (PolySftOptions::check_coarse_levels), of how often it was checked.
+  int coarse_moves_undone = 0;
+  int coarse_moves_checked = 0;
   double total_time_s = 0.0;
   double mean_time_per_frame_s = 0.0;
   double mean_e3d = std::numeric_limits<double>::quiet_NaN();

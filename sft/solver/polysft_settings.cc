@@ -59,6 +59,7 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("keep_detail", deformation.keep_detail),
         POLYFIT_SETTING("window_size", window_size),
         POLYFIT_SETTING("coarse_levels_newest_only", coarse_levels_newest_only),
+        POLYFIT_SETTING("check_coarse_levels", check_coarse_levels),
         POLYFIT_SETTING("pyramid_levels", pyramid_levels),
         POLYFIT_SETTING("max_image_width", max_image_width),
         POLYFIT_SETTING("max_iterations_per_level", max_iterations_per_level),
