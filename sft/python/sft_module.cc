@@ -53,6 +53,8 @@ void BindSummaries(py::module_& m) {
       .def_readonly("warnings", &PolySftSummary::warnings)
       .def_readonly("silhouette_band_px", &PolySftSummary::silhouette_band_px)
       .def_readonly("pyramid_levels", &PolySftSummary::pyramid_levels)
+      .def_readonly("coarse_moves_checked", &PolySftSummary::coarse_moves_checked)
+      .def_readonly("coarse_moves_undone", &PolySftSummary::coarse_moves_undone)
       .def_readonly("total_time_s", &PolySftSummary::total_time_s)
       .def_readonly("mean_time_per_frame_s", &PolySftSummary::mean_time_per_frame_s)
       .def_readonly("mean_e3d", &PolySftSummary::mean_e3d)

@@ -52,6 +52,9 @@ def test_polysft_equals_the_command_line(scene, tmp_path):
     # Chosen by the solver, as the command line records them.
     assert summary.silhouette_band_px == metrics["silhouette_band_px"] == 0.0  # exact generated masks
     assert summary.pyramid_levels == metrics["pyramid_levels"] == 3
+    assert (summary.coarse_moves_checked, summary.coarse_moves_undone) == (
+        metrics["coarse_moves"]["checked"], metrics["coarse_moves"]["undone"])
+    assert 0 <= summary.coarse_moves_undone <= summary.coarse_moves_checked
 
 
 def test_settings_are_the_command_lines(scene, tmp_path):

@@ -120,11 +120,13 @@ struct PolySftOptions {
   // surface whose truth the finer levels prefer, and those stay in the
   // basin they are handed: the table's cloth started from its truth every
   // frame, mean e3D 0.0133 -> 0.0122 (its lifting corner's frames 12-14
-  // 0.0022-0.0092 -> 0.0015-0.0032, polysft_test); tracked, the flags
-  // 0.0165 -> 0.0153, the tables 0.0162 -> 0.0167, the rest within 0.3 mm
-  // (docs/benchmarks.md). Two renders of the moved frames and their
-  // regularisers per finer level; metrics.json counts the checks.
-  bool check_coarse_levels = true;
+  // 0.0022-0.0092 -> 0.0015-0.0032, polysft_test). Tracked, a lower cost
+  // at a level's start is no better basin: on one thread the flags 0.0165
+  // -> 0.0153 and the tables 0.0162 -> 0.0167, on two the flags 0.0165 ->
+  // 0.0166 and a table lost (0.0158 -> 0.0718), 4-7% more time
+  // (docs/benchmarks.md). Off by default. Two renders of the moved frames
+  // and their regularisers per finer level; metrics.json counts the checks.
+  bool check_coarse_levels = false;
   // Levels of the image pyramid, coarsest first (3: 1/4, 1/2, full size).
   // 0: as many as bring the coarsest level to at most 128 px wide, and at
   // least 3 (3 at 320 px, 4 at 640, 5 at 1920): a frame's motion must fall

@@ -29,7 +29,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.relocalize = !changed.relocalize;
   changed.window_size = 5;
   changed.coarse_levels_newest_only = false;
-  changed.check_coarse_levels = false;
+  changed.check_coarse_levels = true;
   changed.pyramid_levels = 2;
   changed.max_image_width = 640;
   changed.max_iterations_per_level = 9;

@@ -351,7 +351,7 @@ TEST(PolySftTest, TheCoarseLevelsDoNotTakeAStartAwayFromItsTruth) {
   PolySftOptions options;
   options.num_threads = 2;
   options.ground_truth_start = GroundTruthStart::kThisFrame;
-  ASSERT_TRUE(options.check_coarse_levels);
+  options.check_coarse_levels = true;
   const PolySftSummary checked = SolvePolySft(options, scene);
   options.check_coarse_levels = false;
   const PolySftSummary unchecked = SolvePolySft(options, scene);
