@@ -123,7 +123,7 @@ struct PolySftOptions {
   // 0.0022-0.0092 -> 0.0015-0.0032, polysft_test). Tracked, a lower cost
   // at a level's start is no better basin: on one thread the flags 0.0165
   // -> 0.0153 and the tables 0.0162 -> 0.0167, on two the flags 0.0165 ->
-  // 0.0166 and a table lost (0.0158 -> 0.0718), 4-7% more time
+  // 0.0166 and a table lost (0.0158 -> 0.0718), up to 7% more time
   // (docs/benchmarks.md). Off by default. Two renders of the moved frames
   // and their regularisers per finer level; metrics.json counts the checks.
   bool check_coarse_levels = false;
