@@ -545,7 +545,7 @@ class PolySftController {
     }
     std::vector<double> predicted = last;
     for (size_t k = 0; k < predicted.size(); ++k) predicted[k] += last[k] - (*before)[k];
-    return CoarseImageCost(data, predicted.data()) < CoarseImageCost(data, last.data()) ? predicted : last;
+    return ImageCost(0, data, predicted.data()) < ImageCost(0, data, last.data()) ? predicted : last;
   }
 
   // Whether a solved frame fits far worse than the tracked frames (its
@@ -1049,14 +1049,11 @@ class PolySftController {
     if (frame.theta.size() != size || other.size() != size) {
       throw std::logic_error("PolySfT: parameters from before a split compared with the atlas after it");
     }
-    return CoarseImageCost(frame, frame.theta.data()) < CoarseImageCost(frame, other.data());
+    return ImageCost(0, frame, frame.theta.data()) < ImageCost(0, frame, other.data());
   }
 
-  // The image terms' cost of a frame at parameters theta, at the coarsest
-  // level (infinite when the surface is behind the camera).
-  double CoarseImageCost(const FrameData& frame, const double* theta) const { return ImageCost(0, frame, theta); }
-
-  // The same at level l.
+  // The image terms' cost of a frame at parameters theta, at level l
+  // (infinite when the surface is behind the camera).
   double ImageCost(int l, const FrameData& frame, const double* theta) const {
     RenderCost::Data d;
     ScreenMesh screen;
