@@ -15,6 +15,9 @@ std::string PatchAtlasOptions::Validate() const {
   if (initial_patches < 1) return "atlas.initial_patches must be >= 1";
   if (!(split_ratio >= 1.0)) return "atlas.split_ratio must be >= 1";
   if (!(split_significance > 0.0)) return "atlas.split_significance must be > 0";
+  if (!(hidden_split_share >= 0.0 && hidden_split_share <= 0.5)) {
+    return "atlas.hidden_split_share must be in [0, 0.5] (0: never)";
+  }
   if (!(split_min_step_pixels >= 0.0) || !std::isfinite(split_min_step_pixels)) {
     return "atlas.split_min_step_pixels must be finite and >= 0";
   }

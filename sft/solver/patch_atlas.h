@@ -56,6 +56,16 @@ struct PatchAtlasOptions {
   int children = 4;
   // A patch splits only when each child would have this many vertices.
   int min_vertices = 20;
+  // A patch that a nearer part of the surface hides in part (at least this
+  // share of its vertices hidden, and this share seen, in the newest
+  // frame's estimate) splits into its hidden and its seen vertices, the
+  // most even one after each frame: where a patch's jet holds both, the
+  // parts in view carry the hidden ones off with them (a folded table's
+  // hidden layer, centimetres behind the table). 0: never, the default.
+  // At 0.2 (with max_patches 32) the tables the solver keeps end at e3D
+  // 0.007-0.011 instead of 0.015-0.016, at about 2.5 times the time
+  // (docs/benchmarks.md); not yet measured on every scene.
+  double hidden_split_share = 0.0;
   // Seam continuity (SeamCost): positions (in template edge lengths) and
   // normals. Normals are left free by default: a crease on a seam is a
   // real shape, and only the images should decide it.

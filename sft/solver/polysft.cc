@@ -281,6 +281,7 @@ class PolySftController {
       if (!SolveWindow(&cost, &iterations)) break;
       frame_cost_[t] = cost;  // whether it is tracked, for RefineAtlas
       if (RefineAtlas(t) && !SolveWindow(&cost, &iterations)) break;
+      if (SplitAlongOcclusion(t) && !SolveWindow(&cost, &iterations)) break;
       RecoverLostFrame(t, &cost, &iterations);
       SecondOpinionOnNewCrease(t, &cost, &iterations);
       const bool misfit = t > 0 && CostRatio(cost) > kLostCostRatio;
@@ -1369,6 +1370,49 @@ class PolySftController {
       }
     }
     MeasureFeatureErrors();
+    return true;
+  }
+
+  // PatchAtlasOptions::hidden_split_share, after frame t's window is
+  // solved: true when a patch split, and the window must be solved again.
+  bool SplitAlongOcclusion(int t) {
+    const double min_share = options_.atlas.hidden_split_share;
+    if (!(min_share > 0.0) || t == 0 || !model_.can_split()) return false;
+    if (model_.num_patches() + 1 > options_.atlas.max_patches) return false;
+    FrameData& newest = *window_.back();
+    Eigen::Matrix3Xd vertices;
+    model_.Evaluate(newest.theta.data(), &vertices);
+    const LevelData& finest = levels_.back();
+    ScreenMesh screen = mesh_template_;
+    if (!ProjectVertices(finest.camera, vertices, &screen, nullptr)) return false;
+    const std::vector<std::uint8_t> occluded =
+        OccludedVertices(screen, finest.camera.width, finest.camera.height, kOccludedDepthTolerance * size_);
+    const std::vector<int> sizes = model_.PatchSizes();
+    int best = -1;
+    double best_balance = 0.0;
+    std::vector<int> hidden(model_.num_patches(), 0);  // per patch, its vertices hidden
+    for (int v = 0; v < model_.num_vertices(); ++v) hidden[model_.patch_of_vertex(v)] += occluded[v] ? 1 : 0;
+    for (int p = 0; p < model_.num_patches(); ++p) {
+      const int h = hidden[p], seen = sizes[p] - hidden[p];
+      if (h < 3 || seen < 3) continue;
+      const double share = static_cast<double>(std::min(h, seen)) / sizes[p];
+      if (share >= min_share && share > best_balance) best_balance = share, best = p;
+    }
+    if (best < 0) return false;
+    std::vector<int> child(model_.num_vertices(), -1);
+    for (int v = 0; v < model_.num_vertices(); ++v) {
+      if (model_.patch_of_vertex(v) == best) child[v] = occluded[v] ? 1 : 0;
+    }
+    const PatchSplit split = model_.SplitPatch(best, child);
+    for (auto& frame : window_) {
+      frame->theta = model_.InheritParameters(split, frame->theta);
+      frame->start = model_.InheritParameters(split, frame->start);
+    }
+    if (!finals_.empty()) previous_final_theta_ = model_.InheritParameters(split, previous_final_theta_);
+    atlas_terms_ = GroupAtlasTerms(model_, edges_, rest_lengths_, Hinges());
+    render_groups_ = MakePatchGroups(model_, scene_.template_mesh.faces);
+    failed_ratio_.assign(model_.num_patches(), 0.0);
+    summary_.splits.push_back({newest.frame.index, best, split.num_children, 0.0, 0.0, 0.0});
     return true;
   }
 

@@ -102,6 +102,7 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("seen_seam_position_weight", atlas.seen_seam_position_weight),
         POLYFIT_SETTING("seam_normal_weight", atlas.seam_normal_weight),
         POLYFIT_SETTING("seam_uv_weight", atlas.seam_uv_weight),
+        POLYFIT_SETTING("hidden_split_share", atlas.hidden_split_share),
         POLYFIT_SETTING("sigma", rasterizer.sigma),
         POLYFIT_SETTING("gamma", rasterizer.gamma),
         POLYFIT_SETTING("depth_softness", depth_softness),
