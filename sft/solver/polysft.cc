@@ -1182,6 +1182,16 @@ class PolySftController {
     return seen;
   }
 
+  // Per vertex (#V) of a surface at `vertices` (3 by #V), whether a nearer
+  // part of it hides the vertex in the finest level's view
+  // (OccludedVertices); empty when the surface is behind the camera.
+  std::vector<std::uint8_t> HiddenVertices(const Eigen::Matrix3Xd& vertices) const {
+    const LevelData& finest = levels_.back();
+    ScreenMesh screen = mesh_template_;
+    if (!ProjectVertices(finest.camera, vertices, &screen, nullptr)) return {};
+    return OccludedVertices(screen, finest.camera.width, finest.camera.height, kOccludedDepthTolerance * size_);
+  }
+
   // PolySftOptions::occluded_temporal_weight: window frame k's vertices
   // that another part of its surface hides (where its estimate is now)
   // held to where the frame before put them.
@@ -1196,11 +1206,8 @@ class PolySftController {
     } else {
       return;  // the first frame
     }
-    const LevelData& finest = levels_.back();
-    ScreenMesh screen = mesh_template_;
-    if (!ProjectVertices(finest.camera, vertices, &screen, nullptr)) return;
-    const std::vector<std::uint8_t> occluded =
-        OccludedVertices(screen, finest.camera.width, finest.camera.height, kOccludedDepthTolerance * size_);
+    const std::vector<std::uint8_t> occluded = HiddenVertices(vertices);
+    if (occluded.empty()) return;
     std::vector<std::vector<int>> per_patch(model_.num_patches());
     for (int v = 0; v < model_.num_vertices(); ++v) {
       if (occluded[v]) per_patch[model_.patch_of_vertex(v)].push_back(v);
@@ -1373,6 +1380,17 @@ class PolySftController {
     return true;
   }
 
+  // Splits patch p (SplitPatch's child_of_vertex) and carries the window's
+  // parameters, the frame before's and the atlas's terms over to it.
+  PatchSplit SplitPatchInPlace(int p, const std::vector<int>& child) {
+    const PatchSplit split = model_.SplitPatch(p, child);
+    for (auto& frame : window_) frame->theta = model_.InheritParameters(split, frame->theta);
+    if (!finals_.empty()) previous_final_theta_ = model_.InheritParameters(split, previous_final_theta_);
+    atlas_terms_ = GroupAtlasTerms(model_, edges_, rest_lengths_, Hinges());
+    render_groups_ = MakePatchGroups(model_, scene_.template_mesh.faces);
+    return split;
+  }
+
   // PatchAtlasOptions::hidden_split_share, after frame t's window is
   // solved: true when a patch split, and the window must be solved again.
   bool SplitAlongOcclusion(int t) {
@@ -1382,11 +1400,8 @@ class PolySftController {
     FrameData& newest = *window_.back();
     Eigen::Matrix3Xd vertices;
     model_.Evaluate(newest.theta.data(), &vertices);
-    const LevelData& finest = levels_.back();
-    ScreenMesh screen = mesh_template_;
-    if (!ProjectVertices(finest.camera, vertices, &screen, nullptr)) return false;
-    const std::vector<std::uint8_t> occluded =
-        OccludedVertices(screen, finest.camera.width, finest.camera.height, kOccludedDepthTolerance * size_);
+    const std::vector<std::uint8_t> occluded = HiddenVertices(vertices);
+    if (occluded.empty()) return false;
     const std::vector<int> sizes = model_.PatchSizes();
     int best = -1;
     double best_balance = 0.0;
@@ -1403,15 +1418,10 @@ class PolySftController {
     for (int v = 0; v < model_.num_vertices(); ++v) {
       if (model_.patch_of_vertex(v) == best) child[v] = occluded[v] ? 1 : 0;
     }
-    const PatchSplit split = model_.SplitPatch(best, child);
-    for (auto& frame : window_) {
-      frame->theta = model_.InheritParameters(split, frame->theta);
-      frame->start = model_.InheritParameters(split, frame->start);
-    }
-    if (!finals_.empty()) previous_final_theta_ = model_.InheritParameters(split, previous_final_theta_);
-    atlas_terms_ = GroupAtlasTerms(model_, edges_, rest_lengths_, Hinges());
-    render_groups_ = MakePatchGroups(model_, scene_.template_mesh.faces);
+    const PatchSplit split = SplitPatchInPlace(best, child);
+    for (auto& frame : window_) frame->start = model_.InheritParameters(split, frame->start);
     failed_ratio_.assign(model_.num_patches(), 0.0);
+    // No score test: its ratio, significance and step are 0.
     summary_.splits.push_back({newest.frame.index, best, split.num_children, 0.0, 0.0, 0.0});
     return true;
   }
@@ -1473,11 +1483,7 @@ class PolySftController {
     std::vector<std::vector<double>> thetas;
     for (auto& frame : window_) thetas.push_back(frame->theta);
     const std::vector<double> previous = previous_final_theta_;
-    const PatchSplit split = model_.SplitPatch(p, child);
-    for (auto& frame : window_) frame->theta = model_.InheritParameters(split, frame->theta);
-    if (!finals_.empty()) previous_final_theta_ = model_.InheritParameters(split, previous_final_theta_);
-    atlas_terms_ = GroupAtlasTerms(model_, edges_, rest_lengths_, Hinges());
-    render_groups_ = MakePatchGroups(model_, scene_.template_mesh.faces);
+    const PatchSplit split = SplitPatchInPlace(p, child);
     Eigen::VectorXd step;
     const double gain = PredictedDecrease(&step) - before;
     const double noise = (split.num_children - 1) * model_.block_size() * noise_cost_;
