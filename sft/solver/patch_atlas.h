@@ -62,8 +62,9 @@ struct PatchAtlasOptions {
   // most even one after each frame: where a patch's jet holds both, the
   // parts in view carry the hidden ones off with them (a folded table's
   // hidden layer, centimetres behind the table). 0: never, the default.
-  // At 0.2 (with max_patches 32) the tables the solver keeps end at e3D
-  // 0.007-0.011 instead of 0.015-0.016, at about 2.5 times the time
+  // At 0.2 (with max_patches 32) the simulated tables the solver keeps end
+  // at e3D 0.007-0.015 instead of 0.015-0.017 (but another table is lost,
+  // and the falls lose 0.0005), at 2.5-3 times the time a frame
   // (docs/benchmarks.md); not yet measured on every scene.
   double hidden_split_share = 0.0;
   // Seam continuity (SeamCost): positions (in template edge lengths) and
