@@ -1391,6 +1391,13 @@ class PolySftController {
     return split;
   }
 
+  // A split kept: each frame's start too (RecoverLostFrame compares
+  // against it), and every patch may be tested again (numbered anew).
+  void KeepSplit(const PatchSplit& split) {
+    for (auto& frame : window_) frame->start = model_.InheritParameters(split, frame->start);
+    failed_ratio_.assign(model_.num_patches(), 0.0);
+  }
+
   // PatchAtlasOptions::hidden_split_share, after frame t's window is
   // solved: true when a patch split, and the window must be solved again.
   bool SplitAlongOcclusion(int t) {
@@ -1419,8 +1426,7 @@ class PolySftController {
       if (model_.patch_of_vertex(v) == best) child[v] = occluded[v] ? 1 : 0;
     }
     const PatchSplit split = SplitPatchInPlace(best, child);
-    for (auto& frame : window_) frame->start = model_.InheritParameters(split, frame->start);
-    failed_ratio_.assign(model_.num_patches(), 0.0);
+    KeepSplit(split);
     // No score test: its ratio, significance and step are 0.
     summary_.splits.push_back({newest.frame.index, best, split.num_children, 0.0, 0.0, 0.0});
     return true;
@@ -1490,9 +1496,7 @@ class PolySftController {
     const double step_pixels = step.size() == model_.num_parameters() ? LargestStepPixels(newest, step, child) : 0.0;
     if (gain > options_.atlas.split_significance * noise && step_pixels >= options_.atlas.split_min_step_pixels) {
       summary_.splits.push_back({newest.frame.index, p, split.num_children, ratios[p], gain / noise, step_pixels});
-      // Each frame's start too, which RecoverLostFrame compares against.
-      for (auto& frame : window_) frame->start = model_.InheritParameters(split, frame->start);
-      failed_ratio_.assign(model_.num_patches(), 0.0);  // the patches are numbered anew
+      KeepSplit(split);
       return true;
     }
     model_ = unsplit;
