@@ -102,6 +102,70 @@ inline void WriteCompressedResiduals(const std::vector<int32_t>& sizes, double s
   }
 }
 
+// The same compression with R upper block-triangular over the parameter
+// blocks of `sizes` (block Cholesky, each diagonal block pivoted within
+// itself): block row i of R is zero left of block i, so it may be a
+// residual block over blocks i.. alone. A solver forming J^T J from k such
+// row blocks of b rows then multiplies sum_i b (k - i)^2 b^2 entries
+// instead of (k b)^3: about a third for k of 3 to 6.
+//   S = J^T J, g = J^T r; for i = 1..k:  S_ii = P^T L D L^T P,
+//   R_ii = D^(1/2) L^T P,  R_ij = D^(-1/2) L^-1 P S_ij,  r~_i = D^(-1/2) L^-1 P g_i,
+//   S_jl -= R_ij^T R_il,  g_j -= R_ij^T r~_i   (j, l > i)
+// Pivots below 1e-12 of J^T J's largest diagonal entry are dropped (their
+// rows are 0). residuals: n + 1, the last sqrt(|r|^2 - |r~|^2); factor:
+// n by n. Without jtj (cost only): residuals [0, ..., 0, |r|].
+inline void CompressBlockTriangular(const std::vector<int32_t>& sizes, double squared_norm, const Eigen::MatrixXd* jtj,
+                                    const Eigen::VectorXd* jtr, Eigen::VectorXd* residuals, Eigen::MatrixXd* factor) {
+  int n = 0;
+  for (const int32_t size : sizes) n += size;
+  residuals->setZero(n + 1);
+  if (jtj == nullptr) {
+    (*residuals)[n] = std::sqrt(std::max(0.0, squared_norm));
+    return;
+  }
+  // Kept per thread: fresh matrices of a few hundred columns cost more in
+  // page faults than the factorisation.
+  thread_local Eigen::MatrixXd schur, off, diagonal;
+  thread_local Eigen::VectorXd g, y;
+  thread_local Eigen::LDLT<Eigen::MatrixXd> ldlt;
+  schur = *jtj;
+  g = *jtr;
+  factor->setZero(n, n);
+  const double floor = 1e-12 * std::max(jtj->diagonal().maxCoeff(), 1e-300);
+  double compressed = 0.0;
+  for (size_t i = 0, c = 0; i < sizes.size(); c += sizes[i], ++i) {
+    const int b = sizes[i], rest = n - static_cast<int>(c) - b;
+    ldlt.compute(schur.block(c, c, b, b));
+    const Eigen::VectorXd& d = ldlt.vectorD();
+    const auto& pivots = ldlt.transpositionsP();
+    // L^-1 P [S_i,rest  g_i]
+    off = pivots * schur.block(c, c + b, b, rest);
+    y = pivots * g.segment(c, b);
+    ldlt.matrixL().solveInPlace(off);
+    ldlt.matrixL().solveInPlace(y);
+    diagonal = ldlt.matrixU();
+    diagonal = diagonal * Eigen::PermutationMatrix<Eigen::Dynamic>(pivots);
+    for (int k = 0; k < b; ++k) {
+      if (!(d[k] > floor)) {
+        off.row(k).setZero();
+        y[k] = 0.0;
+        continue;
+      }
+      const double s = std::sqrt(d[k]);
+      factor->block(c + k, c, 1, b) = s * diagonal.row(k);
+      off.row(k) /= s;
+      y[k] /= s;
+      (*residuals)[c + k] = y[k];
+      compressed += y[k] * y[k];
+    }
+    if (rest == 0) continue;
+    factor->block(c, c + b, b, rest) = off;
+    schur.block(c + b, c + b, rest, rest).noalias() -= off.transpose() * off;
+    g.segment(c + b, rest).noalias() -= off.transpose() * y;
+  }
+  (*residuals)[n] = std::sqrt(std::max(0.0, squared_norm - compressed));
+}
+
 // The compression for terms that can form their normal equations directly
 // (without the m by n Jacobian): subclasses give |r|^2, J^T J and J^T r.
 class NormalEquationsCost : public ceres::CostFunction {

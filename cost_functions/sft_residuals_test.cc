@@ -197,5 +197,37 @@ TEST(CompressedCostTest, LargeSystemsCompressByPivotedCholesky) {
   EXPECT_LT((js.transpose() * js - jtj).norm(), 1e-9 * jtj.norm());
 }
 
+// Block-triangular: the same cost, gradient and Gauss-Newton model, with
+// block row i zero left of block i, also when a block's columns are zero
+// or repeated (rank-deficient pivots) and a block is all zero.
+TEST(CompressedCostTest, BlockTriangularKeepsTheModelAndItsZeros) {
+  const std::vector<int32_t> sizes = {5, 7, 3, 6};
+  const int m = 60, n = 21;
+  std::srand(5);
+  Eigen::MatrixXd j = Eigen::MatrixXd::Random(m, n);
+  j.col(2).setZero();
+  j.col(8) = j.col(6);
+  j.col(19) = 2.0 * j.col(3);
+  j.middleCols(12, 3).setZero();
+  const Eigen::VectorXd r = Eigen::VectorXd::Random(m);
+  const Eigen::MatrixXd jtj = j.transpose() * j;
+  const Eigen::VectorXd jtr = j.transpose() * r;
+  Eigen::VectorXd residuals;
+  Eigen::MatrixXd factor;
+  CompressBlockTriangular(sizes, r.squaredNorm(), &jtj, &jtr, &residuals, &factor);
+  ASSERT_EQ(residuals.size(), n + 1);
+  ASSERT_EQ(factor.rows(), n);
+  EXPECT_NEAR(residuals.squaredNorm(), r.squaredNorm(), 1e-9 * r.squaredNorm());
+  EXPECT_LT((factor.transpose() * residuals.head(n) - jtr).norm(), 1e-9 * jtr.norm());
+  EXPECT_LT((factor.transpose() * factor - jtj).norm(), 1e-9 * jtj.norm());
+  for (int i = 0, c = 0; i < static_cast<int>(sizes.size()); c += sizes[i], ++i) {
+    EXPECT_EQ(factor.block(c, 0, sizes[i], c).norm(), 0.0) << "block row " << i;
+  }
+  EXPECT_EQ(factor.middleRows(12, 3).norm(), 0.0);  // an all-zero block
+  // Cost only.
+  CompressBlockTriangular(sizes, r.squaredNorm(), nullptr, nullptr, &residuals, &factor);
+  EXPECT_NEAR(residuals.squaredNorm(), r.squaredNorm(), 1e-12 * r.squaredNorm());
+}
+
 }  // namespace
 }  // namespace polyfit

@@ -453,21 +453,21 @@ PatchGroups MakePatchGroups(const JetDeformationModel& model, const Eigen::Matri
 
 namespace {
 
-// A residual block of a SplitRenderTerm: group g's compressed rows.
+// A residual block of a SplitRenderTerm: row block i of group g.
 class RenderGroupCost : public ceres::CostFunction {
  public:
-  RenderGroupCost(const SplitRenderTerm* term, int g, int block_size) : term_(term), g_(g) {
+  RenderGroupCost(const SplitRenderTerm* term, int g, int i, int block_size) : term_(term), g_(g), i_(i) {
     const int n = static_cast<int>(term->group(g).size());
-    for (int i = 0; i < n; ++i) mutable_parameter_block_sizes()->push_back(block_size);
-    set_num_residuals(n * block_size + 1);
+    for (int k = i; k < n; ++k) mutable_parameter_block_sizes()->push_back(block_size);
+    set_num_residuals(block_size + (i + 1 == n ? 1 : 0));
   }
   bool Evaluate(double const* const*, double* residuals, double** jacobians) const override {
-    return term_->Write(g_, residuals, jacobians);
+    return term_->Write(g_, i_, residuals, jacobians);
   }
 
  private:
   const SplitRenderTerm* term_;
-  int g_;
+  int g_, i_;
 };
 
 }  // namespace
@@ -476,22 +476,48 @@ SplitRenderTerm::SplitRenderTerm(RenderCost::Data data, PatchGroups groups, cons
     : cost_(std::move(data)),
       groups_(std::move(groups)),
       theta_(theta),
-      block_size_(cost_.parameter_block_sizes()[0]) {}
+      block_size_(cost_.parameter_block_sizes()[0]) {
+  for (size_t g = 0; g < groups_.groups.size(); ++g) factored_.push_back(std::make_unique<Factored>());
+}
 
 bool SplitRenderTerm::Prepare(bool jacobians, bool new_point) {
   if (!new_point && (have_jacobians_ || !jacobians)) return ok_;
   ok_ = cost_.EvaluateGroupNormalEquations(theta_, groups_, jacobians, &systems_);
   have_jacobians_ = jacobians;
+  ++generation_;
   return ok_;
 }
 
-ceres::CostFunction* SplitRenderTerm::NewGroupCost(int g) const { return new RenderGroupCost(this, g, block_size_); }
+ceres::CostFunction* SplitRenderTerm::NewGroupCost(int g, int i) const {
+  return new RenderGroupCost(this, g, i, block_size_);
+}
 
-bool SplitRenderTerm::Write(int g, double* residuals, double** jacobians) const {
+bool SplitRenderTerm::Write(int g, int i, double* residuals, double** jacobians) const {
   if (!ok_ || (jacobians != nullptr && !have_jacobians_)) return false;
   const RenderCost::GroupSystem& system = systems_[g];
-  const std::vector<int32_t> sizes(groups_.groups[g].size(), block_size_);
-  WriteCompressedResiduals(sizes, system.squared_norm, system.jtj, system.jtr, residuals, jacobians);
+  const int members = static_cast<int>(groups_.groups[g].size()), b = block_size_;
+  const bool last = i + 1 == members;
+  Eigen::Map<Eigen::VectorXd> out(residuals, b + (last ? 1 : 0));
+  if (jacobians == nullptr) {  // the cost alone: all of it in the last row
+    out.setZero();
+    if (last) out[b] = std::sqrt(std::max(0.0, system.squared_norm));
+    return true;
+  }
+  Factored& f = *factored_[g];
+  std::lock_guard<std::mutex> lock(f.mutex);
+  if (f.generation != generation_) {
+    const std::vector<int32_t> sizes(members, b);
+    CompressBlockTriangular(sizes, system.squared_norm, &system.jtj, &system.jtr, &f.residuals, &f.factor);
+    f.generation = generation_;
+  }
+  out = f.residuals.segment(i * b, out.size());
+  for (int k = i; k < members; ++k) {
+    double* jacobian = jacobians[k - i];
+    if (jacobian == nullptr) continue;
+    Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> jac(jacobian, out.size(), b);
+    jac.topRows(b) = f.factor.block(i * b, k * b, b, b);
+    if (last) jac.row(b).setZero();
+  }
   return true;
 }
 

@@ -7,6 +7,8 @@
 #define POLYFIT_SFT_SOLVER_FRAME_COSTS_H_
 
 #include <array>
+#include <memory>
+#include <mutex>
 #include <vector>
 
 #include <ceres/cost_function.h>
@@ -169,11 +171,14 @@ class RenderCost : public ceres::CostFunction {
 // another dropped. One patch: one group.
 PatchGroups MakePatchGroups(const JetDeformationModel& model, const Eigen::Matrix3Xi& faces);
 
-// One frame's render term split by PatchGroups: a RenderGroupCost per
-// group reads what Prepare computed at the parameters in `theta` (the
-// frame's blocks, contiguous). Ceres calls Prepare through
-// RenderTermCallback before every evaluation, so the frame is rendered
-// once however many groups read it.
+// One frame's render term split by PatchGroups: group g's normal
+// equations compressed block-triangular (CompressBlockTriangular), one
+// residual block per member i over members i.. (NewGroupCost(g, i)), read
+// from what Prepare computed at the parameters in `theta` (the frame's
+// blocks, contiguous). Ceres calls Prepare through RenderTermCallback
+// before every evaluation, so the frame is rendered once however many
+// groups read it, and each group factorised once however many of its row
+// blocks are evaluated.
 class SplitRenderTerm {
  public:
   SplitRenderTerm(RenderCost::Data data, PatchGroups groups, const double* theta);
@@ -182,19 +187,30 @@ class SplitRenderTerm {
   bool Prepare(bool jacobians, bool new_point);
   int num_groups() const { return static_cast<int>(groups_.groups.size()); }
   const std::vector<int>& group(int g) const { return groups_.groups[g]; }
-  // A cost over group g's patches' blocks; Ceres takes ownership.
-  ceres::CostFunction* NewGroupCost(int g) const;
-  // The compressed residuals (n_g + 1) and Jacobians of group g, as
-  // WriteCompressedResiduals gives them.
-  bool Write(int g, double* residuals, double** jacobians) const;
+  // Row block i of group g, over the blocks of group(g)[i..]; Ceres takes
+  // ownership.
+  ceres::CostFunction* NewGroupCost(int g, int i) const;
+  // Row block i of group g's compressed residuals (block_size rows, one
+  // more for the last member) and its Jacobians (over members i..).
+  bool Write(int g, int i, double* residuals, double** jacobians) const;
 
  private:
+  // A group's compression at the current point (generation), factorised
+  // by the first of its row blocks that Ceres evaluates.
+  struct Factored {
+    std::mutex mutex;
+    int generation = -1;
+    Eigen::VectorXd residuals;
+    Eigen::MatrixXd factor;
+  };
   RenderCost cost_;
   PatchGroups groups_;
   const double* theta_;
   int block_size_;
   bool ok_ = false, have_jacobians_ = false;
+  int generation_ = 0;
   std::vector<RenderCost::GroupSystem> systems_;
+  std::vector<std::unique_ptr<Factored>> factored_;
 };
 
 // Prepares every SplitRenderTerm of a problem before Ceres evaluates it,

@@ -732,21 +732,24 @@ TEST_F(AtlasCostsTest, TheRenderTermSplitByPatchGroupsIsTheSameProblem) {
     rtr_r->setZero(P);
     for (int g = 0; g < split.num_groups(); ++g) {
       const std::vector<int>& members = split.group(g);
-      const int n = static_cast<int>(members.size()) * b;
-      std::vector<double> r(n + 1);
-      std::vector<std::vector<double>> j(members.size(), std::vector<double>(static_cast<size_t>(n + 1) * b));
-      std::vector<double*> jacobians;
-      for (auto& block : j) jacobians.push_back(block.data());
-      ASSERT_TRUE(split.Write(g, r.data(), jacobians.data()));
-      const Eigen::Map<const Eigen::VectorXd> R(r.data(), n + 1);
-      *cost += R.squaredNorm();
-      using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-      for (size_t i = 0; i < members.size(); ++i) {
-        const Eigen::Map<const RowMajor> Ji(j[i].data(), n + 1, b);
-        rtr_r->segment(b * members[i], b) += Ji.transpose() * R;
-        for (size_t k = 0; k < members.size(); ++k) {
-          rtr->block(b * members[i], b * members[k], b, b) +=
-              Ji.transpose() * Eigen::Map<const RowMajor>(j[k].data(), n + 1, b);
+      const int k = static_cast<int>(members.size());
+      for (int i = 0; i < k; ++i) {  // row block i, over members i..
+        const int rows = b + (i + 1 == k ? 1 : 0);
+        std::vector<double> r(rows);
+        std::vector<std::vector<double>> j(k - i, std::vector<double>(static_cast<size_t>(rows) * b));
+        std::vector<double*> jacobians;
+        for (auto& block : j) jacobians.push_back(block.data());
+        ASSERT_TRUE(split.Write(g, i, r.data(), jacobians.data()));
+        const Eigen::Map<const Eigen::VectorXd> R(r.data(), rows);
+        *cost += R.squaredNorm();
+        using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+        for (int a = i; a < k; ++a) {
+          const Eigen::Map<const RowMajor> Ja(j[a - i].data(), rows, b);
+          rtr_r->segment(b * members[a], b) += Ja.transpose() * R;
+          for (int c = i; c < k; ++c) {
+            rtr->block(b * members[a], b * members[c], b, b) +=
+                Ja.transpose() * Eigen::Map<const RowMajor>(j[c - i].data(), rows, b);
+          }
         }
       }
     }
@@ -774,9 +777,12 @@ TEST_F(AtlasCostsTest, TheRenderTermSplitByPatchGroupsIsTheSameProblem) {
   ceres::Problem problem(options);
   for (int p = 0; p < model_->num_patches(); ++p) problem.AddParameterBlock(theta_.data() + b * p, b);
   for (int g = 0; g < split.num_groups(); ++g) {
-    std::vector<double*> blocks;
-    for (int p : split.group(g)) blocks.push_back(theta_.data() + b * p);
-    problem.AddResidualBlock(split.NewGroupCost(g), nullptr, blocks);
+    const std::vector<int>& members = split.group(g);
+    for (size_t i = 0; i < members.size(); ++i) {
+      std::vector<double*> blocks;
+      for (size_t k = i; k < members.size(); ++k) blocks.push_back(theta_.data() + b * members[k]);
+      problem.AddResidualBlock(split.NewGroupCost(g, static_cast<int>(i)), nullptr, blocks);
+    }
   }
   double ceres_cost = 0.0;
   std::vector<double> gradient;

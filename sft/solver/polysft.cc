@@ -908,9 +908,12 @@ class PolySftController {
       const SplitRenderTerm& term = *split->terms.back();
       split->callback.Add(split->terms.back().get());
       for (int g = 0; g < term.num_groups(); ++g) {
-        std::vector<double*> group_blocks;
-        for (int p : term.group(g)) group_blocks.push_back(blocks[p]);
-        problem->AddResidualBlock(term.NewGroupCost(g), nullptr, group_blocks);
+        const std::vector<int>& members = term.group(g);
+        for (size_t i = 0; i < members.size(); ++i) {
+          std::vector<double*> row_blocks;
+          for (size_t k = i; k < members.size(); ++k) row_blocks.push_back(blocks[members[k]]);
+          problem->AddResidualBlock(term.NewGroupCost(g, static_cast<int>(i)), nullptr, row_blocks);
+        }
       }
     }
     AddSilhouetteReach(l, frame, problem);
