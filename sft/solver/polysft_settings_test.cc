@@ -49,7 +49,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.silhouette_band = 4.5;
   changed.relax_mask_border = false;
   changed.match_brightness = false;
-  changed.predict_motion = true;
+  changed.predict_motion = false;
   changed.ground_truth_start = GroundTruthStart::kFrameBefore;
   changed.rasterizer.sigma = 2.5;
   changed.rasterizer.gamma = 0.2;
