@@ -477,7 +477,10 @@ SplitRenderTerm::SplitRenderTerm(RenderCost::Data data, PatchGroups groups, cons
       groups_(std::move(groups)),
       theta_(theta),
       block_size_(cost_.parameter_block_sizes()[0]) {
-  for (size_t g = 0; g < groups_.groups.size(); ++g) factored_.push_back(std::make_unique<Factored>());
+  for (const std::vector<int>& members : groups_.groups) {
+    factored_.push_back(std::make_unique<Factored>());
+    factored_.back()->sizes.assign(members.size(), block_size_);
+  }
 }
 
 bool SplitRenderTerm::Prepare(bool jacobians, bool new_point) {
@@ -506,8 +509,7 @@ bool SplitRenderTerm::Write(int g, int i, double* residuals, double** jacobians)
   Factored& f = *factored_[g];
   std::lock_guard<std::mutex> lock(f.mutex);
   if (f.generation != generation_) {
-    const std::vector<int32_t> sizes(members, b);
-    CompressBlockTriangular(sizes, system.squared_norm, &system.jtj, &system.jtr, &f.residuals, &f.factor);
+    CompressBlockTriangular(f.sizes, system.squared_norm, &system.jtj, &system.jtr, &f.residuals, &f.factor);
     f.generation = generation_;
   }
   out = f.residuals.segment(i * b, out.size());

@@ -200,6 +200,7 @@ class SplitRenderTerm {
   struct Factored {
     std::mutex mutex;
     int generation = -1;
+    std::vector<int32_t> sizes;  // the members' block sizes
     Eigen::VectorXd residuals;
     Eigen::MatrixXd factor;
   };
