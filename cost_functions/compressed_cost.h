@@ -33,78 +33,9 @@
 
 namespace polyfit {
 
-// Writes the compressed residuals (n + 1) and Jacobians (row-major, one per
-// parameter block of `sizes`) of a term with |r|^2 = squared_norm and
-// normal equations J^T J, J^T r. Without jacobians, only the cost.
-// Above this many parameters, compress by Cholesky instead of by
-// eigendecomposition.
-constexpr int kCompressedEigenLimit = 64;
-
-inline void WriteCompressedResiduals(const std::vector<int32_t>& sizes, double squared_norm, const Eigen::MatrixXd& jtj,
-                                     const Eigen::VectorXd& jtr, double* residuals, double** jacobians) {
-  const int n = static_cast<int>(jtr.size());
-  Eigen::Map<Eigen::VectorXd> out(residuals, n + 1);
-  out.setZero();
-  if (jacobians == nullptr) {
-    out[n] = std::sqrt(std::max(0.0, squared_norm));
-    return;
-  }
-  Eigen::MatrixXd r_matrix;
-  const Eigen::MatrixXd* r = &r_matrix;  // R
-  double compressed = 0.0;
-  if (n <= kCompressedEigenLimit) {
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(jtj);
-    const Eigen::VectorXd& lambda = eigen.eigenvalues();
-    const double floor = 1e-12 * std::max(lambda.maxCoeff(), 1e-300);
-    r_matrix.setZero(n, n);  // R, row i for eigenvector i
-    for (int i = 0; i < n; ++i) {
-      if (!(lambda[i] > floor)) continue;
-      const double s = std::sqrt(lambda[i]);
-      r_matrix.row(i) = s * eigen.eigenvectors().col(i).transpose();
-      out[i] = eigen.eigenvectors().col(i).dot(jtr) / s;
-      compressed += out[i] * out[i];
-    }
-  } else {
-    // Large systems (a patch atlas): pivoted Cholesky, ten times cheaper,
-    //   J^T J = P^T L D L^T P,  R = D^(1/2) L^T P,  r~ = D^(-1/2) L^-1 P J^T r,
-    // pivots below 1e-12 of the largest dropped as above.
-    // Kept per thread: at a few hundred parameters, fresh matrices cost
-    // more in page faults than the factorisation.
-    thread_local Eigen::LDLT<Eigen::MatrixXd> ldlt;
-    thread_local Eigen::MatrixXd factor;
-    thread_local Eigen::VectorXd y;
-    ldlt.compute(jtj);
-    const Eigen::VectorXd& d = ldlt.vectorD();
-    const double floor = 1e-12 * std::max(d.maxCoeff(), 1e-300);
-    y = ldlt.transpositionsP() * jtr;
-    ldlt.matrixL().solveInPlace(y);
-    factor = ldlt.matrixU();
-    factor = factor * Eigen::PermutationMatrix<Eigen::Dynamic>(ldlt.transpositionsP());
-    for (int i = 0; i < n; ++i) {
-      if (!(d[i] > floor)) {
-        factor.row(i).setZero();
-        continue;
-      }
-      const double s = std::sqrt(d[i]);
-      factor.row(i) *= s;
-      out[i] = y[i] / s;
-      compressed += out[i] * out[i];
-    }
-    r = &factor;
-  }
-  out[n] = std::sqrt(std::max(0.0, squared_norm - compressed));
-  for (size_t b = 0, cb = 0; b < sizes.size(); cb += sizes[b], ++b) {
-    if (jacobians[b] == nullptr) continue;
-    Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> jac(jacobians[b], n + 1,
-                                                                                           sizes[b]);
-    jac.topRows(n) = r->middleCols(cb, sizes[b]);
-    jac.row(n).setZero();
-  }
-}
-
-// The same compression with R upper block-triangular over the parameter
-// blocks of `sizes` (block Cholesky, each diagonal block pivoted within
-// itself): block row i of R is zero left of block i, so it may be a
+// The compression below (WriteCompressedResiduals) with R upper
+// block-triangular over the parameter blocks of `sizes` (block Cholesky,
+// each diagonal block pivoted within itself): block row i of R is zero left of block i, so it may be a
 // residual block over blocks i.. alone. A solver forming J^T J from k such
 // row blocks of b rows then multiplies sum_i b (k - i)^2 b^2 entries
 // instead of (k b)^3: about a third for k of 3 to 6.
@@ -164,6 +95,62 @@ inline void CompressBlockTriangular(const std::vector<int32_t>& sizes, double sq
     g.segment(c + b, rest).noalias() -= off.transpose() * y;
   }
   (*residuals)[n] = std::sqrt(std::max(0.0, squared_norm - compressed));
+}
+
+// Writes the compressed residuals (n + 1) and Jacobians (row-major, one per
+// parameter block of `sizes`) of a term with |r|^2 = squared_norm and
+// normal equations J^T J, J^T r. Without jacobians, only the cost.
+// Above this many parameters, compress by Cholesky instead of by
+// eigendecomposition.
+constexpr int kCompressedEigenLimit = 64;
+
+inline void WriteCompressedResiduals(const std::vector<int32_t>& sizes, double squared_norm, const Eigen::MatrixXd& jtj,
+                                     const Eigen::VectorXd& jtr, double* residuals, double** jacobians) {
+  const int n = static_cast<int>(jtr.size());
+  Eigen::Map<Eigen::VectorXd> out(residuals, n + 1);
+  out.setZero();
+  if (jacobians == nullptr) {
+    out[n] = std::sqrt(std::max(0.0, squared_norm));
+    return;
+  }
+  Eigen::MatrixXd r_matrix;
+  const Eigen::MatrixXd* r = &r_matrix;  // R
+  double compressed = 0.0;
+  if (n <= kCompressedEigenLimit) {
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(jtj);
+    const Eigen::VectorXd& lambda = eigen.eigenvalues();
+    const double floor = 1e-12 * std::max(lambda.maxCoeff(), 1e-300);
+    r_matrix.setZero(n, n);  // R, row i for eigenvector i
+    for (int i = 0; i < n; ++i) {
+      if (!(lambda[i] > floor)) continue;
+      const double s = std::sqrt(lambda[i]);
+      r_matrix.row(i) = s * eigen.eigenvectors().col(i).transpose();
+      out[i] = eigen.eigenvectors().col(i).dot(jtr) / s;
+      compressed += out[i] * out[i];
+    }
+  } else {
+    // Large systems (a patch atlas): pivoted Cholesky, ten times cheaper,
+    // CompressBlockTriangular's with one block:
+    //   J^T J = P^T L D L^T P,  R = D^(1/2) L^T P,  r~ = D^(-1/2) L^-1 P J^T r.
+    // Kept per thread: at a few hundred parameters, fresh matrices cost
+    // more in page faults than the factorisation.
+    thread_local Eigen::MatrixXd factor;
+    thread_local Eigen::VectorXd triangular;
+    thread_local std::vector<int32_t> one_block(1);
+    one_block[0] = n;
+    CompressBlockTriangular(one_block, squared_norm, &jtj, &jtr, &triangular, &factor);
+    out.head(n) = triangular.head(n);
+    compressed = triangular.head(n).squaredNorm();
+    r = &factor;
+  }
+  out[n] = std::sqrt(std::max(0.0, squared_norm - compressed));
+  for (size_t b = 0, cb = 0; b < sizes.size(); cb += sizes[b], ++b) {
+    if (jacobians[b] == nullptr) continue;
+    Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> jac(jacobians[b], n + 1,
+                                                                                           sizes[b]);
+    jac.topRows(n) = r->middleCols(cb, sizes[b]);
+    jac.row(n).setZero();
+  }
 }
 
 // The compression for terms that can form their normal equations directly
