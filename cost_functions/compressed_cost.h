@@ -35,16 +35,117 @@ namespace polyfit {
 
 // The compression below (WriteCompressedResiduals) with R upper
 // block-triangular over the parameter blocks of `sizes` (block Cholesky,
-// each diagonal block pivoted within itself): block row i of R is zero left of block i, so it may be a
-// residual block over blocks i.. alone. A solver forming J^T J from k such
-// row blocks of b rows then multiplies sum_i b (k - i)^2 b^2 entries
-// instead of (k b)^3: about a third for k of 3 to 6.
+// each diagonal block pivoted within itself): block row i of R is zero left
+// of block i, and right of it wherever `later` says so, so it may be a
+// residual block over block i and later[i] alone. A solver forming J^T J
+// from such row blocks multiplies sum_i b (1 + |later[i]|)^2 b^2 entries
+// instead of (k b)^3 for k blocks of b.
 //   S = J^T J, g = J^T r; for i = 1..k:  S_ii = P^T L D L^T P,
 //   R_ii = D^(1/2) L^T P,  R_ij = D^(-1/2) L^-1 P S_ij,  r~_i = D^(-1/2) L^-1 P g_i,
-//   S_jl -= R_ij^T R_il,  g_j -= R_ij^T r~_i   (j, l > i)
-// Pivots below 1e-12 of J^T J's largest diagonal entry are dropped (their
-// rows are 0). residuals: n + 1, the last sqrt(|r|^2 - |r~|^2); factor:
-// n by n. Without jtj (cost only): residuals [0, ..., 0, |r|].
+//   S_jl -= R_ij^T R_il,  g_j -= R_ij^T r~_i   (j <= l, both in later[i])
+// later[i]: the blocks j > i (ascending) where R_ij may be nonzero, that is
+// S's block pattern with the fill of eliminating blocks in order
+// (BlockFill); every other R_ij is zero and never touched. Pivots below
+// `floor` are dropped (their rows are 0).
+//   schur:  in, S's blocks (i, i) and (i, j in later[i]) (upper; the
+//           diagonal blocks whole); the rest is not read. Overwritten.
+//   g:      in, J^T r (n). Overwritten.
+//   rows:   out, row block i of R: sizes[i] by sizes[i] + sum of
+//           sizes[later[i]], blocks i, later[i]... side by side.
+//   residuals: out, r~ (n) and sqrt(|r|^2 - |r~|^2) (n + 1).
+inline void CompressBlockSparse(const std::vector<int32_t>& sizes, const std::vector<std::vector<int>>& later,
+                                double squared_norm, double floor, Eigen::MatrixXd* schur, Eigen::VectorXd* g,
+                                std::vector<Eigen::MatrixXd>* rows, Eigen::VectorXd* residuals) {
+  const size_t k = sizes.size();
+  // Kept per thread: fresh matrices of a few hundred columns cost more in
+  // page faults than the factorisation.
+  thread_local std::vector<Eigen::Index> offset;
+  thread_local Eigen::MatrixXd off, diagonal;
+  thread_local Eigen::VectorXd y;
+  thread_local Eigen::LDLT<Eigen::MatrixXd> ldlt;
+  offset.assign(k + 1, 0);
+  for (size_t i = 0; i < k; ++i) offset[i + 1] = offset[i] + sizes[i];
+  const Eigen::Index n = offset[k];
+  residuals->setZero(n + 1);
+  rows->resize(k);
+  double compressed = 0.0;
+  for (size_t i = 0; i < k; ++i) {
+    const Eigen::Index c = offset[i], b = sizes[i];
+    const std::vector<int>& right = later[i];
+    Eigen::Index width = 0;
+    for (const int j : right) width += sizes[j];
+    ldlt.compute(schur->block(c, c, b, b));
+    const Eigen::VectorXd& d = ldlt.vectorD();
+    const auto& pivots = ldlt.transpositionsP();
+    // L^-1 P [S_i,later  g_i]
+    off.resize(b, width);
+    for (Eigen::Index j = 0, w = 0; j < static_cast<Eigen::Index>(right.size()); w += sizes[right[j]], ++j) {
+      off.middleCols(w, sizes[right[j]]) = schur->block(c, offset[right[j]], b, sizes[right[j]]);
+    }
+    off = pivots * off;
+    y = pivots * g->segment(c, b);
+    ldlt.matrixL().solveInPlace(off);
+    ldlt.matrixL().solveInPlace(y);
+    diagonal = ldlt.matrixU();
+    diagonal = diagonal * Eigen::PermutationMatrix<Eigen::Dynamic>(pivots);
+    Eigen::MatrixXd& row = (*rows)[i];
+    row.resize(b, b + width);
+    for (Eigen::Index r = 0; r < b; ++r) {
+      if (!(d[r] > floor)) {
+        off.row(r).setZero();
+        y[r] = 0.0;
+        row.row(r).head(b).setZero();
+        continue;
+      }
+      const double s = std::sqrt(d[r]);
+      row.row(r).head(b) = s * diagonal.row(r);
+      off.row(r) /= s;
+      y[r] /= s;
+      (*residuals)[c + r] = y[r];
+      compressed += y[r] * y[r];
+    }
+    if (width == 0) continue;
+    row.rightCols(width) = off;
+    for (Eigen::Index j = 0, wj = 0; j < static_cast<Eigen::Index>(right.size()); wj += sizes[right[j]], ++j) {
+      const Eigen::Index cj = offset[right[j]], bj = sizes[right[j]];
+      g->segment(cj, bj).noalias() -= off.middleCols(wj, bj).transpose() * y;
+      for (Eigen::Index l = j, wl = wj; l < static_cast<Eigen::Index>(right.size()); wl += sizes[right[l]], ++l) {
+        schur->block(cj, offset[right[l]], bj, sizes[right[l]]).noalias() -=
+            off.middleCols(wj, bj).transpose() * off.middleCols(wl, sizes[right[l]]);
+      }
+    }
+  }
+  (*residuals)[n] = std::sqrt(std::max(0.0, squared_norm - compressed));
+}
+
+// For CompressBlockSparse: the blocks j > i of row block i of R, given
+// S's block pattern `adjacent` (k lists, block i's neighbours, symmetric):
+// the pattern with the fill of eliminating the blocks in order (each
+// block's later neighbours become adjacent to one another).
+inline std::vector<std::vector<int>> BlockFill(const std::vector<std::vector<int>>& adjacent) {
+  const size_t k = adjacent.size();
+  std::vector<std::vector<int>> later(k);
+  for (size_t i = 0; i < k; ++i) {
+    for (const int j : adjacent[i]) {
+      if (j > static_cast<int>(i)) later[i].push_back(j);
+    }
+  }
+  for (size_t i = 0; i < k; ++i) {
+    std::sort(later[i].begin(), later[i].end());
+    later[i].erase(std::unique(later[i].begin(), later[i].end()), later[i].end());
+    // Eliminating i joins its later neighbours: the first inherits the rest.
+    if (later[i].size() > 1) {
+      std::vector<int>& first = later[later[i][0]];
+      first.insert(first.end(), later[i].begin() + 1, later[i].end());
+    }
+  }
+  return later;
+}
+
+// CompressBlockSparse with every R_ij (j > i) kept, on dense S and g; R as
+// one n by n matrix (factor, zero below its diagonal blocks). Pivots below
+// 1e-12 of J^T J's largest diagonal entry are dropped. Without jtj (cost
+// only): residuals [0, ..., 0, |r|].
 inline void CompressBlockTriangular(const std::vector<int32_t>& sizes, double squared_norm, const Eigen::MatrixXd* jtj,
                                     const Eigen::VectorXd* jtr, Eigen::VectorXd* residuals, Eigen::MatrixXd* factor) {
   int n = 0;
@@ -54,47 +155,23 @@ inline void CompressBlockTriangular(const std::vector<int32_t>& sizes, double sq
     (*residuals)[n] = std::sqrt(std::max(0.0, squared_norm));
     return;
   }
-  // Kept per thread: fresh matrices of a few hundred columns cost more in
-  // page faults than the factorisation.
-  thread_local Eigen::MatrixXd schur, off, diagonal;
-  thread_local Eigen::VectorXd g, y;
-  thread_local Eigen::LDLT<Eigen::MatrixXd> ldlt;
+  thread_local Eigen::MatrixXd schur;
+  thread_local Eigen::VectorXd g;
+  thread_local std::vector<Eigen::MatrixXd> rows;
+  thread_local std::vector<std::vector<int>> later;
+  later.resize(sizes.size());
+  for (size_t i = 0; i < sizes.size(); ++i) {
+    later[i].clear();
+    for (size_t j = i + 1; j < sizes.size(); ++j) later[i].push_back(static_cast<int>(j));
+  }
   schur = *jtj;
   g = *jtr;
-  factor->setZero(n, n);
   const double floor = 1e-12 * std::max(jtj->diagonal().maxCoeff(), 1e-300);
-  double compressed = 0.0;
+  CompressBlockSparse(sizes, later, squared_norm, floor, &schur, &g, &rows, residuals);
+  factor->setZero(n, n);
   for (size_t i = 0, c = 0; i < sizes.size(); c += sizes[i], ++i) {
-    const int b = sizes[i], rest = n - static_cast<int>(c) - b;
-    ldlt.compute(schur.block(c, c, b, b));
-    const Eigen::VectorXd& d = ldlt.vectorD();
-    const auto& pivots = ldlt.transpositionsP();
-    // L^-1 P [S_i,rest  g_i]
-    off = pivots * schur.block(c, c + b, b, rest);
-    y = pivots * g.segment(c, b);
-    ldlt.matrixL().solveInPlace(off);
-    ldlt.matrixL().solveInPlace(y);
-    diagonal = ldlt.matrixU();
-    diagonal = diagonal * Eigen::PermutationMatrix<Eigen::Dynamic>(pivots);
-    for (int k = 0; k < b; ++k) {
-      if (!(d[k] > floor)) {
-        off.row(k).setZero();
-        y[k] = 0.0;
-        continue;
-      }
-      const double s = std::sqrt(d[k]);
-      factor->block(c + k, c, 1, b) = s * diagonal.row(k);
-      off.row(k) /= s;
-      y[k] /= s;
-      (*residuals)[c + k] = y[k];
-      compressed += y[k] * y[k];
-    }
-    if (rest == 0) continue;
-    factor->block(c, c + b, b, rest) = off;
-    schur.block(c + b, c + b, rest, rest).noalias() -= off.transpose() * off;
-    g.segment(c + b, rest).noalias() -= off.transpose() * y;
+    factor->block(c, c, sizes[i], n - c) = rows[i];
   }
-  (*residuals)[n] = std::sqrt(std::max(0.0, squared_norm - compressed));
 }
 
 // Writes the compressed residuals (n + 1) and Jacobians (row-major, one per

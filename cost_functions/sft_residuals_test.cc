@@ -229,5 +229,71 @@ TEST(CompressedCostTest, BlockTriangularKeepsTheModelAndItsZeros) {
   EXPECT_NEAR(residuals.squaredNorm(), r.squaredNorm(), 1e-12 * r.squaredNorm());
 }
 
+// The fill of eliminating blocks in order: 0's neighbours 2 and 3 become
+// adjacent, then 2's (3 and 4) do.
+TEST(CompressedCostTest, BlockFillJoinsEachBlocksLaterNeighbours) {
+  const std::vector<std::vector<int>> adjacent = {{2, 3}, {4}, {0, 4}, {0}, {1, 2}};
+  const std::vector<std::vector<int>> later = BlockFill(adjacent);
+  const std::vector<std::vector<int>> expected = {{2, 3}, {4}, {3, 4}, {4}, {}};
+  EXPECT_EQ(later, expected);
+}
+
+// Block-sparse: with rows of J over pairs of blocks only, R keeps that
+// pattern and its fill (BlockFill) and still gives J^T J and J^T r, also
+// with a repeated column and an all-zero block.
+TEST(CompressedCostTest, BlockSparseKeepsTheModelWithinTheFill) {
+  const std::vector<int32_t> sizes = {4, 3, 5, 2, 4};
+  const std::vector<std::vector<int>> pairs = {{0, 2}, {0, 3}, {1, 4}, {2, 4}, {1, 1}};
+  std::vector<Eigen::Index> offset = {0};
+  for (const int32_t b : sizes) offset.push_back(offset.back() + b);
+  const Eigen::Index n = offset.back();
+  std::srand(11);
+  Eigen::MatrixXd j = Eigen::MatrixXd::Zero(12 * static_cast<Eigen::Index>(pairs.size()), n);
+  for (size_t p = 0; p < pairs.size(); ++p) {
+    for (const int block : pairs[p]) {
+      j.block(12 * p, offset[block], 12, sizes[block]) = Eigen::MatrixXd::Random(12, sizes[block]);
+    }
+  }
+  j.col(offset[4] + 1) = j.col(offset[4]);  // rank-deficient pivot
+  j.middleCols(offset[3], sizes[3]).setZero();  // block 3 all zero
+  const Eigen::VectorXd r = Eigen::VectorXd::Random(j.rows());
+  const Eigen::MatrixXd jtj = j.transpose() * j;
+  const Eigen::VectorXd jtr = j.transpose() * r;
+  std::vector<std::vector<int>> adjacent(sizes.size());
+  for (const std::vector<int>& p : pairs) {
+    adjacent[p[0]].push_back(p[1]);
+    adjacent[p[1]].push_back(p[0]);
+  }
+  const std::vector<std::vector<int>> later = BlockFill(adjacent);
+  // Only the pattern's upper blocks are read: the rest is garbage.
+  Eigen::MatrixXd schur = Eigen::MatrixXd::Constant(n, n, 1e30);
+  for (size_t i = 0; i < sizes.size(); ++i) {
+    schur.block(offset[i], offset[i], sizes[i], sizes[i]) = jtj.block(offset[i], offset[i], sizes[i], sizes[i]);
+    for (const int k : later[i]) {
+      schur.block(offset[i], offset[k], sizes[i], sizes[k]) = jtj.block(offset[i], offset[k], sizes[i], sizes[k]);
+    }
+  }
+  Eigen::VectorXd g = jtr, residuals;
+  std::vector<Eigen::MatrixXd> rows;
+  CompressBlockSparse(sizes, later, r.squaredNorm(), 1e-12 * jtj.diagonal().maxCoeff(), &schur, &g, &rows,
+                      &residuals);
+  ASSERT_EQ(residuals.size(), n + 1);
+  Eigen::MatrixXd factor = Eigen::MatrixXd::Zero(n, n);
+  for (size_t i = 0; i < sizes.size(); ++i) {
+    Eigen::Index w = sizes[i];
+    factor.block(offset[i], offset[i], sizes[i], sizes[i]) = rows[i].leftCols(sizes[i]);
+    for (const int k : later[i]) {
+      factor.block(offset[i], offset[k], sizes[i], sizes[k]) = rows[i].middleCols(w, sizes[k]);
+      w += sizes[k];
+    }
+    EXPECT_EQ(w, rows[i].cols());
+  }
+  EXPECT_NEAR(residuals.squaredNorm(), r.squaredNorm(), 1e-9 * r.squaredNorm());
+  EXPECT_LT((factor.transpose() * residuals.head(n) - jtr).norm(), 1e-9 * jtr.norm());
+  EXPECT_LT((factor.transpose() * factor - jtj).norm(), 1e-9 * jtj.norm());
+  EXPECT_EQ(factor.middleRows(offset[3], sizes[3]).norm(), 0.0);
+  EXPECT_EQ(residuals.segment(offset[3], sizes[3]).norm(), 0.0);
+}
+
 }  // namespace
 }  // namespace polyfit

@@ -42,21 +42,15 @@ bool RenderCost::EvaluateNormalEquations(const double* theta, double* squared_no
   return ok;
 }
 
-bool RenderCost::EvaluateGroupNormalEquations(const double* theta, const PatchGroups& groups, bool want_jacobian,
-                                              std::vector<GroupSystem>* systems) const {
+bool RenderCost::EvaluateSlottedNormalEquations(const double* theta, const PatchGroups& groups,
+                                                const std::vector<int>& slot, bool want_jacobian,
+                                                double* squared_norm, Eigen::MatrixXd* jtj,
+                                                Eigen::VectorXd* jtr) const {
   const int b = data_.model->block_size();
-  const int G = static_cast<int>(groups.groups.size());
-  systems->resize(G);
-  for (int g = 0; g < G; ++g) {
-    const int n = static_cast<int>(groups.groups[g].size()) * b;
-    (*systems)[g].squared_norm = 0.0;
-    (*systems)[g].jtj.setZero(n, n);
-    (*systems)[g].jtr.setZero(n);
-  }
-  if (G == 0) return false;
+  jtr->setZero(static_cast<Eigen::Index>(b) * data_.model->num_patches());
   const bool ok = Compute(theta, nullptr, nullptr, true, want_jacobian);
-  double total = 0.0, grouped = 0.0;
-  for (ThreadState& t : threads_) total += t.squared_norm;
+  *squared_norm = 0.0;
+  for (ThreadState& t : threads_) *squared_norm += t.squared_norm;
   for (ThreadState& t : threads_) {
     if (!want_jacobian) break;
     for (Accumulator& a : t.accumulators) {
@@ -64,26 +58,23 @@ bool RenderCost::EvaluateGroupNormalEquations(const double* theta, const PatchGr
       if (a.squared_norm == 0.0 && a.jtj.diagonal().isZero(0.0)) continue;  // unused this time
       bool whole = false;
       const int g = groups.Find(a.patches, a.size, &whole);
-      GroupSystem& system = (*systems)[g];
+      if (g < 0) continue;  // no group holds any of them (not from MakePatchGroups)
       const std::vector<int>& members = groups.groups[g];
+      const auto kept = [&](int i) {
+        return whole || std::binary_search(members.begin(), members.end(), a.patches[i]);
+      };
       a.jtj.triangularView<Eigen::StrictlyUpper>() = a.jtj.transpose();
-      system.squared_norm += a.squared_norm;
-      grouped += a.squared_norm;
       for (int i = 0; i < a.size; ++i) {
-        const auto gi = std::lower_bound(members.begin(), members.end(), a.patches[i]);
-        if (gi == members.end() || *gi != a.patches[i]) continue;  // a column dropped
-        const Eigen::Index row = static_cast<Eigen::Index>(gi - members.begin()) * b;
-        system.jtr.segment(row, b) += a.jtr.segment(b * i, b);
+        if (!kept(i)) continue;  // a column dropped
+        const Eigen::Index row = static_cast<Eigen::Index>(slot[a.patches[i]]) * b;
+        jtr->segment(row, b) += a.jtr.segment(b * i, b);
         for (int j = 0; j < a.size; ++j) {
-          const auto gj = std::lower_bound(members.begin(), members.end(), a.patches[j]);
-          if (gj == members.end() || *gj != a.patches[j]) continue;
-          system.jtj.block(row, static_cast<Eigen::Index>(gj - members.begin()) * b, b, b) +=
-              a.jtj.block(b * i, b * j, b, b);
+          if (!kept(j) || slot[a.patches[j]] < slot[a.patches[i]]) continue;
+          jtj->block(row, static_cast<Eigen::Index>(slot[a.patches[j]]) * b, b, b) += a.jtj.block(b * i, b * j, b, b);
         }
       }
     }
   }
-  (*systems)[0].squared_norm += std::max(0.0, total - grouped);
   return ok;
 }
 
@@ -453,22 +444,52 @@ PatchGroups MakePatchGroups(const JetDeformationModel& model, const Eigen::Matri
 
 namespace {
 
-// A residual block of a SplitRenderTerm: row block i of group g.
-class RenderGroupCost : public ceres::CostFunction {
+// A residual block of a SplitRenderTerm: its row block i.
+class RenderRowBlockCost : public ceres::CostFunction {
  public:
-  RenderGroupCost(const SplitRenderTerm* term, int g, int i, int block_size) : term_(term), g_(g), i_(i) {
-    const int n = static_cast<int>(term->group(g).size());
-    for (int k = i; k < n; ++k) mutable_parameter_block_sizes()->push_back(block_size);
-    set_num_residuals(block_size + (i + 1 == n ? 1 : 0));
+  RenderRowBlockCost(const SplitRenderTerm* term, int i, int block_size) : term_(term), i_(i) {
+    for (size_t k = 0; k < term->row_block_patches(i).size(); ++k) {
+      mutable_parameter_block_sizes()->push_back(block_size);
+    }
+    set_num_residuals(block_size + (i + 1 == term->num_row_blocks() ? 1 : 0));
   }
   bool Evaluate(double const* const*, double* residuals, double** jacobians) const override {
-    return term_->Write(g_, i_, residuals, jacobians);
+    return term_->Write(i_, residuals, jacobians);
   }
 
  private:
   const SplitRenderTerm* term_;
-  int g_, i_;
+  int i_;
 };
+
+// Greedy minimum degree on a graph of a few dozen nodes (adjacent:
+// symmetric): the elimination order, ties to the lower index.
+std::vector<int> MinimumDegreeOrder(std::vector<std::vector<char>> adjacent) {
+  const int n = static_cast<int>(adjacent.size());
+  std::vector<char> done(n, 0);
+  std::vector<int> order;
+  for (int step = 0; step < n; ++step) {
+    int best = -1, best_degree = n + 1;
+    for (int v = 0; v < n; ++v) {
+      if (done[v]) continue;
+      int degree = 0;
+      for (int u = 0; u < n; ++u) degree += u != v && !done[u] && adjacent[v][u];
+      if (degree < best_degree) {
+        best = v;
+        best_degree = degree;
+      }
+    }
+    done[best] = 1;
+    order.push_back(best);
+    for (int u = 0; u < n; ++u) {  // its neighbours become a clique
+      if (done[u] || !adjacent[best][u]) continue;
+      for (int w = 0; w < n; ++w) {
+        if (!done[w] && adjacent[best][w] && w != u) adjacent[u][w] = 1;
+      }
+    }
+  }
+  return order;
+}
 
 }  // namespace
 
@@ -477,47 +498,139 @@ SplitRenderTerm::SplitRenderTerm(RenderCost::Data data, PatchGroups groups, cons
       groups_(std::move(groups)),
       theta_(theta),
       block_size_(cost_.parameter_block_sizes()[0]) {
+  const int n = static_cast<int>(cost_.parameter_block_sizes().size());
+  adjacent_.assign(n, std::vector<char>(n, 0));
   for (const std::vector<int>& members : groups_.groups) {
-    factored_.push_back(std::make_unique<Factored>());
-    factored_.back()->sizes.assign(members.size(), block_size_);
+    for (const int p : members) {
+      for (const int q : members) adjacent_[p][q] = 1;
+    }
   }
+}
+
+void SplitRenderTerm::Attach(ceres::CostFunction* term, std::vector<int> patches) {
+  if (planned_) throw std::logic_error("SplitRenderTerm::Attach after its row blocks were read");
+  for (const int p : patches) {
+    for (const int q : patches) adjacent_[p][q] = 1;
+  }
+  attached_.push_back({std::unique_ptr<ceres::CostFunction>(term), std::move(patches)});
+}
+
+void SplitRenderTerm::Plan() const {
+  if (planned_) return;
+  const int n = static_cast<int>(adjacent_.size());
+  const std::vector<int> order = MinimumDegreeOrder(adjacent_);
+  slot_.assign(n, 0);
+  for (int i = 0; i < n; ++i) slot_[order[i]] = i;
+  std::vector<std::vector<int>> by_slot(n);
+  for (int p = 0; p < n; ++p) {
+    for (int q = 0; q < n; ++q) {
+      if (p != q && adjacent_[p][q]) by_slot[slot_[p]].push_back(slot_[q]);
+    }
+  }
+  later_ = BlockFill(by_slot);
+  row_patches_.clear();
+  for (int i = 0; i < n; ++i) {
+    row_patches_.push_back({order[i]});
+    for (const int k : later_[i]) row_patches_.back().push_back(order[k]);
+  }
+  sizes_.assign(n, block_size_);
+  planned_ = true;
+}
+
+int SplitRenderTerm::num_row_blocks() const {
+  Plan();
+  return static_cast<int>(row_patches_.size());
+}
+
+const std::vector<int>& SplitRenderTerm::row_block_patches(int i) const {
+  Plan();
+  return row_patches_[i];
 }
 
 bool SplitRenderTerm::Prepare(bool jacobians, bool new_point) {
   if (!new_point && (have_jacobians_ || !jacobians)) return ok_;
-  ok_ = cost_.EvaluateGroupNormalEquations(theta_, groups_, jacobians, &systems_);
+  Plan();
+  const int n = num_row_blocks(), b = block_size_;
+  if (jacobians) {
+    if (jtj_.rows() != n * b) jtj_.resize(n * b, n * b);
+    for (int i = 0; i < n; ++i) {  // the pattern's upper blocks, the rest never read
+      jtj_.block(i * b, i * b, b, b).setZero();
+      for (const int k : later_[i]) jtj_.block(i * b, k * b, b, b).setZero();
+    }
+  }
+  ok_ = cost_.EvaluateSlottedNormalEquations(theta_, groups_, slot_, jacobians, &squared_norm_, &jtj_, &jtr_);
+  ok_ = AddAttached(jacobians) && ok_;
   have_jacobians_ = jacobians;
   ++generation_;
   return ok_;
 }
 
-ceres::CostFunction* SplitRenderTerm::NewGroupCost(int g, int i) const {
-  return new RenderGroupCost(this, g, i, block_size_);
+bool SplitRenderTerm::AddAttached(bool jacobians) {
+  const int b = block_size_;
+  std::vector<const double*> parameters;
+  std::vector<double*> blocks;
+  for (const Attached& a : attached_) {
+    const int m = a.term->num_residuals(), k = static_cast<int>(a.patches.size());
+    parameters.clear();
+    for (const int p : a.patches) parameters.push_back(theta_ + static_cast<size_t>(b) * p);
+    attached_residuals_.resize(m);
+    blocks.clear();
+    if (jacobians) {
+      attached_jacobian_.resize(static_cast<size_t>(m) * b * k);
+      for (int i = 0; i < k; ++i) blocks.push_back(attached_jacobian_.data() + static_cast<size_t>(m) * b * i);
+    }
+    if (!a.term->Evaluate(parameters.data(), attached_residuals_.data(), jacobians ? blocks.data() : nullptr)) {
+      return false;
+    }
+    const Eigen::Map<const Eigen::VectorXd> r(attached_residuals_.data(), m);
+    squared_norm_ += r.squaredNorm();
+    if (!jacobians) continue;
+    using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    for (int i = 0; i < k; ++i) {
+      const Eigen::Map<const RowMajor> ji(blocks[i], m, b);
+      const Eigen::Index si = static_cast<Eigen::Index>(slot_[a.patches[i]]) * b;
+      jtr_.segment(si, b).noalias() += ji.transpose() * r;
+      for (int j = 0; j < k; ++j) {
+        const Eigen::Index sj = static_cast<Eigen::Index>(slot_[a.patches[j]]) * b;
+        if (sj < si) continue;
+        jtj_.block(si, sj, b, b).noalias() += ji.transpose() * Eigen::Map<const RowMajor>(blocks[j], m, b);
+      }
+    }
+  }
+  return true;
 }
 
-bool SplitRenderTerm::Write(int g, int i, double* residuals, double** jacobians) const {
+ceres::CostFunction* SplitRenderTerm::NewRowBlockCost(int i) const {
+  return new RenderRowBlockCost(this, i, block_size_);
+}
+
+bool SplitRenderTerm::Write(int i, double* residuals, double** jacobians) const {
   if (!ok_ || (jacobians != nullptr && !have_jacobians_)) return false;
-  const RenderCost::GroupSystem& system = systems_[g];
-  const int members = static_cast<int>(groups_.groups[g].size()), b = block_size_;
-  const bool last = i + 1 == members;
+  const int b = block_size_;
+  const bool last = i + 1 == num_row_blocks();
   Eigen::Map<Eigen::VectorXd> out(residuals, b + (last ? 1 : 0));
   if (jacobians == nullptr) {  // the cost alone: all of it in the last row
     out.setZero();
-    if (last) out[b] = std::sqrt(std::max(0.0, system.squared_norm));
+    if (last) out[b] = std::sqrt(std::max(0.0, squared_norm_));
     return true;
   }
-  Factored& f = *factored_[g];
-  std::lock_guard<std::mutex> lock(f.mutex);
-  if (f.generation != generation_) {
-    CompressBlockTriangular(f.sizes, system.squared_norm, &system.jtj, &system.jtr, &f.residuals, &f.factor);
-    f.generation = generation_;
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (factored_ != generation_) {
+    double largest = 0.0;
+    for (int k = 0; k < num_row_blocks(); ++k) {
+      largest = std::max(largest, jtj_.block(k * b, k * b, b, b).diagonal().maxCoeff());
+    }
+    // In place: the normal equations are read once per point.
+    CompressBlockSparse(sizes_, later_, squared_norm_, 1e-12 * std::max(largest, 1e-300), &jtj_, &jtr_, &rows_,
+                        &residuals_);
+    factored_ = generation_;
   }
-  out = f.residuals.segment(i * b, out.size());
-  for (int k = i; k < members; ++k) {
-    double* jacobian = jacobians[k - i];
-    if (jacobian == nullptr) continue;
-    Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> jac(jacobian, out.size(), b);
-    jac.topRows(b) = f.factor.block(i * b, k * b, b, b);
+  out = residuals_.segment(static_cast<Eigen::Index>(i) * b, out.size());
+  const Eigen::MatrixXd& row = rows_[i];
+  for (size_t k = 0; k < row_patches_[i].size(); ++k) {
+    if (jacobians[k] == nullptr) continue;
+    Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> jac(jacobians[k], out.size(), b);
+    jac.topRows(b) = row.middleCols(static_cast<Eigen::Index>(k) * b, b);
     if (last) jac.row(b).setZero();
   }
   return true;

@@ -86,19 +86,17 @@ class RenderCost : public ceres::CostFunction {
   // (where the surface fits worse than elsewhere).
   bool VertexResiduals(const double* theta, Eigen::VectorXd* squared_residuals, Eigen::VectorXd* pixels) const;
 
-  // The normal equations split by groups of patches (PatchGroups): group
-  // g's system is over its patches' blocks, in its order. A pixel's rows go
-  // to the group of its patches (PatchGroups::Find); when no group holds
-  // them all, to the one that holds most, without the other patches'
-  // columns (its cost kept, its pull on them lost). The cost of pixels
-  // without a gradient, and all of it without the Jacobian, is group 0's.
-  struct GroupSystem {
-    double squared_norm = 0.0;
-    Eigen::MatrixXd jtj;
-    Eigen::VectorXd jtr;
-  };
-  bool EvaluateGroupNormalEquations(const double* theta, const PatchGroups& groups, bool want_jacobian,
-                                    std::vector<GroupSystem>* systems) const;
+  // The normal equations as SplitRenderTerm keeps them: patch p's
+  // parameters at block slot[p] (n = #patches by block size), only the
+  // blocks (slot[p], slot[q]) with slot[p] <= slot[q] of patches p, q that
+  // one of `groups` holds together added to (the caller zeroes them; the
+  // diagonal blocks whole). A pixel's rows go with the group of its patches
+  // (PatchGroups::Find); when no group holds them all, with the one that
+  // holds most, without the other patches' columns (its cost kept, its pull
+  // on them lost). jtr (n) is set.
+  bool EvaluateSlottedNormalEquations(const double* theta, const PatchGroups& groups, const std::vector<int>& slot,
+                                      bool want_jacobian, double* squared_norm, Eigen::MatrixXd* jtj,
+                                      Eigen::VectorXd* jtr) const;
 
  private:
   static constexpr int kBlockRows = 64;
@@ -171,47 +169,73 @@ class RenderCost : public ceres::CostFunction {
 // another dropped. One patch: one group.
 PatchGroups MakePatchGroups(const JetDeformationModel& model, const Eigen::Matrix3Xi& faces);
 
-// One frame's render term split by PatchGroups: group g's normal
-// equations compressed block-triangular (CompressBlockTriangular), one
-// residual block per member i over members i.. (NewGroupCost(g, i)), read
-// from what Prepare computed at the parameters in `theta` (the frame's
-// blocks, contiguous). Ceres calls Prepare through RenderTermCallback
-// before every evaluation, so the frame is rendered once however many
-// groups read it, and each group factorised once however many of its row
-// blocks are evaluated.
+// One frame's render term, its normal equations compressed by a sparse
+// block Cholesky over the patches (CompressBlockSparse): the patches
+// ordered by minimum degree on the graph of PatchGroups (two patches are
+// adjacent when a group holds both), one residual block per patch over
+// itself and the patches after it where its factor row is nonzero
+// (row_block_patches), so that a solver's J^T J has the pattern of the
+// patch graph and its fill, not of every group's pairs again and again.
+// Read from what Prepare computed at the parameters in `theta` (the
+// frame's blocks, contiguous). Ceres calls Prepare through
+// RenderTermCallback before every evaluation, so the frame is rendered
+// once, and factorised once by the first row block Ceres evaluates.
 class SplitRenderTerm {
  public:
   SplitRenderTerm(RenderCost::Data data, PatchGroups groups, const double* theta);
-  // False when the surface went behind the camera (every group's Evaluate
-  // then fails).
+  // A term over the same frame's patches `patches` (its parameter blocks,
+  // in order; no loss function) whose normal equations join the render
+  // term's before the factorisation instead of being a residual block of
+  // its own: a regulariser then costs the solver nothing outside the
+  // frame's row blocks. Takes ownership; before the first call below.
+  void Attach(ceres::CostFunction* term, std::vector<int> patches);
+  // False when the surface went behind the camera (every row block's
+  // Evaluate then fails).
   bool Prepare(bool jacobians, bool new_point);
-  int num_groups() const { return static_cast<int>(groups_.groups.size()); }
-  const std::vector<int>& group(int g) const { return groups_.groups[g]; }
-  // Row block i of group g, over the blocks of group(g)[i..]; Ceres takes
+  int num_row_blocks() const;
+  // Row block i's patches: its own first, then the later ones it reaches.
+  const std::vector<int>& row_block_patches(int i) const;
+  // Row block i as a residual block over row_block_patches(i); Ceres takes
   // ownership.
-  ceres::CostFunction* NewGroupCost(int g, int i) const;
-  // Row block i of group g's compressed residuals (block_size rows, one
-  // more for the last member) and its Jacobians (over members i..).
-  bool Write(int g, int i, double* residuals, double** jacobians) const;
+  ceres::CostFunction* NewRowBlockCost(int i) const;
+  // Row block i's compressed residuals (block_size rows, one more for the
+  // last) and its Jacobians (over row_block_patches(i)).
+  bool Write(int i, double* residuals, double** jacobians) const;
 
  private:
-  // A group's compression at the current point (generation), factorised
-  // by the first of its row blocks that Ceres evaluates.
-  struct Factored {
-    std::mutex mutex;
-    int generation = -1;
-    std::vector<int32_t> sizes;  // the members' block sizes
-    Eigen::VectorXd residuals;
-    Eigen::MatrixXd factor;
+  struct Attached {
+    std::unique_ptr<ceres::CostFunction> term;
+    std::vector<int> patches;
   };
+  // The elimination order and the factor's pattern, once the terms are in.
+  void Plan() const;
+  // Adds the attached terms' cost and normal equations at theta_.
+  bool AddAttached(bool jacobians);
+
   RenderCost cost_;
   PatchGroups groups_;
   const double* theta_;
   int block_size_;
+  std::vector<std::vector<char>> adjacent_;  // patch by patch
+  std::vector<Attached> attached_;
+  mutable bool planned_ = false;
+  mutable std::vector<int> slot_;                // patch -> its place in the elimination
+  mutable std::vector<std::vector<int>> later_;  // per slot: the later slots its factor row reaches
+  mutable std::vector<std::vector<int>> row_patches_;
+  mutable std::vector<int32_t> sizes_;           // per slot: the block size
+  std::vector<double> attached_residuals_, attached_jacobian_;
   bool ok_ = false, have_jacobians_ = false;
   int generation_ = 0;
-  std::vector<RenderCost::GroupSystem> systems_;
-  std::vector<std::unique_ptr<Factored>> factored_;
+  double squared_norm_ = 0.0;
+  // The normal equations in slot order (the pattern's upper blocks only),
+  // factorised in place at the current point (generation) by the first row
+  // block evaluated.
+  mutable Eigen::MatrixXd jtj_;
+  mutable Eigen::VectorXd jtr_;
+  mutable std::mutex mutex_;
+  mutable int factored_ = -1;
+  mutable std::vector<Eigen::MatrixXd> rows_;  // per slot: the factor's row block
+  mutable Eigen::VectorXd residuals_;
 };
 
 // Prepares every SplitRenderTerm of a problem before Ceres evaluates it,

@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <memory>
 
+#include <ceres/crs_matrix.h>
 #include <ceres/jet.h>
 #include <ceres/problem.h>
 #include <gtest/gtest.h>
@@ -699,57 +701,58 @@ TEST_F(AtlasCostsTest, TheRenderTermSplitByPatchGroupsIsTheSameProblem) {
   Eigen::VectorXd jtr;
   ASSERT_TRUE(whole.EvaluateNormalEquations(theta_.data(), &squared_norm, &jtj, &jtr));
 
-  // Before compression, the groups' systems add up to the whole one.
-  std::vector<RenderCost::GroupSystem> systems;
-  ASSERT_TRUE(whole.EvaluateGroupNormalEquations(theta_.data(), groups, true, &systems));
-  const int b = model_->block_size(), P = model_->num_parameters();
+  // Before compression, in any slot order, the pattern's upper blocks are
+  // the whole system's (every pair of patches here shares a group or has
+  // no pixel in common).
+  const int b = model_->block_size(), P = model_->num_parameters(), K = model_->num_patches();
+  std::vector<int> slot(K);
+  for (int p = 0; p < K; ++p) slot[p] = K - 1 - p;
   double sum = 0.0;
-  Eigen::MatrixXd sum_jtj = Eigen::MatrixXd::Zero(P, P);
-  Eigen::VectorXd sum_jtr = Eigen::VectorXd::Zero(P);
-  for (size_t g = 0; g < systems.size(); ++g) {
-    const std::vector<int>& members = groups.groups[g];
-    sum += systems[g].squared_norm;
-    for (size_t i = 0; i < members.size(); ++i) {
-      sum_jtr.segment(b * members[i], b) += systems[g].jtr.segment(b * i, b);
-      for (size_t k = 0; k < members.size(); ++k) {
-        sum_jtj.block(b * members[i], b * members[k], b, b) += systems[g].jtj.block(b * i, b * k, b, b);
+  Eigen::MatrixXd slotted = Eigen::MatrixXd::Zero(P, P);
+  Eigen::VectorXd slotted_jtr;
+  ASSERT_TRUE(whole.EvaluateSlottedNormalEquations(theta_.data(), groups, slot, true, &sum, &slotted, &slotted_jtr));
+  EXPECT_NEAR(sum, squared_norm, 1e-12 * squared_norm);
+  for (int p = 0; p < K; ++p) {
+    EXPECT_LT((slotted_jtr.segment(b * slot[p], b) - jtr.segment(b * p, b)).norm(), 1e-12 * jtr.norm());
+    for (int q = 0; q < K; ++q) {
+      const Eigen::MatrixXd block = slotted.block(b * slot[p], b * slot[q], b, b);
+      if (slot[p] <= slot[q]) {
+        EXPECT_LT((block - jtj.block(b * p, b * q, b, b)).norm(), 1e-12 * jtj.norm()) << p << ", " << q;
+      } else {
+        EXPECT_EQ(block.norm(), 0.0);
       }
     }
   }
-  EXPECT_NEAR(sum, squared_norm, 1e-12 * squared_norm);
-  EXPECT_LT((sum_jtj - jtj).norm(), 1e-12 * jtj.norm());
-  EXPECT_LT((sum_jtr - jtr).norm(), 1e-12 * jtr.norm());
 
-  // Compressed, the groups' blocks give the same cost, gradient and
-  // Gauss-Newton matrix as the one block over every patch does (both to
+  // Compressed, the row blocks give the same cost, gradient and
+  // Gauss-Newton matrix as one dense block over every patch does (both to
   // the rounding of factorising a system this ill-conditioned).
   const auto compressed = [&](const PatchGroups& split_groups, double* cost, Eigen::MatrixXd* rtr,
                               Eigen::VectorXd* rtr_r) {
     SplitRenderTerm split(RenderData(rasterizer, frame), split_groups, theta_.data());
     ASSERT_TRUE(split.Prepare(true, true));
+    ASSERT_EQ(split.num_row_blocks(), K);
     *cost = 0.0;
     rtr->setZero(P, P);
     rtr_r->setZero(P);
-    for (int g = 0; g < split.num_groups(); ++g) {
-      const std::vector<int>& members = split.group(g);
-      const int k = static_cast<int>(members.size());
-      for (int i = 0; i < k; ++i) {  // row block i, over members i..
-        const int rows = b + (i + 1 == k ? 1 : 0);
-        std::vector<double> r(rows);
-        std::vector<std::vector<double>> j(k - i, std::vector<double>(static_cast<size_t>(rows) * b));
-        std::vector<double*> jacobians;
-        for (auto& block : j) jacobians.push_back(block.data());
-        ASSERT_TRUE(split.Write(g, i, r.data(), jacobians.data()));
-        const Eigen::Map<const Eigen::VectorXd> R(r.data(), rows);
-        *cost += R.squaredNorm();
-        using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-        for (int a = i; a < k; ++a) {
-          const Eigen::Map<const RowMajor> Ja(j[a - i].data(), rows, b);
-          rtr_r->segment(b * members[a], b) += Ja.transpose() * R;
-          for (int c = i; c < k; ++c) {
-            rtr->block(b * members[a], b * members[c], b, b) +=
-                Ja.transpose() * Eigen::Map<const RowMajor>(j[c - i].data(), rows, b);
-          }
+    for (int i = 0; i < K; ++i) {
+      const std::vector<int>& patches = split.row_block_patches(i);
+      const int k = static_cast<int>(patches.size());
+      const int rows = b + (i + 1 == K ? 1 : 0);
+      std::vector<double> r(rows);
+      std::vector<std::vector<double>> j(k, std::vector<double>(static_cast<size_t>(rows) * b));
+      std::vector<double*> jacobians;
+      for (auto& block : j) jacobians.push_back(block.data());
+      ASSERT_TRUE(split.Write(i, r.data(), jacobians.data()));
+      const Eigen::Map<const Eigen::VectorXd> R(r.data(), rows);
+      *cost += R.squaredNorm();
+      using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+      for (int a = 0; a < k; ++a) {
+        const Eigen::Map<const RowMajor> Ja(j[a].data(), rows, b);
+        rtr_r->segment(b * patches[a], b) += Ja.transpose() * R;
+        for (int c = 0; c < k; ++c) {
+          rtr->block(b * patches[a], b * patches[c], b, b) +=
+              Ja.transpose() * Eigen::Map<const RowMajor>(j[c].data(), rows, b);
         }
       }
     }
@@ -776,19 +779,119 @@ TEST_F(AtlasCostsTest, TheRenderTermSplitByPatchGroupsIsTheSameProblem) {
   options.evaluation_callback = &callback;
   ceres::Problem problem(options);
   for (int p = 0; p < model_->num_patches(); ++p) problem.AddParameterBlock(theta_.data() + b * p, b);
-  for (int g = 0; g < split.num_groups(); ++g) {
-    const std::vector<int>& members = split.group(g);
-    for (size_t i = 0; i < members.size(); ++i) {
-      std::vector<double*> blocks;
-      for (size_t k = i; k < members.size(); ++k) blocks.push_back(theta_.data() + b * members[k]);
-      problem.AddResidualBlock(split.NewGroupCost(g, static_cast<int>(i)), nullptr, blocks);
-    }
+  for (int i = 0; i < split.num_row_blocks(); ++i) {
+    std::vector<double*> blocks;
+    for (const int p : split.row_block_patches(i)) blocks.push_back(theta_.data() + b * p);
+    problem.AddResidualBlock(split.NewRowBlockCost(i), nullptr, blocks);
   }
   double ceres_cost = 0.0;
   std::vector<double> gradient;
   ASSERT_TRUE(problem.Evaluate(ceres::Problem::EvaluateOptions(), &ceres_cost, nullptr, &gradient, nullptr));
   EXPECT_NEAR(2.0 * ceres_cost, squared_norm, 1e-9 * squared_norm);
   EXPECT_LT((Eigen::Map<const Eigen::VectorXd>(gradient.data(), P) - jtr).norm(), 1e-2 * jtr.norm());
+}
+
+// Regularisers attached to the render term (their normal equations joined
+// before the factorisation) give Ceres the same cost, gradient and
+// Gauss-Newton matrix as the same terms as residual blocks of their own.
+TEST_F(AtlasCostsTest, AttachedTermsAreTheSameProblemAsTheirOwnBlocks) {
+  for (size_t k = 0; k < theta_.size(); ++k) theta_[k] += 0.002 * std::cos(0.7 + 5.0 * k);
+  Eigen::Matrix2Xi unique = UniqueEdges(scene_.template_mesh);
+  std::vector<Eigen::Vector2i> edges;
+  std::vector<double> lengths;
+  for (Eigen::Index e = 0; e < unique.cols(); ++e) {
+    edges.emplace_back(unique(0, e), unique(1, e));
+    lengths.push_back(0.9 * (scene_.template_mesh.vertices.col(unique(0, e)) -
+                             scene_.template_mesh.vertices.col(unique(1, e))).norm());
+  }
+  const AtlasTerms terms = GroupAtlasTerms(*model_, edges, lengths);
+  ASSERT_GE(terms.seams.size(), 3u);
+  const PatchGroups groups = MakePatchGroups(*model_, scene_.template_mesh.faces);
+  const SoftRasterizer rasterizer(SoftRasterizerOptions(), scene_.texture);
+  const SftFrame frame = LoadFrame(scene_, 1);
+  const int b = model_->block_size(), P = model_->num_parameters();
+  // The regularisers: every edge group's inextensibility, every seam.
+  const auto regularisers = [&](const std::function<void(ceres::CostFunction*, const std::vector<int>&)>& add) {
+    for (const AtlasTerms::EdgeGroup& g : terms.edge_groups) {
+      add(new InextensibilityCost(model_.get(), g.patches, g.edges, g.rest_lengths, 0.3), g.patches);
+    }
+    for (const AtlasTerms::Seam& seam : terms.seams) {
+      add(CreateSeamCost(model_.get(), seam.a, seam.b, seam.edges, 0.01, 0.5, 0.2), {seam.a, seam.b});
+    }
+  };
+  const auto evaluate = [&](bool attach, double* cost, Eigen::VectorXd* gradient, Eigen::MatrixXd* jtj) {
+    SplitRenderTerm split(RenderData(rasterizer, frame), groups, theta_.data());
+    RenderTermCallback callback;
+    callback.Add(&split);
+    ceres::Problem::Options options;
+    options.evaluation_callback = &callback;
+    ceres::Problem problem(options);
+    for (int p = 0; p < model_->num_patches(); ++p) problem.AddParameterBlock(theta_.data() + b * p, b);
+    regularisers([&](ceres::CostFunction* term, const std::vector<int>& patches) {
+      if (attach) {
+        split.Attach(term, patches);
+        return;
+      }
+      std::vector<double*> blocks;
+      for (const int p : patches) blocks.push_back(theta_.data() + b * p);
+      problem.AddResidualBlock(term, nullptr, blocks);
+    });
+    for (int i = 0; i < split.num_row_blocks(); ++i) {
+      std::vector<double*> blocks;
+      for (const int p : split.row_block_patches(i)) blocks.push_back(theta_.data() + b * p);
+      problem.AddResidualBlock(split.NewRowBlockCost(i), nullptr, blocks);
+    }
+    std::vector<double> g;
+    ceres::CRSMatrix crs;
+    ASSERT_TRUE(problem.Evaluate(ceres::Problem::EvaluateOptions(), cost, nullptr, &g, &crs));
+    *gradient = Eigen::Map<const Eigen::VectorXd>(g.data(), P);
+    Eigen::MatrixXd j = Eigen::MatrixXd::Zero(crs.num_rows, crs.num_cols);
+    for (int r = 0; r < crs.num_rows; ++r) {
+      for (int e = crs.rows[r]; e < crs.rows[r + 1]; ++e) j(r, crs.cols[e]) = crs.values[e];
+    }
+    *jtj = j.transpose() * j;
+  };
+  // The exact system: the whole render term's and each regulariser's.
+  const RenderCost whole(RenderData(rasterizer, frame));
+  double exact_cost = 0.0;
+  Eigen::MatrixXd exact_jtj;
+  Eigen::VectorXd exact_gradient;
+  ASSERT_TRUE(whole.EvaluateNormalEquations(theta_.data(), &exact_cost, &exact_jtj, &exact_gradient));
+  regularisers([&](ceres::CostFunction* term, const std::vector<int>& patches) {
+    std::unique_ptr<ceres::CostFunction> owned(term);
+    const int m = term->num_residuals(), k = static_cast<int>(patches.size());
+    std::vector<const double*> parameters;
+    for (const int p : patches) parameters.push_back(theta_.data() + b * p);
+    Eigen::VectorXd r(m);
+    std::vector<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> j(k);
+    std::vector<double*> jacobians;
+    for (auto& block : j) {
+      block.resize(m, b);
+      jacobians.push_back(block.data());
+    }
+    ASSERT_TRUE(term->Evaluate(parameters.data(), r.data(), jacobians.data()));
+    exact_cost += r.squaredNorm();
+    for (int i = 0; i < k; ++i) {
+      exact_gradient.segment(b * patches[i], b) += j[i].transpose() * r;
+      for (int c = 0; c < k; ++c) exact_jtj.block(b * patches[i], b * patches[c], b, b) += j[i].transpose() * j[c];
+    }
+  });
+  exact_cost *= 0.5;
+  double attached_cost = 0.0, own_cost = 0.0;
+  Eigen::VectorXd attached_gradient, own_gradient;
+  Eigen::MatrixXd attached_jtj, own_jtj;
+  evaluate(true, &attached_cost, &attached_gradient, &attached_jtj);
+  evaluate(false, &own_cost, &own_gradient, &own_jtj);
+  EXPECT_NEAR(attached_cost, exact_cost, 1e-9 * exact_cost);
+  EXPECT_NEAR(own_cost, exact_cost, 1e-9 * exact_cost);
+  // Both to the rounding of factorising the render term's ill-conditioned
+  // system (TheRenderTermSplitByPatchGroupsIsTheSameProblem), no worse
+  // attached.
+  const double gradient_error = (own_gradient - exact_gradient).norm(), jtj_error = (own_jtj - exact_jtj).norm();
+  EXPECT_LT((attached_gradient - exact_gradient).norm(), 2.0 * gradient_error + 1e-9 * exact_gradient.norm());
+  EXPECT_LT((attached_jtj - exact_jtj).norm(), 2.0 * jtj_error + 1e-9 * exact_jtj.norm());
+  EXPECT_LT((attached_gradient - exact_gradient).norm(), 1e-2 * exact_gradient.norm());
+  EXPECT_LT((attached_jtj - exact_jtj).norm(), 1e-4 * exact_jtj.norm());
 }
 
 TEST_F(AtlasCostsTest, SeamsAreContinuousWhenChildrenStartAndNotOnceTheyDiffer) {

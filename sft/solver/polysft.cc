@@ -892,9 +892,12 @@ class PolySftController {
 
   // The photometric and silhouette term of window frame k at a level;
   // false when the surface went behind the camera. One residual block for
-  // one patch; for an atlas, one per group of patches (render_groups_,
-  // into `split`), so that the normal equations stay sparse by patch.
-  bool AddImageTerm(int l, FrameData& frame, ceres::Problem* problem, SplitTerms* split) {
+  // one patch; for an atlas, a SplitRenderTerm (render_groups_, into
+  // `split`, returned in *render) whose row blocks the caller adds
+  // (AddRenderRowBlocks) once the frame's regularisers are attached.
+  bool AddImageTerm(int l, FrameData& frame, ceres::Problem* problem, SplitTerms* split,
+                    SplitRenderTerm** render) {
+    *render = nullptr;
     if (frame.mask_empty || (!use_photometric_ && !use_masks_)) return true;
     RenderCost::Data d;
     if (!ImageTerm(l, frame, solving_frames_ > 1, &d)) return false;
@@ -905,16 +908,8 @@ class PolySftController {
       problem->AddResidualBlock(new CompressedRenderCost(std::move(d)), nullptr, blocks);
     } else {
       split->terms.push_back(std::make_unique<SplitRenderTerm>(std::move(d), render_groups_, frame.theta.data()));
-      const SplitRenderTerm& term = *split->terms.back();
       split->callback.Add(split->terms.back().get());
-      for (int g = 0; g < term.num_groups(); ++g) {
-        const std::vector<int>& members = term.group(g);
-        for (size_t i = 0; i < members.size(); ++i) {
-          std::vector<double*> row_blocks;
-          for (size_t k = i; k < members.size(); ++k) row_blocks.push_back(blocks[members[k]]);
-          problem->AddResidualBlock(term.NewGroupCost(g, static_cast<int>(i)), nullptr, row_blocks);
-        }
-      }
+      *render = split->terms.back().get();
     }
     AddSilhouetteReach(l, frame, problem);
     // Correspondences guide the coarse levels; the finest is the images'
@@ -927,6 +922,17 @@ class PolySftController {
       AddMatchTerm(l, frame, frame.flow, options_.flow_weight, problem);
     }
     return true;
+  }
+
+  // An atlas's render term's row blocks, once the frame's regularisers are
+  // attached to it (AddRegularizers).
+  void AddRenderRowBlocks(const SplitRenderTerm& term, FrameData& frame, ceres::Problem* problem) {
+    const std::vector<double*> blocks = Blocks(frame.theta);
+    for (int i = 0; i < term.num_row_blocks(); ++i) {
+      std::vector<double*> row_blocks;
+      for (const int p : term.row_block_patches(i)) row_blocks.push_back(blocks[p]);
+      problem->AddResidualBlock(term.NewRowBlockCost(i), nullptr, row_blocks);
+    }
   }
 
   // Correspondences of a frame at level l (FeatureCost; keypoints or
@@ -1085,7 +1091,7 @@ class PolySftController {
   // temporal link to the frames before it (in the window, or finalised
   // before it; as many as temporal_order asks and exist): each over the
   // blocks of the patches it joins.
-  void AddRegularizers(size_t k, bool coarse, ceres::Problem* problem) {
+  void AddRegularizers(size_t k, bool coarse, ceres::Problem* problem, SplitRenderTerm* render = nullptr) {
     const std::vector<double*> blocks = Blocks(window_[k]->theta);
     // Where the frame's estimate is as its problem is built (the seams'
     // and the occluded hold's choices).
@@ -1096,12 +1102,19 @@ class PolySftController {
       for (int p : patches) some.push_back(all[p]);
       return some;
     };
+    // A term over this frame's `patches` alone: into its render term where
+    // it has one, else a residual block (`compress`ed).
+    auto add = [&](ceres::CostFunction* cost, const std::vector<int>& patches, bool compress) {
+      if (render != nullptr) {
+        render->Attach(cost, patches);
+      } else {
+        problem->AddResidualBlock(compress ? new CompressedCost(cost) : cost, nullptr, of(blocks, patches));
+      }
+    };
     if (use_inextensibility_ && !edges_.empty()) {
       const double w = std::sqrt(options_.inextensibility_weight / edges_.size());
       for (const AtlasTerms::EdgeGroup& g : atlas_terms_.edge_groups) {
-        problem->AddResidualBlock(
-            new CompressedCost(new InextensibilityCost(&model_, g.patches, g.edges, g.rest_lengths, w)), nullptr,
-            of(blocks, g.patches));
+        add(new InextensibilityCost(&model_, g.patches, g.edges, g.rest_lengths, w), g.patches, true);
       }
     }
     const double bending = options_.bending_weight + (bending_prior_on_ ? options_.new_crease_bending_weight : 0.0);
@@ -1110,9 +1123,7 @@ class PolySftController {
       for (const AtlasTerms::HingeGroup& g : atlas_terms_.hinge_groups) {
         std::vector<double> weights(g.weights.size());
         for (size_t h = 0; h < weights.size(); ++h) weights[h] = k * std::sqrt(g.weights[h]);
-        problem->AddResidualBlock(new CompressedCost(new BendingCost(&model_, g.patches, g.hinges, g.rest_angles,
-                                                                     weights)),
-                                  nullptr, of(blocks, g.patches));
+        add(new BendingCost(&model_, g.patches, g.hinges, g.rest_angles, weights), g.patches, true);
       }
     }
     const PatchAtlasOptions& atlas = options_.atlas;
@@ -1126,14 +1137,11 @@ class PolySftController {
         const double wx =
             std::sqrt((seen[seam.a] && seen[seam.b] ? atlas.seen_seam_position_weight : position_weight) / count);
         if (wx > 0.0 || wn > 0.0) {
-          problem->AddResidualBlock(
-              new CompressedCost(CreateSeamCost(&model_, seam.a, seam.b, seam.edges, mean_edge_, wx, wn)), nullptr,
-              blocks[seam.a], blocks[seam.b]);
+          add(CreateSeamCost(&model_, seam.a, seam.b, seam.edges, mean_edge_, wx, wn), {seam.a, seam.b}, true);
         }
         if (atlas.seam_uv_weight > 0.0) {
-          problem->AddResidualBlock(
-              CreateSharedUvCost(&model_, std::sqrt(atlas.seam_uv_weight / atlas_terms_.seams.size())), nullptr,
-              blocks[seam.a], blocks[seam.b]);
+          add(CreateSharedUvCost(&model_, std::sqrt(atlas.seam_uv_weight / atlas_terms_.seams.size())),
+              {seam.a, seam.b}, false);
         }
       }
     }
@@ -1330,10 +1338,12 @@ class PolySftController {
           if (k < first_free) problem.SetParameterBlockConstant(block);
         }
         if (k < first_free) continue;
-        if (!AddImageTerm(l, frame, &problem, &split)) {
+        SplitRenderTerm* render = nullptr;
+        if (!AddImageTerm(l, frame, &problem, &split, &render)) {
           return Fail("frame " + std::to_string(frame.frame.index) + ": the surface went behind the camera");
         }
-        AddRegularizers(k, l + 1 < static_cast<int>(levels_.size()), &problem);
+        AddRegularizers(k, l + 1 < static_cast<int>(levels_.size()), &problem, render);
+        if (render != nullptr) AddRenderRowBlocks(*render, frame, &problem);
       }
       ceres::Solver::Options solver = LevelSolverOptions();
       SftIterationSummary row;
@@ -1542,8 +1552,10 @@ class PolySftController {
     FrameData& frame = *window_[k];
     const std::vector<double*> blocks = Blocks(frame.theta);
     for (double* block : blocks) problem.AddParameterBlock(block, model_.block_size());
-    if (!AddImageTerm(static_cast<int>(levels_.size()) - 1, frame, &problem, &split)) return 0.0;
-    AddRegularizers(k, false, &problem);
+    SplitRenderTerm* render = nullptr;
+    if (!AddImageTerm(static_cast<int>(levels_.size()) - 1, frame, &problem, &split, &render)) return 0.0;
+    AddRegularizers(k, false, &problem, render);
+    if (render != nullptr) AddRenderRowBlocks(*render, frame, &problem);
     ceres::Problem::EvaluateOptions evaluate;
     evaluate.parameter_blocks = blocks;
     evaluate.num_threads = ResolveNumThreads(options_.num_threads);
