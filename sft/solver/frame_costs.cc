@@ -54,8 +54,9 @@ bool RenderCost::EvaluateSlottedNormalEquations(const double* theta, const Patch
   for (ThreadState& t : threads_) {
     if (!want_jacobian) break;
     for (Accumulator& a : t.accumulators) {
+      if (!a.used) continue;
       Flush(&a);
-      if (a.squared_norm == 0.0 && a.jtj.diagonal().isZero(0.0)) continue;  // unused this time
+      if (a.squared_norm == 0.0 && a.jtj.diagonal().isZero(0.0)) continue;  // no pull
       bool whole = false;
       const int g = groups.Find(a.patches, a.size, &whole);
       if (g < 0) continue;  // no group holds any of them (not from MakePatchGroups)
@@ -154,13 +155,25 @@ RenderCost::Accumulator& RenderCost::FindAccumulator(ThreadState* state, const P
   auto same = [&](const Accumulator& a) {
     return a.size == patches.size && std::equal(patches.patches, patches.patches + patches.size, a.patches);
   };
+  // Zeroed when first used in an evaluation: most are not, and zeroing all
+  // of them (up to 8 blocks square each) was a noticeable part of a step.
+  auto use = [](Accumulator& a) -> Accumulator& {
+    if (!a.used) {
+      a.jtj.setZero();
+      a.jtr.setZero();
+      a.count = 0;
+      a.squared_norm = 0.0;
+      a.used = true;
+    }
+    return a;
+  };
   if (state->last < static_cast<int>(state->accumulators.size()) && same(state->accumulators[state->last])) {
-    return state->accumulators[state->last];
+    return use(state->accumulators[state->last]);
   }
   for (size_t k = 0; k < state->accumulators.size(); ++k) {
     if (same(state->accumulators[k])) {
       state->last = static_cast<int>(k);
-      return state->accumulators[k];
+      return use(state->accumulators[k]);
     }
   }
   // First seen: allocated once, then kept for later evaluations.
@@ -172,6 +185,7 @@ RenderCost::Accumulator& RenderCost::FindAccumulator(ThreadState* state, const P
   a.jtr.setZero(n);
   a.rows.resize(kBlockRows, n);
   a.values.resize(kBlockRows);
+  a.used = true;
   state->accumulators.push_back(std::move(a));
   state->last = static_cast<int>(state->accumulators.size()) - 1;
   return state->accumulators.back();
@@ -218,6 +232,7 @@ void RenderCost::ReduceAccumulators(int P, bool want_jacobian, double* squared_n
   jtr->setZero(P);
   for (ThreadState& t : threads_) {
     for (Accumulator& a : t.accumulators) {
+      if (!a.used) continue;
       Flush(&a);
       a.jtj.triangularView<Eigen::StrictlyUpper>() = a.jtj.transpose();
       for (int i = 0; i < a.size; ++i) {
@@ -258,12 +273,7 @@ void RenderCost::ResetThreads(int threads, double** jacobians) const {
   for (ThreadState& t : threads_) {
     t.squared_norm = 0.0;
     t.local.resize(static_cast<size_t>(4) * kMaxPatchesPerPixel * b);
-    for (Accumulator& a : t.accumulators) {
-      a.jtj.setZero();
-      a.jtr.setZero();
-      a.count = 0;
-      a.squared_norm = 0.0;
-    }
+    for (Accumulator& a : t.accumulators) a.used = false;
   }
   if (jacobians == nullptr) return;
   for (int p = 0; p < data_.model->num_patches(); ++p) {

@@ -112,6 +112,7 @@ class RenderCost : public ceres::CostFunction {
     Eigen::VectorXd values;
     int count = 0;
     double squared_norm = 0.0;  // of the rows' residuals
+    bool used = false;          // this evaluation (zeroed when first used)
   };
   struct ThreadState {
     double squared_norm = 0.0;
