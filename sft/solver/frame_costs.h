@@ -26,9 +26,9 @@
 
 namespace polyfit {
 
-// Groups of patches whose pixels' normal equations are kept together, so
-// that the render term of an atlas is a residual block per group (over
-// its patches' blocks) instead of one dense over all of them.
+// Groups of patches a pixel may depend on together: which patches' blocks
+// the render term of an atlas couples (SplitRenderTerm), so that its
+// normal equations stay sparse by patch instead of dense over all of them.
 struct PatchGroups {
   std::vector<std::vector<int>> groups;  // sorted patch lists
   // The smallest group holding all of `patches` (sorted; *whole true), or
