@@ -911,15 +911,15 @@ class PolySftController {
       split->callback.Add(split->terms.back().get());
       *render = split->terms.back().get();
     }
-    AddSilhouetteReach(l, frame, problem);
+    AddSilhouetteReach(l, frame, problem, *render);
     // Correspondences guide the coarse levels; the finest is the images'
     // unless asked.
     const bool coarse = l + 1 < static_cast<int>(levels_.size());
     if (use_features_ && (coarse || options_.features_on_finest)) {
-      AddMatchTerm(l, frame, frame.features, feature_weight_, problem);
+      AddMatchTerm(l, frame, frame.features, feature_weight_, problem, *render);
     }
     if (options_.flow_weight > 0.0 && (coarse || options_.flow_on_finest)) {
-      AddMatchTerm(l, frame, frame.flow, options_.flow_weight, problem);
+      AddMatchTerm(l, frame, frame.flow, options_.flow_weight, problem, *render);
     }
     return true;
   }
@@ -941,9 +941,10 @@ class PolySftController {
   // cost is weight / 2 times the mean squared distance over D^2 at any
   // level; the dead zone and Huber's threshold in full-size pixels. One
   // cost per set of patches the matches' faces span (in a fixed order),
-  // so that an atlas's normal equations stay sparse by patch.
+  // so that an atlas's normal equations stay sparse by patch; attached to
+  // the frame's `render` term where given.
   void AddMatchTerm(int l, FrameData& frame, const std::vector<FeatureMatch>& matches, double weight,
-                    ceres::Problem* problem) {
+                    ceres::Problem* problem, SplitRenderTerm* render = nullptr) {
     if (matches.empty()) return;
     const LevelData& level = levels_[l];
     const double w = std::sqrt(weight / matches.size()) / std::sqrt(template_pixels_);
@@ -961,6 +962,10 @@ class PolySftController {
     for (auto& group : by_patches) {
       auto* cost = new FeatureCost(&model_, std::move(group.second), level.camera, w / level.scale,
                                    options_.feature_dead_zone_px * level.scale, w * options_.feature_huber_px);
+      if (render != nullptr) {
+        render->Attach(cost, cost->patches());
+        continue;
+      }
       std::vector<double*> cost_blocks;
       for (int p : cost->patches()) cost_blocks.push_back(blocks[p]);
       problem->AddResidualBlock(new CompressedCost(cost), nullptr, cost_blocks);
@@ -971,15 +976,19 @@ class PolySftController {
   // at level l (half the image: a surface the image cuts off may go on).
   int ReachMargin(int l) const { return std::max(levels_[l].camera.width, levels_[l].camera.height) / 2; }
 
-  // The silhouette's long reach on the coarsest level (SilhouetteReachCost).
-  void AddSilhouetteReach(int l, FrameData& frame, ceres::Problem* problem) {
+  // The silhouette's long reach on the coarsest level (SilhouetteReachCost),
+  // attached to the frame's `render` term where given.
+  void AddSilhouetteReach(int l, FrameData& frame, ceres::Problem* problem, SplitRenderTerm* render) {
     if (l != 0 || !use_masks_ || frame.outside.empty()) return;
     const std::vector<double*> blocks = Blocks(frame.theta);
     for (int p = 0; p < model_.num_patches(); ++p) {
-      problem->AddResidualBlock(
-          new CompressedCost(new SilhouetteReachCost(&model_, p, levels_[l].camera, frame.outside, ReachMargin(l), 0.5,
-                                                     options_.silhouette_reach_weight)),
-          nullptr, blocks[p]);
+      auto* cost = new SilhouetteReachCost(&model_, p, levels_[l].camera, frame.outside, ReachMargin(l), 0.5,
+                                           options_.silhouette_reach_weight);
+      if (render != nullptr) {
+        render->Attach(cost, {p});
+      } else {
+        problem->AddResidualBlock(new CompressedCost(cost), nullptr, blocks[p]);
+      }
     }
   }
 
