@@ -173,10 +173,11 @@ PatchGroups MakePatchGroups(const JetDeformationModel& model, const Eigen::Matri
 // One frame's render term, its normal equations compressed by a sparse
 // block Cholesky over the patches (CompressBlockSparse): the patches
 // ordered by minimum degree on the graph of PatchGroups (two patches are
-// adjacent when a group holds both), one residual block per patch over
-// itself and the patches after it where its factor row is nonzero
-// (row_block_patches), so that a solver's J^T J has the pattern of the
-// patch graph and its fill, not of every group's pairs again and again.
+// adjacent when a group or an attached term holds both), one residual
+// block per patch over itself and the patches after it where its factor
+// row is nonzero (row_block_patches), so that a solver's J^T J has the
+// pattern of the patch graph and its fill, not of every group's pairs
+// again and again.
 // Read from what Prepare computed at the parameters in `theta` (the
 // frame's blocks, contiguous). Ceres calls Prepare through
 // RenderTermCallback before every evaluation, so the frame is rendered
@@ -190,8 +191,8 @@ class SplitRenderTerm {
   // its own: a regulariser then costs the solver nothing outside the
   // frame's row blocks. Takes ownership; before the first call below.
   void Attach(ceres::CostFunction* term, std::vector<int> patches);
-  // False when the surface went behind the camera (every row block's
-  // Evaluate then fails).
+  // False when the surface went behind the camera or an attached term
+  // failed (every row block's Evaluate then fails).
   bool Prepare(bool jacobians, bool new_point);
   int num_row_blocks() const;
   // Row block i's patches: its own first, then the later ones it reaches.
