@@ -577,8 +577,8 @@ bool SplitRenderTerm::Prepare(bool jacobians, bool new_point) {
 
 bool SplitRenderTerm::AddAttached(bool jacobians) {
   const int b = block_size_;
-  std::vector<const double*> parameters;
-  std::vector<double*> blocks;
+  std::vector<const double*>& parameters = attached_parameters_;
+  std::vector<double*>& blocks = attached_blocks_;
   for (const Attached& a : attached_) {
     const int m = a.term->num_residuals(), k = static_cast<int>(a.patches.size());
     parameters.clear();

@@ -225,7 +225,10 @@ class SplitRenderTerm {
   mutable std::vector<std::vector<int>> later_;  // per slot: the later slots its factor row reaches
   mutable std::vector<std::vector<int>> row_patches_;
   mutable std::vector<int32_t> sizes_;           // per slot: the block size
+  // AddAttached's buffers, kept: Prepare runs at every evaluation.
   std::vector<double> attached_residuals_, attached_jacobian_;
+  std::vector<const double*> attached_parameters_;
+  std::vector<double*> attached_blocks_;
   bool ok_ = false, have_jacobians_ = false;
   int generation_ = 0;
   double squared_norm_ = 0.0;

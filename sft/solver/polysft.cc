@@ -893,8 +893,8 @@ class PolySftController {
   // The photometric and silhouette term of window frame k at a level;
   // false when the surface went behind the camera. One residual block for
   // one patch; for an atlas, a SplitRenderTerm (render_groups_, into
-  // `split`, returned in *render) whose row blocks the caller adds
-  // (AddRenderRowBlocks) once the frame's regularisers are attached.
+  // `split`, returned in *render) whose row blocks the caller adds once the
+  // frame's regularisers are attached (AddFrameTerms).
   bool AddImageTerm(int l, FrameData& frame, ceres::Problem* problem, SplitTerms* split,
                     SplitRenderTerm** render) {
     *render = nullptr;
@@ -924,15 +924,23 @@ class PolySftController {
     return true;
   }
 
-  // An atlas's render term's row blocks, once the frame's regularisers are
-  // attached to it (AddRegularizers).
-  void AddRenderRowBlocks(const SplitRenderTerm& term, FrameData& frame, ceres::Problem* problem) {
+  // Window frame k's image term at level l and its regularisers: for an
+  // atlas, the frame's own regularisers attached to its render term, whose
+  // row blocks are added last. False when the surface went behind the
+  // camera.
+  bool AddFrameTerms(int l, size_t k, ceres::Problem* problem, SplitTerms* split) {
+    FrameData& frame = *window_[k];
+    SplitRenderTerm* render = nullptr;
+    if (!AddImageTerm(l, frame, problem, split, &render)) return false;
+    AddRegularizers(k, l + 1 < static_cast<int>(levels_.size()), problem, render);
+    if (render == nullptr) return true;
     const std::vector<double*> blocks = Blocks(frame.theta);
-    for (int i = 0; i < term.num_row_blocks(); ++i) {
+    for (int i = 0; i < render->num_row_blocks(); ++i) {
       std::vector<double*> row_blocks;
-      for (const int p : term.row_block_patches(i)) row_blocks.push_back(blocks[p]);
-      problem->AddResidualBlock(term.NewRowBlockCost(i), nullptr, row_blocks);
+      for (const int p : render->row_block_patches(i)) row_blocks.push_back(blocks[p]);
+      problem->AddResidualBlock(render->NewRowBlockCost(i), nullptr, row_blocks);
     }
+    return true;
   }
 
   // Correspondences of a frame at level l (FeatureCost; keypoints or
@@ -958,17 +966,10 @@ class PolySftController {
       patches.erase(std::unique(patches.begin(), patches.end()), patches.end());
       by_patches[patches].push_back({corners, m.barycentric, to_level * (m.pixel.array() + 0.5) - 0.5});
     }
-    const std::vector<double*> blocks = Blocks(frame.theta);
     for (auto& group : by_patches) {
       auto* cost = new FeatureCost(&model_, std::move(group.second), level.camera, w / level.scale,
                                    options_.feature_dead_zone_px * level.scale, w * options_.feature_huber_px);
-      if (render != nullptr) {
-        render->Attach(cost, cost->patches());
-        continue;
-      }
-      std::vector<double*> cost_blocks;
-      for (int p : cost->patches()) cost_blocks.push_back(blocks[p]);
-      problem->AddResidualBlock(new CompressedCost(cost), nullptr, cost_blocks);
+      AddFrameTerm(frame, cost, cost->patches(), problem, render);
     }
   }
 
@@ -980,15 +981,11 @@ class PolySftController {
   // attached to the frame's `render` term where given.
   void AddSilhouetteReach(int l, FrameData& frame, ceres::Problem* problem, SplitRenderTerm* render) {
     if (l != 0 || !use_masks_ || frame.outside.empty()) return;
-    const std::vector<double*> blocks = Blocks(frame.theta);
     for (int p = 0; p < model_.num_patches(); ++p) {
-      auto* cost = new SilhouetteReachCost(&model_, p, levels_[l].camera, frame.outside, ReachMargin(l), 0.5,
-                                           options_.silhouette_reach_weight);
-      if (render != nullptr) {
-        render->Attach(cost, {p});
-      } else {
-        problem->AddResidualBlock(new CompressedCost(cost), nullptr, blocks[p]);
-      }
+      AddFrameTerm(frame,
+                   new SilhouetteReachCost(&model_, p, levels_[l].camera, frame.outside, ReachMargin(l), 0.5,
+                                           options_.silhouette_reach_weight),
+                   {p}, problem, render);
     }
   }
 
@@ -1096,66 +1093,87 @@ class PolySftController {
     return MatchBrightness(render.color, render.silhouette, image, mask, roi);
   }
 
-  // Inextensibility of window frame k, its patches' seams, and its
-  // temporal link to the frames before it (in the window, or finalised
-  // before it; as many as temporal_order asks and exist): each over the
-  // blocks of the patches it joins.
+  // A term over window frame `frame`'s `patches` alone: attached to its
+  // render term where it has one (`render`), else a residual block
+  // (compressed, unless `compress` is false).
+  void AddFrameTerm(FrameData& frame, ceres::CostFunction* cost, const std::vector<int>& patches,
+                    ceres::Problem* problem, SplitRenderTerm* render, bool compress = true) {
+    if (render != nullptr) {
+      render->Attach(cost, patches);
+      return;
+    }
+    const std::vector<double*> all = Blocks(frame.theta);
+    std::vector<double*> some;
+    for (const int p : patches) some.push_back(all[p]);
+    problem->AddResidualBlock(compress ? new CompressedCost(cost) : cost, nullptr, some);
+  }
+
+  // Inextensibility of window frame k, bending where asked, its patches'
+  // seams, the hold of its hidden part, and its temporal link to the
+  // frames before it (in the window, or finalised before it; as many as
+  // temporal_order asks and exist): each over the blocks of the patches it
+  // joins, those within the frame attached to its `render` term where
+  // given.
   void AddRegularizers(size_t k, bool coarse, ceres::Problem* problem, SplitRenderTerm* render = nullptr) {
-    const std::vector<double*> blocks = Blocks(window_[k]->theta);
     // Where the frame's estimate is as its problem is built (the seams'
     // and the occluded hold's choices).
     Eigen::Matrix3Xd vertices;
     model_.Evaluate(window_[k]->theta.data(), &vertices);
-    auto of = [&](const std::vector<double*>& all, const std::vector<int>& patches) {
-      std::vector<double*> some;
-      for (int p : patches) some.push_back(all[p]);
-      return some;
-    };
-    // A term over this frame's `patches` alone: into its render term where
-    // it has one, else a residual block (`compress`ed).
-    auto add = [&](ceres::CostFunction* cost, const std::vector<int>& patches, bool compress) {
-      if (render != nullptr) {
-        render->Attach(cost, patches);
-      } else {
-        problem->AddResidualBlock(compress ? new CompressedCost(cost) : cost, nullptr, of(blocks, patches));
-      }
-    };
+    AddShapeTerms(*window_[k], problem, render);
+    AddSeams(*window_[k], coarse, vertices, problem, render);
+    AddOccludedHold(k, vertices, problem);
+    AddTemporal(k, problem);
+  }
+
+  // AddRegularizers: inextensibility and bending of one frame.
+  void AddShapeTerms(FrameData& frame, ceres::Problem* problem, SplitRenderTerm* render) {
     if (use_inextensibility_ && !edges_.empty()) {
       const double w = std::sqrt(options_.inextensibility_weight / edges_.size());
       for (const AtlasTerms::EdgeGroup& g : atlas_terms_.edge_groups) {
-        add(new InextensibilityCost(&model_, g.patches, g.edges, g.rest_lengths, w), g.patches, true);
+        AddFrameTerm(frame, new InextensibilityCost(&model_, g.patches, g.edges, g.rest_lengths, w), g.patches, problem,
+                     render);
       }
     }
     const double bending = options_.bending_weight + (bending_prior_on_ ? options_.new_crease_bending_weight : 0.0);
-    if (bending > 0.0) {
-      const double k = std::sqrt(bending);
-      for (const AtlasTerms::HingeGroup& g : atlas_terms_.hinge_groups) {
-        std::vector<double> weights(g.weights.size());
-        for (size_t h = 0; h < weights.size(); ++h) weights[h] = k * std::sqrt(g.weights[h]);
-        add(new BendingCost(&model_, g.patches, g.hinges, g.rest_angles, weights), g.patches, true);
-      }
+    if (bending <= 0.0) return;
+    const double stiffness = std::sqrt(bending);
+    for (const AtlasTerms::HingeGroup& g : atlas_terms_.hinge_groups) {
+      std::vector<double> weights(g.weights.size());
+      for (size_t h = 0; h < weights.size(); ++h) weights[h] = stiffness * std::sqrt(g.weights[h]);
+      AddFrameTerm(frame, new BendingCost(&model_, g.patches, g.hinges, g.rest_angles, weights), g.patches, problem,
+                   render);
     }
+  }
+
+  // AddRegularizers: the seams of one frame at `vertices` (3 by #V), loose
+  // where its images see both patches, and their uv fields held alike.
+  void AddSeams(FrameData& frame, bool coarse, const Eigen::Matrix3Xd& vertices, ceres::Problem* problem,
+                SplitRenderTerm* render) {
+    if (atlas_terms_.seams.empty()) return;
     const PatchAtlasOptions& atlas = options_.atlas;
     const double position_weight = coarse ? atlas.coarse_seam_position_weight : atlas.seam_position_weight;
-    if (!atlas_terms_.seams.empty()) {
-      size_t count = 0;
-      for (const AtlasTerms::Seam& seam : atlas_terms_.seams) count += seam.edges.size();
-      const std::vector<std::uint8_t> seen = SeenPatches(*window_[k], vertices);
-      const double wn = std::sqrt(atlas.seam_normal_weight / count);
-      for (const AtlasTerms::Seam& seam : atlas_terms_.seams) {
-        const double wx =
-            std::sqrt((seen[seam.a] && seen[seam.b] ? atlas.seen_seam_position_weight : position_weight) / count);
-        if (wx > 0.0 || wn > 0.0) {
-          add(CreateSeamCost(&model_, seam.a, seam.b, seam.edges, mean_edge_, wx, wn), {seam.a, seam.b}, true);
-        }
-        if (atlas.seam_uv_weight > 0.0) {
-          add(CreateSharedUvCost(&model_, std::sqrt(atlas.seam_uv_weight / atlas_terms_.seams.size())),
-              {seam.a, seam.b}, false);
-        }
+    size_t count = 0;
+    for (const AtlasTerms::Seam& seam : atlas_terms_.seams) count += seam.edges.size();
+    const std::vector<std::uint8_t> seen = SeenPatches(frame, vertices);
+    const double wn = std::sqrt(atlas.seam_normal_weight / count);
+    for (const AtlasTerms::Seam& seam : atlas_terms_.seams) {
+      const double wx =
+          std::sqrt((seen[seam.a] && seen[seam.b] ? atlas.seen_seam_position_weight : position_weight) / count);
+      if (wx > 0.0 || wn > 0.0) {
+        AddFrameTerm(frame, CreateSeamCost(&model_, seam.a, seam.b, seam.edges, mean_edge_, wx, wn),
+                     {seam.a, seam.b}, problem, render);
+      }
+      if (atlas.seam_uv_weight > 0.0) {
+        AddFrameTerm(frame, CreateSharedUvCost(&model_, std::sqrt(atlas.seam_uv_weight / atlas_terms_.seams.size())),
+                     {seam.a, seam.b}, problem, render, false);
       }
     }
-    AddOccludedHold(k, vertices, problem);
+  }
+
+  // AddRegularizers: window frame k's temporal link, per patch.
+  void AddTemporal(size_t k, ceres::Problem* problem) {
     if (!use_temporal_) return;
+    const std::vector<double*> blocks = Blocks(window_[k]->theta);
     const double w = std::sqrt(options_.temporal_weight / model_.num_vertices());
     // Frames before k, most recent first: the window's, then the finalised.
     std::vector<std::vector<double*>> earlier_blocks;
@@ -1347,12 +1365,9 @@ class PolySftController {
           if (k < first_free) problem.SetParameterBlockConstant(block);
         }
         if (k < first_free) continue;
-        SplitRenderTerm* render = nullptr;
-        if (!AddImageTerm(l, frame, &problem, &split, &render)) {
+        if (!AddFrameTerms(l, k, &problem, &split)) {
           return Fail("frame " + std::to_string(frame.frame.index) + ": the surface went behind the camera");
         }
-        AddRegularizers(k, l + 1 < static_cast<int>(levels_.size()), &problem, render);
-        if (render != nullptr) AddRenderRowBlocks(*render, frame, &problem);
       }
       ceres::Solver::Options solver = LevelSolverOptions();
       SftIterationSummary row;
@@ -1561,10 +1576,7 @@ class PolySftController {
     FrameData& frame = *window_[k];
     const std::vector<double*> blocks = Blocks(frame.theta);
     for (double* block : blocks) problem.AddParameterBlock(block, model_.block_size());
-    SplitRenderTerm* render = nullptr;
-    if (!AddImageTerm(static_cast<int>(levels_.size()) - 1, frame, &problem, &split, &render)) return 0.0;
-    AddRegularizers(k, false, &problem, render);
-    if (render != nullptr) AddRenderRowBlocks(*render, frame, &problem);
+    if (!AddFrameTerms(static_cast<int>(levels_.size()) - 1, k, &problem, &split)) return 0.0;
     ceres::Problem::EvaluateOptions evaluate;
     evaluate.parameter_blocks = blocks;
     evaluate.num_threads = ResolveNumThreads(options_.num_threads);
