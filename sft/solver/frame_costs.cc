@@ -774,14 +774,15 @@ BendingCost::BendingCost(const JetDeformationModel* model, const std::vector<int
 
 TemporalCost::TemporalCost(const JetDeformationModel* model, int patch, double length_scale, double weight, int order,
                            const std::vector<const Eigen::Matrix3Xd*>& fixed, const Eigen::Vector3d& shift,
-                           const std::vector<int>& only)
+                           const std::vector<int>& only, double velocity)
     : model_(model), patch_(patch), scale_(weight / length_scale) {
   if (order != 1 && order != 2) throw std::invalid_argument("TemporalCost: the order must be 1 or 2");
   if (order != 2 && !shift.isZero()) throw std::invalid_argument("TemporalCost: a shift needs the order 2");
   if (!shift.allFinite()) throw std::invalid_argument("TemporalCost: the shift must be finite");
+  if (!std::isfinite(velocity)) throw std::invalid_argument("TemporalCost: the velocity must be finite");
   if (fixed.size() > static_cast<size_t>(order))
     throw std::invalid_argument("TemporalCost: more fixed frames than the order");
-  coefficients_ = order == 1 ? std::vector<double>{1.0, -1.0} : std::vector<double>{1.0, -2.0, 1.0};
+  coefficients_ = order == 1 ? std::vector<double>{1.0, -1.0} : std::vector<double>{1.0, -1.0 - velocity, velocity};
   num_free_ = order + 1 - static_cast<int>(fixed.size());
   if (only.empty()) {
     for (int i = 0; i < model->num_vertices(); ++i) {

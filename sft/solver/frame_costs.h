@@ -377,10 +377,12 @@ double SampleOutsideDistance(const cv::Mat& distance, double x, double y, Eigen:
 // Temporal smoothness of patch p's vertices over the frames before,
 //   order 1: r = (w / L) (x_t - x_t-1)                (the paper's k_tc term,
 //            TemporalConsistencyResidual: consecutive frames close)
-//   order 2: r = (w / L) (x_t - 2 x_t-1 + x_t-2 - s)  (each frame on the line
-//            through the two before, moved by s: constant velocity,
-//            inertia; with s = g dt^2, InertiaResidual's target with
-//            gravity folded in, where a free fall goes)
+//   order 2: r = (w / L) (x_t - (1 + b) x_t-1 + b x_t-2 - s)  (each frame
+//            where the frame before carries on at b times its velocity,
+//            moved by s; b = `velocity`, 1 by default: on the line through
+//            the two before, constant velocity, inertia; with s = g dt^2,
+//            InertiaResidual's target with gravity folded in, where a free
+//            fall goes; b < 1: a damped inertia)
 // 3 residuals per vertex of the patch. The earlier frames are parameter
 // blocks (patch p's block of frame t-1, then of t-2) except the oldest
 // `fixed.size()` of them, given as data (3 by #V each, the most recent
@@ -391,7 +393,8 @@ class TemporalCost : public ceres::CostFunction {
  public:
   TemporalCost(const JetDeformationModel* model, int patch, double length_scale, double weight, int order,
                const std::vector<const Eigen::Matrix3Xd*>& fixed,
-               const Eigen::Vector3d& shift = Eigen::Vector3d::Zero(), const std::vector<int>& only = {});
+               const Eigen::Vector3d& shift = Eigen::Vector3d::Zero(), const std::vector<int>& only = {},
+               double velocity = 1.0);
   // Order 1; `previous` given: the earlier frame is data.
   TemporalCost(const JetDeformationModel* model, int patch, double length_scale, double weight,
                const Eigen::Matrix3Xd* previous = nullptr);

@@ -289,7 +289,8 @@ TEST_F(FrameCostsTest, BendingIsZeroOnTheTemplateAndItsJacobianMatchesFiniteDiff
 }
 
 // Order 2: r = (w / L) (x_t - 2 x_t-1 + x_t-2), alike whether the earlier
-// frames are parameters or data.
+// frames are parameters or data; with a velocity b < 1, x_t-1 carried on
+// at b times its velocity.
 TEST_F(FrameCostsTest, TheSecondOrderTemporalTermHoldsAFrameToTheLineThroughTheTwoBefore) {
   ASSERT_EQ(model_->num_patches(), 1);
   const int b = model_->block_size();
@@ -321,6 +322,22 @@ TEST_F(FrameCostsTest, TheSecondOrderTemporalTermHoldsAFrameToTheLineThroughTheT
   EXPECT_LT(RelativeJacobianError(both_fixed, frames[0], 1e-7), 1e-5);
   EXPECT_THROW(TemporalCost(model_.get(), 0, 0.3, 1.5, 3, {}), std::invalid_argument);
   EXPECT_THROW(TemporalCost(model_.get(), 0, 0.3, 1.5, 1, {&x[1], &x[2]}), std::invalid_argument);
+
+  // A damped inertia: the frame before carried on at half its velocity,
+  // r = (w / L) (x_t - 1.5 x_t-1 + 0.5 x_t-2); at 0, the order-1 hold.
+  const Eigen::Matrix3Xd damped = scale * (x[0] - 1.5 * x[1] + 0.5 * x[2]);
+  const TemporalCost half(model_.get(), 0, 0.3, 1.5, 2, {}, Eigen::Vector3d::Zero(), {}, 0.5);
+  const TemporalCost half_fixed(model_.get(), 0, 0.3, 1.5, 2, {&x[2]}, Eigen::Vector3d::Zero(), {}, 0.5);
+  for (const TemporalCost* cost : {&half, &half_fixed}) {
+    ASSERT_TRUE(cost->Evaluate(blocks, r.data(), nullptr));
+    EXPECT_LT((r - damped).cwiseAbs().maxCoeff(), 1e-12);
+  }
+  EXPECT_LT(RelativeJacobianError(half, all, 1e-7), 1e-5);
+  const TemporalCost still(model_.get(), 0, 0.3, 1.5, 2, {}, Eigen::Vector3d::Zero(), {}, 0.0);
+  ASSERT_TRUE(still.Evaluate(blocks, r.data(), nullptr));
+  EXPECT_LT((r - scale * (x[0] - x[1])).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_THROW(TemporalCost(model_.get(), 0, 0.3, 1.5, 2, {}, Eigen::Vector3d::Zero(), {}, NAN),
+               std::invalid_argument);
 }
 
 // On some of the patch's vertices only (the ones a fold hides): their

@@ -218,6 +218,7 @@ std::string PolySftOptions::Validate() const {
   for (const auto& [name, w] : weights) {
     if (!(w >= 0.0) || !std::isfinite(w)) return std::string(name) + " must be finite and >= 0";
   }
+  if (!(occluded_velocity >= 0.0 && occluded_velocity <= 1.0)) return "occluded_velocity must be in [0, 1]";
   if (!(depth_softness >= 0.0) || !std::isfinite(depth_softness)) {
     return "depth_softness must be finite and >= 0 (m; 0: rasterizer.gamma as given)";
   }
@@ -1171,24 +1172,31 @@ class PolySftController {
   }
 
   // AddRegularizers: window frame k's temporal link, per patch.
-  void AddTemporal(size_t k, ceres::Problem* problem) {
-    if (!use_temporal_) return;
-    const std::vector<double*> blocks = Blocks(window_[k]->theta);
-    const double w = std::sqrt(options_.temporal_weight / model_.num_vertices());
-    // Frames before k, most recent first: the window's, then the finalised.
-    std::vector<std::vector<double*>> earlier_blocks;
-    std::vector<const Eigen::Matrix3Xd*> fixed;
-    for (int back = 1; back <= TemporalOrder(); ++back) {
+  // Up to `order` frames before window frame k, most recent first: the
+  // window's (their blocks), then the finalised (their vertices). Returns
+  // how many there are.
+  int EarlierFrames(size_t k, int order, std::vector<std::vector<double*>>* blocks,
+                    std::vector<const Eigen::Matrix3Xd*>* fixed) const {
+    for (int back = 1; back <= order; ++back) {
       const int j = static_cast<int>(k) - back;
       if (j >= 0) {
-        earlier_blocks.push_back(Blocks(window_[j]->theta));
+        blocks->push_back(Blocks(window_[j]->theta));
       } else if (-j - 1 < static_cast<int>(finals_.size())) {
-        fixed.push_back(&finals_[-j - 1]);
+        fixed->push_back(&finals_[-j - 1]);
       } else {
         break;
       }
     }
-    const int order = static_cast<int>(earlier_blocks.size() + fixed.size());
+    return static_cast<int>(blocks->size() + fixed->size());
+  }
+
+  void AddTemporal(size_t k, ceres::Problem* problem) {
+    if (!use_temporal_) return;
+    const std::vector<double*> blocks = Blocks(window_[k]->theta);
+    const double w = std::sqrt(options_.temporal_weight / model_.num_vertices());
+    std::vector<std::vector<double*>> earlier_blocks;
+    std::vector<const Eigen::Matrix3Xd*> fixed;
+    const int order = EarlierFrames(k, TemporalOrder(), &earlier_blocks, &fixed);
     if (order == 0) return;
     // Gravity's shift needs both frames before (a frame with one before
     // has no velocity to carry on).
@@ -1232,18 +1240,16 @@ class PolySftController {
 
   // PolySftOptions::occluded_temporal_weight: window frame k's vertices
   // that another part of its surface hides (where its estimate is now)
-  // held to where the frame before put them.
+  // held to where the frame before put them, carried on at
+  // occluded_velocity times their velocity there.
   void AddOccludedHold(size_t k, const Eigen::Matrix3Xd& vertices, ceres::Problem* problem) {
     if (options_.occluded_temporal_weight <= 0.0) return;
-    const Eigen::Matrix3Xd* fixed = nullptr;
-    std::vector<double*> before;
-    if (k > 0) {
-      before = Blocks(window_[k - 1]->theta);
-    } else if (!finals_.empty()) {
-      fixed = &finals_[0];
-    } else {
-      return;  // the first frame
-    }
+    // With a velocity to carry, the two frames before; order 1 where there
+    // is only one (the second frame).
+    std::vector<std::vector<double*>> earlier_blocks;
+    std::vector<const Eigen::Matrix3Xd*> fixed;
+    const int order = EarlierFrames(k, options_.occluded_velocity > 0.0 ? 2 : 1, &earlier_blocks, &fixed);
+    if (order == 0) return;  // the first frame
     const std::vector<std::uint8_t> occluded = HiddenVertices(vertices);
     if (occluded.empty()) return;
     std::vector<std::vector<int>> per_patch(model_.num_patches());
@@ -1255,15 +1261,11 @@ class PolySftController {
     for (int p = 0; p < model_.num_patches(); ++p) {
       if (per_patch[p].empty()) continue;
       std::vector<double*> frames = {blocks[p]};
-      std::vector<const Eigen::Matrix3Xd*> data;
-      if (fixed != nullptr) {
-        data.push_back(fixed);
-      } else {
-        frames.push_back(before[p]);
-      }
-      problem->AddResidualBlock(
-          new CompressedCost(new TemporalCost(&model_, p, size_, w, 1, data, Eigen::Vector3d::Zero(), per_patch[p])),
-          nullptr, frames);
+      for (const auto& earlier : earlier_blocks) frames.push_back(earlier[p]);
+      problem->AddResidualBlock(new CompressedCost(new TemporalCost(&model_, p, size_, w, order, fixed,
+                                                                    Eigen::Vector3d::Zero(), per_patch[p],
+                                                                    options_.occluded_velocity)),
+                                nullptr, frames);
     }
   }
 

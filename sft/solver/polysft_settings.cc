@@ -75,6 +75,7 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("temporal_order", temporal_order),
         POLYFIT_SETTING("gravity_prior", gravity_prior),
         POLYFIT_SETTING("occluded_temporal_weight", occluded_temporal_weight),
+        POLYFIT_SETTING("occluded_velocity", occluded_velocity),
         POLYFIT_SETTING("silhouette_band", silhouette_band),
         POLYFIT_SETTING("relax_mask_border", relax_mask_border),
         POLYFIT_SETTING("silhouette_reach_weight", silhouette_reach_weight),

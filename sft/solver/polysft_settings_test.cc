@@ -45,6 +45,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.temporal_order = 2;
   changed.gravity_prior = true;
   changed.occluded_temporal_weight = 3.0;
+  changed.occluded_velocity = 0.25;
   changed.atlas.initial_patches = 4;
   changed.silhouette_band = 4.5;
   changed.relax_mask_border = false;
