@@ -1171,7 +1171,6 @@ class PolySftController {
     }
   }
 
-  // AddRegularizers: window frame k's temporal link, per patch.
   // Up to `order` frames before window frame k, most recent first: the
   // window's (their blocks), then the finalised (their vertices). Returns
   // how many there are.
@@ -1190,6 +1189,7 @@ class PolySftController {
     return static_cast<int>(blocks->size() + fixed->size());
   }
 
+  // AddRegularizers: window frame k's temporal link, per patch.
   void AddTemporal(size_t k, ceres::Problem* problem) {
     if (!use_temporal_) return;
     const std::vector<double*> blocks = Blocks(window_[k]->theta);
