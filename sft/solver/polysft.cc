@@ -32,6 +32,7 @@
 #include "sft/scene/sft_metrics.h"
 #include "sft/solver/brightness.h"
 #include "sft/solver/flow_matches.h"
+#include "sft/solver/fold_mirror.h"
 #include "sft/solver/frame_costs.h"
 #include "sft/solver/match_pose.h"
 #include "sft/solver/polysft_settings.h"
@@ -1640,6 +1641,7 @@ class PolySftController {
   static constexpr int kRecoveryMask = 1;
   static constexpr int kRecoveryKeypoints = 2;
   static constexpr int kRecoveryBending = 3;
+  static constexpr int kRecoveryMirror = 4;
 
   // The window solved again from `restart`'s change to the newest frame
   // (which may solve it itself, counting its iterations in `more`), where
@@ -1648,7 +1650,11 @@ class PolySftController {
   bool SolveAgainFrom(int recovery, const std::string& why, const char* how,
                       const std::function<bool(int* more)>& restart, double* cost, int* iterations) {
     std::vector<std::vector<double>> before;
-    for (const auto& frame : window_) before.push_back(frame->theta);
+    std::vector<bool> settled;
+    for (const auto& frame : window_) {
+      before.push_back(frame->theta);
+      settled.push_back(frame->settled);
+    }
     // A failed attempt leaves no trace but its rows (SolveWindow fails the
     // run only through Fail).
     const TerminationType termination = summary_.termination_type;
@@ -1668,7 +1674,10 @@ class PolySftController {
     }
     summary_.termination_type = termination;
     summary_.message = message;
-    for (size_t k = 0; k < window_.size(); ++k) window_[k]->theta = before[k];
+    for (size_t k = 0; k < window_.size(); ++k) {
+      window_[k]->theta = before[k];
+      window_[k]->settled = settled[k];
+    }
     return false;
   }
 
@@ -1677,44 +1686,69 @@ class PolySftController {
   // without it from there, the lower cost kept.
   void SecondOpinionOnNewCrease(int t, double* cost, int* iterations) {
     FrameData& newest = *window_.back();
-    if (t == 0 || newest.mask_empty || !(options_.new_crease_bending_weight > 0.0) || hinges_.hinges.empty()) return;
-    const double crease = NewCreaseDegrees();
+    const bool bend = options_.new_crease_bending_weight > 0.0;
+    if (t == 0 || newest.mask_empty || !(bend || options_.mirror_new_creases) || hinges_.hinges.empty()) return;
+    const std::vector<double> changes = HingeChanges();
+    const double crease = changes.empty() ? 0.0 : *std::max_element(changes.begin(), changes.end());
     if (!(crease > options_.new_crease_angle_deg)) return;
     char why[80];
     std::snprintf(why, sizeof(why), "a new crease (%.0f deg)", crease);
-    auto bent = [&](int* more) {
-      newest.theta = newest.start;
-      bending_prior_on_ = true;
-      double bent_cost = 0.0;
-      const bool solved = SolveWindow(&bent_cost, more);
-      bending_prior_on_ = false;
-      return solved;
-    };
-    SolveAgainFrom(kRecoveryBending, why, "from its start under a bending prior", bent, cost, iterations);
+    if (bend) {
+      auto bent = [&](int* more) {
+        newest.theta = newest.start;
+        bending_prior_on_ = true;
+        double bent_cost = 0.0;
+        const bool solved = SolveWindow(&bent_cost, more);
+        bending_prior_on_ = false;
+        return solved;
+      };
+      SolveAgainFrom(kRecoveryBending, why, "from its start under a bending prior", bent, cost, iterations);
+    }
+    if (options_.mirror_new_creases) MirrorNewCrease(why, cost, iterations);
   }
 
-  // The largest change of a hinge's dihedral angle (degrees) from the frame
-  // before to the newest.
-  double NewCreaseDegrees() const {
+  // PolySftOptions::mirror_new_creases: the newest frame's flap beyond its
+  // new crease (the hinges that turned by more than half
+  // new_crease_angle_deg since the frame before) mirrored about the sheet
+  // beside it (MirrorFoldFlap), the frame fitted to that and solved again,
+  // the lower final cost kept.
+  void MirrorNewCrease(const std::string& why, double* cost, int* iterations) {
+    const std::vector<double> changes = HingeChanges();
+    if (changes.empty()) return;
+    std::vector<std::uint8_t> crease(changes.size());
+    for (size_t h = 0; h < changes.size(); ++h) crease[h] = changes[h] > 0.5 * options_.new_crease_angle_deg;
+    Eigen::Matrix3Xd now, mirrored;
+    model_.Evaluate(window_.back()->theta.data(), &now);
+    if (MirrorFoldFlap(scene_.template_mesh, hinges_.hinges, crease, now, &mirrored) == 0) return;
+    auto flipped = [&](int*) {
+      FitNewestFrameTo(mirrored);
+      return true;
+    };
+    SolveAgainFrom(kRecoveryMirror, why, "its flap mirrored about the crease", flipped, cost, iterations);
+  }
+
+  // Per hinge of hinges_, how far its dihedral angle turned (degrees) from
+  // the frame before to the newest; empty without a frame before.
+  std::vector<double> HingeChanges() const {
     Eigen::Matrix3Xd now, before;
     if (window_.size() >= 2) {
       model_.Evaluate(window_[window_.size() - 2]->theta.data(), &before);
     } else if (!finals_.empty()) {
       before = finals_.front();
     } else {
-      return 0.0;
+      return {};
     }
     model_.Evaluate(window_.back()->theta.data(), &now);
-    double largest = 0.0;
+    std::vector<double> changes;
+    changes.reserve(hinges_.hinges.size());
     for (const MeshHinge& hinge : hinges_.hinges) {
       const auto& [i, j, k, l] = hinge.vertices;
-      double change = SignedDihedralAngle(now.col(i).data(), now.col(j).data(), now.col(k).data(), now.col(l).data()) -
-                      SignedDihedralAngle(before.col(i).data(), before.col(j).data(), before.col(k).data(),
-                                          before.col(l).data());
-      change = std::abs(std::remainder(change, 2.0 * M_PI));
-      largest = std::max(largest, change);
+      const double change =
+          SignedDihedralAngle(now.col(i).data(), now.col(j).data(), now.col(k).data(), now.col(l).data()) -
+          SignedDihedralAngle(before.col(i).data(), before.col(j).data(), before.col(k).data(), before.col(l).data());
+      changes.push_back(std::abs(std::remainder(change, 2.0 * M_PI)) * 180.0 / M_PI);
     }
-    return largest * 180.0 / M_PI;
+    return changes;
   }
 
   // Translates the frame's surface parallel to the image, at its mean

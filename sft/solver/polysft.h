@@ -163,6 +163,12 @@ struct PolySftOptions {
   // trace.csv's recovery 3). 0: off.
   double new_crease_bending_weight = 1e-4;
   double new_crease_angle_deg = 60.0;
+  // And, on the same trigger, the crease folded the other way: the flap
+  // beyond the hinges that turned by more than half new_crease_angle_deg
+  // mirrored about the sheet beside them (MirrorFoldFlap), the frame fitted
+  // to it and solved again, the lower final cost kept (trace.csv's
+  // recovery 4).
+  bool mirror_new_creases = true;
   // What the temporal term holds each frame to (TemporalCost): 1, the
   // frame before (the paper's: a surface that moves fast is held back);
   // 2, the line through the two frames before (constant velocity, inertia

@@ -41,6 +41,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.bending_weight = 1e-4;
   changed.new_crease_bending_weight = 3e-4;
   changed.new_crease_angle_deg = 45.0;
+  changed.mirror_new_creases = false;
   changed.temporal_weight = 0.3;
   changed.temporal_order = 2;
   changed.gravity_prior = true;
