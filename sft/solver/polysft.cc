@@ -422,7 +422,9 @@ class PolySftController {
       }
     }
     for (double length : rest_lengths_) mean_edge_ += length / rest_lengths_.size();
-    if (options_.bending_weight > 0.0 || options_.new_crease_bending_weight > 0.0) hinges_ = MeasureHingeRest(mesh);
+    if (options_.bending_weight > 0.0 || options_.new_crease_bending_weight > 0.0 || options_.mirror_new_creases) {
+      hinges_ = MeasureHingeRest(mesh);
+    }
     ScreenMesh screen = mesh_template_;
     ProjectVertices(scene_.camera, mesh.vertices, &screen, nullptr);
     template_pixels_ = 0.0;
