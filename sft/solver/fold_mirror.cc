@@ -86,7 +86,6 @@ int MirrorFoldFlap(const TriangleMesh& mesh, const std::vector<MeshHinge>& hinge
     mirrored->col(v) -= 2.0 * normal.dot(vertices.col(v) - centre) * normal;
     ++count;
   }
-  if (count == 0) *mirrored = vertices;
   return count;
 }
 

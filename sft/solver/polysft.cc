@@ -1715,6 +1715,7 @@ class PolySftController {
   // beside it (MirrorFoldFlap), the frame fitted to that and solved again,
   // the lower final cost kept.
   void MirrorNewCrease(const std::string& why, double* cost, int* iterations) {
+    // Measured again: the bending prior's second opinion may have been kept.
     const std::vector<double> changes = HingeChanges();
     if (changes.empty()) return;
     std::vector<std::uint8_t> crease(changes.size());
