@@ -571,8 +571,21 @@ bool SplitRenderTerm::Prepare(bool jacobians, bool new_point) {
   ok_ = cost_.EvaluateSlottedNormalEquations(theta_, groups_, slot_, jacobians, &squared_norm_, &jtj_, &jtr_);
   ok_ = AddAttached(jacobians) && ok_;
   have_jacobians_ = jacobians;
-  ++generation_;
+  // Factorised here, where the callback prepares the window's frames side
+  // by side: Write only copies its row block (no lock, no lazy state).
+  if (ok_ && jacobians) Factorize();
   return ok_;
+}
+
+void SplitRenderTerm::Factorize() {
+  const int b = block_size_;
+  double largest = 0.0;
+  for (int k = 0; k < num_row_blocks(); ++k) {
+    largest = std::max(largest, jtj_.block(k * b, k * b, b, b).diagonal().maxCoeff());
+  }
+  // In place: the normal equations are read once per point.
+  CompressBlockSparse(sizes_, later_, squared_norm_, 1e-12 * std::max(largest, 1e-300), &jtj_, &jtr_, &rows_,
+                      &residuals_);
 }
 
 bool SplitRenderTerm::AddAttached(bool jacobians) {
@@ -623,17 +636,6 @@ bool SplitRenderTerm::Write(int i, double* residuals, double** jacobians) const 
     out.setZero();
     if (last) out[b] = std::sqrt(std::max(0.0, squared_norm_));
     return true;
-  }
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (factored_ != generation_) {
-    double largest = 0.0;
-    for (int k = 0; k < num_row_blocks(); ++k) {
-      largest = std::max(largest, jtj_.block(k * b, k * b, b, b).diagonal().maxCoeff());
-    }
-    // In place: the normal equations are read once per point.
-    CompressBlockSparse(sizes_, later_, squared_norm_, 1e-12 * std::max(largest, 1e-300), &jtj_, &jtr_, &rows_,
-                        &residuals_);
-    factored_ = generation_;
   }
   out = residuals_.segment(static_cast<Eigen::Index>(i) * b, out.size());
   const Eigen::MatrixXd& row = rows_[i];

@@ -8,7 +8,6 @@
 
 #include <array>
 #include <memory>
-#include <mutex>
 #include <vector>
 
 #include <ceres/cost_function.h>
@@ -181,7 +180,7 @@ PatchGroups MakePatchGroups(const JetDeformationModel& model, const Eigen::Matri
 // Read from what Prepare computed at the parameters in `theta` (the
 // frame's blocks, contiguous). Ceres calls Prepare through
 // RenderTermCallback before every evaluation, so the frame is rendered
-// once, and factorised once by the first row block Ceres evaluates.
+// and factorised once, the window's frames side by side.
 class SplitRenderTerm {
  public:
   SplitRenderTerm(RenderCost::Data data, PatchGroups groups, const double* theta);
@@ -213,6 +212,9 @@ class SplitRenderTerm {
   void Plan() const;
   // Adds the attached terms' cost and normal equations at theta_.
   bool AddAttached(bool jacobians);
+  // The normal equations compressed into the factor's row blocks
+  // (CompressBlockSparse), what Write hands Ceres.
+  void Factorize();
 
   RenderCost cost_;
   PatchGroups groups_;
@@ -230,17 +232,13 @@ class SplitRenderTerm {
   std::vector<const double*> attached_parameters_;
   std::vector<double*> attached_blocks_;
   bool ok_ = false, have_jacobians_ = false;
-  int generation_ = 0;
   double squared_norm_ = 0.0;
   // The normal equations in slot order (the pattern's upper blocks only),
-  // factorised in place at the current point (generation) by the first row
-  // block evaluated.
-  mutable Eigen::MatrixXd jtj_;
-  mutable Eigen::VectorXd jtr_;
-  mutable std::mutex mutex_;
-  mutable int factored_ = -1;
-  mutable std::vector<Eigen::MatrixXd> rows_;  // per slot: the factor's row block
-  mutable Eigen::VectorXd residuals_;
+  // factorised in place by Prepare where it computed them (Factorize).
+  Eigen::MatrixXd jtj_;
+  Eigen::VectorXd jtr_;
+  std::vector<Eigen::MatrixXd> rows_;  // per slot: the factor's row block
+  Eigen::VectorXd residuals_;
 };
 
 // Prepares every SplitRenderTerm of a problem before Ceres evaluates it,
