@@ -228,7 +228,9 @@ class SplitRenderTerm {
   mutable std::vector<std::vector<int>> row_patches_;
   mutable std::vector<int32_t> sizes_;           // per slot: the block size
   // AddAttached's buffers, kept: Prepare runs at every evaluation.
-  std::vector<double> attached_residuals_, attached_jacobian_;
+  // Eigen-aligned: the products below peel to their alignment, and a
+  // heap address that varies from run to run changed their last bits.
+  std::vector<double, Eigen::aligned_allocator<double>> attached_residuals_, attached_jacobian_;
   std::vector<const double*> attached_parameters_;
   std::vector<double*> attached_blocks_;
   bool ok_ = false, have_jacobians_ = false;

@@ -127,6 +127,28 @@ OneAndAtlas SolveOneAndAtlas(const SftScene& scene) {
   return {SolvePolySft(one, scene), SolvePolySft(SmallAtlasOptions(), scene)};
 }
 
+// The same scene solved twice in one process, the heap shifted between
+// the runs, ends to the same bit, on one thread and on two: the atlas's
+// terms attached to the render term were summed by Eigen products that
+// peel to their buffers' alignment, and a heap address that varied from
+// run to run changed their last bits (and, through a frame that tips, a
+// scene's result).
+TEST(PolySftTest, AnAtlasSolveRepeatsToTheBit) {
+  ScopedTempDir dir("polyfit_sft_repeat");
+  const SftScene scene = SmallSheet(SheetMotion::kCrease, 8, dir);
+  for (const int threads : {1, 2}) {
+    PolySftOptions options = SmallAtlasOptions();
+    options.num_threads = threads;
+    options.rasterizer.num_threads = threads;
+    const PolySftSummary first = SolvePolySft(options, scene);
+    ASSERT_FALSE(first.splits.empty());
+    std::vector<std::vector<char>> shift;
+    for (int k = 1; k <= 9; ++k) shift.emplace_back(8 * k + 8);
+    const PolySftSummary second = SolvePolySft(options, scene);
+    ExpectSameToTheBit(first, second);
+  }
+}
+
 // A sheet that only moves rigidly: one jet holds it, so the atlas never
 // splits it (its residual still rises over the first frame's with the
 // resampled texture, but no split would move it visibly) and the solve is
