@@ -1695,6 +1695,7 @@ class PolySftController {
     if (!(crease > options_.new_crease_angle_deg)) return;
     char why[80];
     std::snprintf(why, sizeof(why), "a new crease (%.0f deg)", crease);
+    bool bent_kept = false;
     if (bend) {
       auto bent = [&](int* more) {
         newest.theta = newest.start;
@@ -1704,9 +1705,11 @@ class PolySftController {
         bending_prior_on_ = false;
         return solved;
       };
-      SolveAgainFrom(kRecoveryBending, why, "from its start under a bending prior", bent, cost, iterations);
+      bent_kept =
+          SolveAgainFrom(kRecoveryBending, why, "from its start under a bending prior", bent, cost, iterations);
     }
-    if (options_.mirror_new_creases) MirrorNewCrease(why, cost, iterations);
+    // Measured again where the bending prior's opinion was kept.
+    if (options_.mirror_new_creases) MirrorNewCrease(why, bent_kept ? HingeChanges() : changes, cost, iterations);
   }
 
   // PolySftOptions::mirror_new_creases: the newest frame's flap beyond its
@@ -1714,9 +1717,8 @@ class PolySftController {
   // new_crease_angle_deg since the frame before) mirrored about the sheet
   // beside it (MirrorFoldFlap), the frame fitted to that and solved again,
   // the lower final cost kept.
-  void MirrorNewCrease(const std::string& why, double* cost, int* iterations) {
-    // Measured again: the bending prior's second opinion may have been kept.
-    const std::vector<double> changes = HingeChanges();
+  // changes: HingeChanges() at the newest frame as it stands.
+  void MirrorNewCrease(const std::string& why, const std::vector<double>& changes, double* cost, int* iterations) {
     if (changes.empty()) return;
     std::vector<std::uint8_t> crease(changes.size());
     for (size_t h = 0; h < changes.size(); ++h) crease[h] = changes[h] > 0.5 * options_.new_crease_angle_deg;
