@@ -206,6 +206,8 @@ std::string PolySftOptions::Validate() const {
   if (max_image_width < 0) return "max_image_width must be >= 0";
   if (max_iterations_per_level < 1) return "max_iterations_per_level must be >= 1";
   if (patience < 1) return "patience must be >= 1";
+  if (iterative_min_patches < 2) return "iterative_min_patches must be >= 2";
+  if (!(iterative_eta > 0.0 && iterative_eta < 1.0)) return "iterative_eta must be in (0, 1)";
   const std::pair<const char*, double> weights[] = {{"photometric_weight", photometric_weight},
                                                      {"silhouette_weight", silhouette_weight},
                                                      {"silhouette_reach_weight", silhouette_reach_weight},
@@ -1278,7 +1280,17 @@ class PolySftController {
     solver.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
     // Every term is compressed to (parameters + 1) rows: one patch gives a
     // small dense system; an atlas, one sparse by patch.
-    solver.linear_solver_type = model_.num_patches() == 1 ? ceres::DENSE_QR : SparseSolver();
+    // A large atlas's steps by conjugate gradients instead of a
+    // factorisation (PolySftOptions::iterative_min_patches).
+    if (model_.num_patches() == 1) {
+      solver.linear_solver_type = ceres::DENSE_QR;
+    } else if (model_.num_patches() < options_.iterative_min_patches) {
+      solver.linear_solver_type = SparseSolver();
+    } else {
+      solver.linear_solver_type = ceres::CGNR;
+      solver.preconditioner_type = ceres::JACOBI;
+      solver.eta = options_.iterative_eta;
+    }
     solver.max_num_iterations = options_.max_iterations_per_level;
     // The window's frames are evaluated side by side; a lone frame's pixels
     // are split over the threads by the rasterizer instead.

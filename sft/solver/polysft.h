@@ -142,6 +142,16 @@ struct PolySftOptions {
   int max_iterations_per_level = 6;
   int patience = 1;
   double improvement_tolerance = 1e-2;
+  // How an atlas's Levenberg-Marquardt steps are solved (one patch: dense
+  // QR). Below iterative_min_patches patches, by sparse Cholesky on the
+  // normal equations (Ceres' SPARSE_NORMAL_CHOLESKY); from it on, by
+  // conjugate gradients on them (CGNR, block Jacobi by patch), each step
+  // until its residual is iterative_eta times its start. Factorising
+  // grows about as the cube of the patches (the fill of their graph),
+  // CG's products as their number; CG's inexact steps cost more of them
+  // on a few patches (docs/benchmarks.md, "conjugate gradients").
+  int iterative_min_patches = 24;
+  double iterative_eta = 1e-2;
   // Term weights (relative; each term is normalised by its size).
   double photometric_weight = 1.0;
   double silhouette_weight = 1.0;

@@ -65,6 +65,8 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("max_iterations_per_level", max_iterations_per_level),
         POLYFIT_SETTING("patience", patience),
         POLYFIT_SETTING("improvement_tolerance", improvement_tolerance),
+        POLYFIT_SETTING("iterative_min_patches", iterative_min_patches),
+        POLYFIT_SETTING("iterative_eta", iterative_eta),
         POLYFIT_SETTING("photometric_weight", photometric_weight),
         POLYFIT_SETTING("silhouette_weight", silhouette_weight),
         POLYFIT_SETTING("inextensibility_weight", inextensibility_weight),

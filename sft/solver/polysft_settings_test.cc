@@ -35,6 +35,8 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.max_iterations_per_level = 9;
   changed.patience = 3;
   changed.improvement_tolerance = 0.05;
+  changed.iterative_min_patches = 12;
+  changed.iterative_eta = 0.05;
   changed.photometric_weight = 0.5;
   changed.silhouette_weight = 2.0;
   changed.inextensibility_weight = 20.0;

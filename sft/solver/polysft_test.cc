@@ -200,6 +200,29 @@ TEST(PolySftTest, TheAtlasSplitsACreaseAndFollowsItBetterThanOnePatch) {
   EXPECT_TRUE(SolvePolySft(options, scene).splits.empty());
 }
 
+// A large atlas's steps by conjugate gradients (iterative_min_patches)
+// follow the crease as the sparse factorisation does: the same splits'
+// accuracy within a quarter, every step finite (measured: 1.45 mm against
+// 1.43 mean, 1.62 against 1.72 at the last frame, two splits each).
+TEST(PolySftTest, ConjugateGradientStepsFollowTheCreaseAsTheFactorisationDoes) {
+  ScopedTempDir dir("polyfit_sft_cg");
+  const SftScene scene = SmallSheet(SheetMotion::kCrease, 12, dir);
+  PolySftOptions options = SmallAtlasOptions();
+  const PolySftSummary cholesky = SolvePolySft(options, scene);
+  options.iterative_min_patches = 2;
+  const PolySftSummary cg = SolvePolySft(options, scene);
+  ExpectFinite(cg);
+  ASSERT_FALSE(cg.splits.empty());
+  EXPECT_TRUE(cg.IsSolutionUsable());
+  EXPECT_LT(cg.mean_rmse_mm, 1.25 * cholesky.mean_rmse_mm);
+  EXPECT_LT(cg.frames.back().rmse_mm, 1.25 * cholesky.frames.back().rmse_mm);
+  options.iterative_eta = 1.0;
+  EXPECT_NE(options.Validate().find("iterative_eta"), std::string::npos);
+  options.iterative_eta = 0.01;
+  options.iterative_min_patches = 1;
+  EXPECT_NE(options.Validate().find("iterative_min_patches"), std::string::npos);
+}
+
 TEST(PolySftTest, RolledSheetUsesTheTextureSpaceFallback) {
   ScopedTempDir dir("polyfit_sft_roll");
   GenerateSheetScene(SmallScene(SheetMotion::kRoll, 10), dir.path().string());
