@@ -533,6 +533,34 @@ TEST_F(AtlasCostsTest, ChildrenInheritTheSurfaceAndTheJacobianIsExact) {
   }
 }
 
+// The patches to split: the one fitting worse than its first frame, with
+// as many children as it holds down to min_children; none where even
+// those would be too small or would overflow max_patches.
+TEST_F(AtlasCostsTest, APatchTooSmallForFourChildrenSplitsInTwoWhereAllowed) {
+  const std::vector<int> sizes = model_->PatchSizes();
+  const int V = model_->num_vertices();
+  const Eigen::VectorXd floor = Eigen::VectorXd::Ones(V), pixels = Eigen::VectorXd::Ones(V);
+  Eigen::VectorXd squared = floor;
+  for (int i = 0; i < V; ++i) {
+    if (model_->patch_of_vertex(i) == 2) squared[i] = 3.0;  // patch 2 fits 3 times worse
+  }
+  PatchAtlasOptions options;
+  options.max_patches = 16;
+  options.min_vertices = sizes[2] / 2;  // room for two children of patch 2, not four
+  ASSERT_EQ(options.ChildrenFor(sizes[2]), 0);
+  EXPECT_TRUE(PatchesToSplit(options, *model_, squared, pixels, floor, pixels).empty());
+  options.min_children = 2;
+  ASSERT_TRUE(options.Validate().empty()) << options.Validate();
+  EXPECT_EQ(options.ChildrenFor(sizes[2]), 2);
+  EXPECT_EQ(options.ChildrenFor(4 * options.min_vertices), 4);
+  EXPECT_EQ(options.ChildrenFor(options.min_vertices), 0);
+  EXPECT_EQ(PatchesToSplit(options, *model_, squared, pixels, floor, pixels), std::vector<int>{2});
+  options.max_patches = model_->num_patches();  // full
+  EXPECT_TRUE(PatchesToSplit(options, *model_, squared, pixels, floor, pixels).empty());
+  options.min_children = 5;
+  EXPECT_NE(options.Validate().find("min_children"), std::string::npos);
+}
+
 TEST_F(AtlasCostsTest, CostsOverPatchBlocksAreExact) {
   // Children apart, a little: larger steps make the soft render's finite
   // differences cross its cut-offs.

@@ -23,12 +23,20 @@ std::string PatchAtlasOptions::Validate() const {
   }
   if (children < 2 || children > 8) return "atlas.children must be in [2, 8]";
   if (min_vertices < 4) return "atlas.min_vertices must be >= 4";
+  if (min_children != 0 && (min_children < 2 || min_children > children)) {
+    return "atlas.min_children must be in [2, children], or 0 (children)";
+  }
   if (!(seam_position_weight >= 0.0) || !(coarse_seam_position_weight >= 0.0) ||
       !(seen_seam_position_weight >= 0.0) || !(seam_normal_weight >= 0.0) ||
       !(seam_uv_weight >= 0.0)) {
     return "atlas seam weights must be >= 0";
   }
   return {};
+}
+
+int PatchAtlasOptions::ChildrenFor(int vertices) const {
+  const int fit = std::min(children, vertices / min_vertices);
+  return fit >= FewestChildren() ? fit : 0;
 }
 
 AtlasTerms GroupAtlasTerms(const JetDeformationModel& model, const std::vector<Eigen::Vector2i>& edges,
@@ -168,10 +176,11 @@ std::vector<int> PatchesToSplit(const PatchAtlasOptions& options, const JetDefor
   int patches = K;
   for (int p : order) {
     if (!(ratio[p] > options.split_ratio)) break;
-    if (sizes[p] < options.children * options.min_vertices) continue;
-    if (patches + options.children - 1 > options.max_patches) break;
+    const int children = options.ChildrenFor(sizes[p]);
+    if (children == 0) continue;
+    if (patches + children - 1 > options.max_patches) break;
     chosen.push_back(p);
-    patches += options.children - 1;
+    patches += children - 1;
   }
   return chosen;
 }

@@ -56,6 +56,9 @@ struct PatchAtlasOptions {
   int children = 4;
   // A patch splits only when each child would have this many vertices.
   int min_vertices = 20;
+  // A patch too small for `children` such children splits into as many as
+  // it holds, down to min_children (0: `children`, never fewer).
+  int min_children = 0;
   // A patch that a nearer part of the surface hides in part (at least this
   // share of its vertices hidden, and this share seen, in the newest
   // frame's estimate) splits into its hidden and its seen vertices, the
@@ -92,6 +95,10 @@ struct PatchAtlasOptions {
   double seam_uv_weight = 10.0;
 
   std::string Validate() const;
+  // The children a patch of `vertices` vertices splits into (0: none).
+  int ChildrenFor(int vertices) const;
+  // The fewest children a split makes.
+  int FewestChildren() const { return min_children > 0 ? min_children : children; }
 };
 
 // The edges and seams of the current atlas, grouped by the patches they

@@ -1505,7 +1505,7 @@ class PolySftController {
     const bool found_misfit = Lost(newest) && FoundByKeypoints(&newest);
     if (t > 0 && !(Tracked(newest) && (newest.settled || found_misfit))) return false;
     // A full atlas: nothing to measure.
-    if (t > 0 && model_.num_patches() + options_.atlas.children - 1 > options_.atlas.max_patches) return false;
+    if (t > 0 && model_.num_patches() + options_.atlas.FewestChildren() - 1 > options_.atlas.max_patches) return false;
     RenderCost::Data d;
     if (!ImageTerm(static_cast<int>(levels_.size()) - 1, newest, false, &d) || d.roi.area() <= 0) return false;
     const int channels = d.mask.empty() ? 3 : 4;
@@ -1530,7 +1530,8 @@ class PolySftController {
     if (untried == chosen.end()) return false;
     const int p = *untried;
     const std::vector<int> child =
-        SplitPatchVertices(scene_.template_mesh, model_.vertex_patches(), p, options_.atlas.children);
+        SplitPatchVertices(scene_.template_mesh, model_.vertex_patches(), p,
+                           options_.atlas.ChildrenFor(model_.PatchSizes()[p]));
     if (child.empty()) return false;
     // The score test: the decrease one Gauss-Newton step on the newest
     // frame would give with the split, beyond what it gives without, against

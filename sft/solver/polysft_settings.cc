@@ -101,6 +101,7 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("split_min_step_px", atlas.split_min_step_pixels),
         POLYFIT_SETTING("split_children", atlas.children),
         POLYFIT_SETTING("min_patch_vertices", atlas.min_vertices),
+        POLYFIT_SETTING("min_split_children", atlas.min_children),
         POLYFIT_SETTING("seam_position_weight", atlas.seam_position_weight),
         POLYFIT_SETTING("coarse_seam_position_weight", atlas.coarse_seam_position_weight),
         POLYFIT_SETTING("seen_seam_position_weight", atlas.seen_seam_position_weight),

@@ -76,6 +76,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.atlas.split_min_step_pixels = 0.5;
   changed.atlas.children = 2;
   changed.atlas.min_vertices = 12;
+  changed.atlas.min_children = 2;
   changed.atlas.seam_position_weight = 3.0;
   changed.atlas.coarse_seam_position_weight = 30.0;
   changed.atlas.seen_seam_position_weight = 0.3;
