@@ -149,8 +149,10 @@ struct PolySftOptions {
   // until its residual is iterative_eta times its start. Factorising
   // grows about as the cube of the patches (the fill of their graph),
   // CG's products as their number; CG's inexact steps cost more of them
-  // on a few patches (docs/benchmarks.md, "conjugate gradients").
-  int iterative_min_patches = 24;
+  // on a few patches. 16 (the default atlas's cap): on two threads the
+  // flags 0.89-1.22 -> 0.74-0.91 s a frame, the falls 10-20% less, the
+  // hanging cloth 10-20% more (docs/benchmarks.md, "conjugate gradients").
+  int iterative_min_patches = 16;
   double iterative_eta = 1e-2;
   // Term weights (relative; each term is normalised by its size).
   double photometric_weight = 1.0;
