@@ -1279,9 +1279,8 @@ class PolySftController {
     solver.minimizer_type = ceres::TRUST_REGION;
     solver.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
     // Every term is compressed to (parameters + 1) rows: one patch gives a
-    // small dense system; an atlas, one sparse by patch.
-    // A large atlas's steps by conjugate gradients instead of a
-    // factorisation (PolySftOptions::iterative_min_patches).
+    // small dense system; an atlas, one sparse by patch, solved by
+    // conjugate gradients from iterative_min_patches patches on.
     if (model_.num_patches() == 1) {
       solver.linear_solver_type = ceres::DENSE_QR;
     } else if (model_.num_patches() < options_.iterative_min_patches) {
