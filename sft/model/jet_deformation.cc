@@ -1,5 +1,6 @@
 #include "sft/model/jet_deformation.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -231,6 +232,74 @@ void JetDeformationModel::EvaluateTextureSpace(int i, const double* theta, doubl
     for (int j = 0; j < m; ++j) rows(k, k * m + j) = st_monomials_(j, i);
     rows.block<1, 3>(k, rotation_offset()) = rotated[k].v.transpose();
     rows(k, translation_offset() + k) = 1.0;
+  }
+}
+
+void JetDeformationModel::EdgeMidpointJacobian(int i, int j, int p, const double* block, double* x, double* normal,
+                                               double* jacobian) const {
+  if (jacobian == nullptr) {
+    EdgeMidpointOnPatch(i, j, p, block, x, normal);
+    return;
+  }
+  const double u0 = 0.5 * (uv_(0, i) + uv_(0, j)), v0 = 0.5 * (uv_(1, i) + uv_(1, j));
+  const int m = static_cast<int>(uv_monomials_.rows());
+  double uv_monomials[kMaxJetCoefficients];
+  if (m > 0) JetMonomials(options_.uv_order, u0, v0, uv_monomials);
+  double du = 0.0, dv = 0.0;
+  for (int k = 0; k < m; ++k) {  // without the constant, as PointOnPatch
+    du += block[num_dalpha_ + k] * uv_monomials[k + 1];
+    dv += block[num_dalpha_ + m + k] * uv_monomials[k + 1];
+  }
+  const double u = u0 + du, v = v0 + dv;
+  const int order = patch_.order, num_alpha = NumJetCoefficients(order);
+  double alpha[kMaxJetCoefficients];
+  for (int k = 0; k < num_alpha; ++k) alpha[k] = patch_.coefficients[k] + (k >= 3 ? block[k - 3] : 0.0);
+  const JetHeightDerivatives<double> d = EvaluateJetDerivatives(order, alpha, u, v);
+  // The jet's variables: 0 u, 1 v, 2..4 offsets of z, z_u, z_v, 5..7 the
+  // rotation, 8..10 the translation.
+  using J = ceres::Jet<double, 11>;
+  JetHeightDerivatives<J> h{J(d.z), J(d.z_u), J(d.z_v), J(d.z_uu), J(d.z_uv), J(d.z_vv)};
+  h.z.v[0] = d.z_u;
+  h.z.v[1] = d.z_v;
+  h.z.v[2] = 1.0;
+  h.z_u.v[0] = d.z_uu;
+  h.z_u.v[1] = d.z_uv;
+  h.z_u.v[3] = 1.0;
+  h.z_v.v[0] = d.z_uv;
+  h.z_v.v[1] = d.z_vv;
+  h.z_v.v[4] = 1.0;
+  const Eigen::Vector3d& c = centres_[p];
+  const J phi[3] = {J(u, 0) - c.x(), J(v, 1) - c.y(), h.z + (0.5 * (detail_[i] + detail_[j]) - c.z())};
+  const double* r = block + rotation_offset();
+  const double* t = block + translation_offset();
+  const J rotation[3] = {J(r[0], 5), J(r[1], 6), J(r[2], 7)};
+  J local_normal[3], moved[3], turned[3];
+  JetNormal(h, local_normal);
+  ceres::AngleAxisRotatePoint(rotation, phi, moved);
+  ceres::AngleAxisRotatePoint(rotation, local_normal, turned);
+  for (int k = 0; k < 3; ++k) moved[k] += J(c[k]) + J(t[k], 8 + k);
+  double m_z[kMaxJetCoefficients], m_u[kMaxJetCoefficients], m_v[kMaxJetCoefficients];
+  JetMonomialGradients(order, u, v, m_z, m_u, m_v);
+  const int b = block_size();
+  const Eigen::Matrix3d& frame = patch_.frame.rotation;
+  for (int row = 0; row < 6; ++row) {
+    const int k = row % 3;
+    J out(row < 3 ? patch_.frame.translation[k] : 0.0);
+    for (int l = 0; l < 3; ++l) {
+      out += row < 3 ? (patch_.frame.scale * frame(k, l)) * moved[l] : frame(k, l) * turned[l];
+    }
+    (row < 3 ? x : normal)[k] = out.a;
+    double* g = jacobian + static_cast<size_t>(row) * b;
+    std::fill(g, g + b, 0.0);  // per-vertex uv: the midpoint does not move with it
+    for (int a = 3; a < num_alpha; ++a) g[a - 3] = out.v[2] * m_z[a] + out.v[3] * m_u[a] + out.v[4] * m_v[a];
+    for (int a = 0; a < m; ++a) {
+      g[num_dalpha_ + a] = out.v[0] * uv_monomials[a + 1];
+      g[num_dalpha_ + m + a] = out.v[1] * uv_monomials[a + 1];
+    }
+    for (int a = 0; a < 3; ++a) {
+      g[rotation_offset() + a] = out.v[5 + a];
+      g[translation_offset() + a] = out.v[8 + a];
+    }
   }
 }
 

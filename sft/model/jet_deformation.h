@@ -147,6 +147,14 @@ class JetDeformationModel {
   // two patches meeting at an angle along the edge's middle agree on it.
   template <typename T>
   void EdgeMidpointOnPatch(int i, int j, int p, const T* block, T* x, T* normal) const;
+  // The same point and normal, with their Jacobian against p's block
+  // (jacobian: 6 by block_size(), row-major, the point's rows then the
+  // normal's; null: none) differentiated by one jet over the few
+  // quantities the block moves (u, v, z, z_u, z_v, the rotation, the
+  // translation) and chained by hand: a seam's cost, once per edge
+  // instead of a jet pass per eight parameters.
+  void EdgeMidpointJacobian(int i, int j, int p, const double* block, double* x, double* normal,
+                            double* jacobian) const;
 
  private:
   // The surface point at template (u0, v0) with detail e where patch p

@@ -6,7 +6,6 @@
 #include <string>
 #include <utility>
 
-#include <ceres/dynamic_autodiff_cost_function.h>
 #include <ceres/jet.h>
 
 #include "cost_functions/patch_boundary_residual.h"
@@ -31,14 +30,20 @@ bool RenderCost::Evaluate(double const* const* parameters, double* residuals, do
   for (int p = 0; p < K; ++p) std::copy(parameters[p], parameters[p] + b, theta_.begin() + static_cast<size_t>(b) * p);
   bool want = jacobians != nullptr;
   for (int p = 0; want && p < K; ++p) want = jacobians[p] != nullptr;
-  return Compute(theta_.data(), residuals, want ? jacobians : nullptr, false, want);
+  return Compute(theta_.data(), residuals, want ? jacobians : nullptr, false, want, nullptr);
 }
 
 bool RenderCost::EvaluateNormalEquations(const double* theta, double* squared_norm, Eigen::MatrixXd* jtj,
                                          Eigen::VectorXd* jtr) const {
   const bool want_jacobian = jtj != nullptr;
-  const bool ok = Compute(theta, nullptr, nullptr, true, want_jacobian);
-  ReduceAccumulators(data_.model->num_parameters(), want_jacobian, squared_norm, jtj, jtr);
+  const bool ok = Compute(theta, nullptr, nullptr, true, want_jacobian, nullptr);
+  *squared_norm = 0.0;
+  for (const PartState& part : parts_) *squared_norm += part.squared_norm;
+  if (!want_jacobian) return ok;
+  const int P = data_.model->num_parameters();
+  jtj->setZero(P, P);
+  jtr->setZero(P);
+  ReduceParts(nullptr, jtj, jtr);
   return ok;
 }
 
@@ -48,34 +53,10 @@ bool RenderCost::EvaluateSlottedNormalEquations(const double* theta, const Patch
                                                 Eigen::VectorXd* jtr) const {
   const int b = data_.model->block_size();
   jtr->setZero(static_cast<Eigen::Index>(b) * data_.model->num_patches());
-  const bool ok = Compute(theta, nullptr, nullptr, true, want_jacobian);
+  const bool ok = Compute(theta, nullptr, nullptr, true, want_jacobian, &groups);
   *squared_norm = 0.0;
-  for (ThreadState& t : threads_) *squared_norm += t.squared_norm;
-  for (ThreadState& t : threads_) {
-    if (!want_jacobian) break;
-    for (Accumulator& a : t.accumulators) {
-      if (!a.used) continue;
-      Flush(&a);
-      if (a.squared_norm == 0.0 && a.jtj.diagonal().isZero(0.0)) continue;  // no pull
-      bool whole = false;
-      const int g = groups.Find(a.patches, a.size, &whole);
-      if (g < 0) continue;  // no group holds any of them (not from MakePatchGroups)
-      const std::vector<int>& members = groups.groups[g];
-      const auto kept = [&](int i) {
-        return whole || std::binary_search(members.begin(), members.end(), a.patches[i]);
-      };
-      a.jtj.triangularView<Eigen::StrictlyUpper>() = a.jtj.transpose();
-      for (int i = 0; i < a.size; ++i) {
-        if (!kept(i)) continue;  // a column dropped
-        const Eigen::Index row = static_cast<Eigen::Index>(slot[a.patches[i]]) * b;
-        jtr->segment(row, b) += a.jtr.segment(b * i, b);
-        for (int j = 0; j < a.size; ++j) {
-          if (!kept(j) || slot[a.patches[j]] < slot[a.patches[i]]) continue;
-          jtj->block(row, static_cast<Eigen::Index>(slot[a.patches[j]]) * b, b, b) += a.jtj.block(b * i, b * j, b, b);
-        }
-      }
-    }
-  }
+  for (const PartState& part : parts_) *squared_norm += part.squared_norm;
+  if (want_jacobian) ReduceParts(&slot, jtj, jtr);
   return ok;
 }
 
@@ -123,7 +104,11 @@ void RenderCost::GatherPatches(int pixel, PixelPatches* out) const {
   int size = 0;
   const std::vector<int>& vertex_patch = data_.model->vertex_patches();
   for (int k = render_->begin[pixel]; k < render_->end[pixel]; ++k) {
-    const int p = vertex_patch[render_->gradients[k].vertex];
+    const VertexGradient& g = render_->gradients[k];
+    // A vertex that does not pull (beyond a soft edge's reach) does not
+    // choose the pixel's group.
+    if (std::all_of(&g.d[0][0], &g.d[0][0] + 12, [](float d) { return d == 0.0f; })) continue;
+    const int p = vertex_patch[g.vertex];
     if (size < kMaxSeen && std::find(seen, seen + size, p) == seen + size) seen[size++] = p;
   }
   // More patches than a pixel's block holds (layers of a crumpled fold):
@@ -151,44 +136,36 @@ void RenderCost::GatherPatches(int pixel, PixelPatches* out) const {
   out->size = size;
 }
 
-RenderCost::Accumulator& RenderCost::FindAccumulator(ThreadState* state, const PixelPatches& patches, int block) const {
-  auto same = [&](const Accumulator& a) {
-    return a.size == patches.size && std::equal(patches.patches, patches.patches + patches.size, a.patches);
+unsigned RenderCost::ChoosePatches(PartState* state, const PixelPatches& patches, const PatchGroups* groups) const {
+  const unsigned all = (1u << patches.size) - 1u;
+  if (groups == nullptr) return all;
+  auto same = [&](const PatchChoice& c) {
+    return c.patches.size == patches.size &&
+           std::equal(patches.patches, patches.patches + patches.size, c.patches.patches);
   };
-  // Zeroed when first used in an evaluation: most are not, and zeroing all
-  // of them (up to 8 blocks square each) was a noticeable part of a step.
-  auto use = [](Accumulator& a) -> Accumulator& {
-    if (!a.used) {
-      a.jtj.setZero();
-      a.jtr.setZero();
-      a.count = 0;
-      a.squared_norm = 0.0;
-      a.used = true;
-    }
-    return a;
-  };
-  if (state->last < static_cast<int>(state->accumulators.size()) && same(state->accumulators[state->last])) {
-    return use(state->accumulators[state->last]);
+  std::vector<PatchChoice>& choices = state->choices;
+  if (state->last_choice < static_cast<int>(choices.size()) && same(choices[state->last_choice])) {
+    return choices[state->last_choice].kept;
   }
-  for (size_t k = 0; k < state->accumulators.size(); ++k) {
-    if (same(state->accumulators[k])) {
-      state->last = static_cast<int>(k);
-      return use(state->accumulators[k]);
+  for (size_t k = 0; k < choices.size(); ++k) {
+    if (same(choices[k])) {
+      state->last_choice = static_cast<int>(k);
+      return choices[k].kept;
     }
   }
-  // First seen: allocated once, then kept for later evaluations.
-  Accumulator a;
-  std::copy(patches.patches, patches.patches + patches.size, a.patches);
-  a.size = patches.size;
-  const int n = patches.size * block;
-  a.jtj.setZero(n, n);
-  a.jtr.setZero(n);
-  a.rows.resize(kBlockRows, n);
-  a.values.resize(kBlockRows);
-  a.used = true;
-  state->accumulators.push_back(std::move(a));
-  state->last = static_cast<int>(state->accumulators.size()) - 1;
-  return state->accumulators.back();
+  PatchChoice choice;
+  choice.patches = patches;
+  bool whole = false;
+  const int g = groups->Find(patches.patches, patches.size, &whole);
+  if (g >= 0) {
+    const std::vector<int>& members = groups->groups[g];
+    for (int i = 0; i < patches.size; ++i) {
+      if (whole || std::binary_search(members.begin(), members.end(), patches.patches[i])) choice.kept |= 1u << i;
+    }
+  }
+  choices.push_back(choice);
+  state->last_choice = static_cast<int>(choices.size()) - 1;
+  return choice.kept;
 }
 
 void RenderCost::ChainPixelJacobian(int pixel, const PixelPatches& patches, int block, double* local) const {
@@ -214,32 +191,61 @@ void RenderCost::ChainPixelJacobian(int pixel, const PixelPatches& patches, int 
   }
 }
 
-void RenderCost::Flush(Accumulator* a) {
-  if (a->count == 0) return;
-  a->jtj.selfadjointView<Eigen::Lower>().rankUpdate(a->rows.topRows(a->count).transpose());
-  a->jtr.noalias() += a->rows.topRows(a->count).transpose() * a->values.head(a->count);
-  a->squared_norm += a->values.head(a->count).squaredNorm();
-  a->count = 0;
+int RenderCost::FindVertexBlock(PartState* state, int v, int w) {
+  for (int e = state->head[v]; e >= 0; e = state->blocks[e].next) {
+    if (state->blocks[e].w == w) return e;
+  }
+  if (state->head[v] < 0) state->touched.push_back(v);
+  VertexBlock block;
+  block.w = w;
+  block.next = state->head[v];
+  state->blocks.push_back(block);
+  state->head[v] = static_cast<int>(state->blocks.size()) - 1;
+  return state->head[v];
 }
 
-void RenderCost::ReduceAccumulators(int P, bool want_jacobian, double* squared_norm, Eigen::MatrixXd* jtj,
-                                    Eigen::VectorXd* jtr) const {
-  *squared_norm = 0.0;
-  for (ThreadState& t : threads_) *squared_norm += t.squared_norm;
-  if (!want_jacobian) return;
+void RenderCost::ReduceParts(const std::vector<int>* slot, Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr) const {
+  using Rows = Eigen::Map<const Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::RowMajor>>;
+  using Block3 = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>;
   const int b = data_.model->block_size();
-  jtj->setZero(P, P);
-  jtr->setZero(P);
-  for (ThreadState& t : threads_) {
-    for (Accumulator& a : t.accumulators) {
-      if (!a.used) continue;
-      Flush(&a);
-      a.jtj.triangularView<Eigen::StrictlyUpper>() = a.jtj.transpose();
-      for (int i = 0; i < a.size; ++i) {
-        jtr->segment(static_cast<Eigen::Index>(b) * a.patches[i], b) += a.jtr.segment(b * i, b);
-        for (int j = 0; j < a.size; ++j) {
-          jtj->block(static_cast<Eigen::Index>(b) * a.patches[i], static_cast<Eigen::Index>(b) * a.patches[j], b, b) +=
-              a.jtj.block(b * i, b * j, b, b);
+  const std::vector<int>& vertex_patch = data_.model->vertex_patches();
+  const auto at = [&](int p) { return static_cast<Eigen::Index>(slot != nullptr ? (*slot)[p] : p) * b; };
+  reach_product_.resize(b, b);
+  for (const PartState& part : parts_) {
+    for (const int v : part.touched) {
+      const int p = vertex_patch[v];
+      const Rows s_v(screen_theta_.data() + static_cast<size_t>(3 * v) * b, 3, b);
+      jtr->segment(at(p), b).noalias() += s_v.transpose() * Eigen::Map<const Eigen::Vector3d>(&part.gradient[3 * v]);
+      // Per patch q that v's blocks reach: T_q = sum over w in q of H_vw
+      // S_w (H_vv halved: the diagonal block's M + M^T below adds it once).
+      reach_patches_.clear();
+      for (int e = part.head[v]; e >= 0; e = part.blocks[e].next) {
+        const VertexBlock& block = part.blocks[e];
+        const int q = vertex_patch[block.w];
+        size_t k = std::find(reach_patches_.begin(), reach_patches_.end(), q) - reach_patches_.begin();
+        if (k == reach_patches_.size()) {
+          reach_patches_.push_back(q);
+          if (reach_.rows() < 3 * static_cast<Eigen::Index>(k + 1)) reach_.conservativeResize(3 * (k + 1), b);
+          reach_.middleRows(3 * k, 3).setZero();
+        }
+        const Rows s_w(screen_theta_.data() + static_cast<size_t>(3 * block.w) * b, 3, b);
+        const double half = block.w == v ? 0.5 : 1.0;
+        reach_.middleRows(3 * k, 3).noalias() += (half * Block3(block.h)) * s_w;
+      }
+      for (size_t k = 0; k < reach_patches_.size(); ++k) {
+        const int q = reach_patches_[k];
+        reach_product_.noalias() = s_v.transpose() * reach_.middleRows(3 * k, 3);
+        if (q == p) {
+          auto diagonal = jtj->block(at(p), at(p), b, b);
+          diagonal += reach_product_;
+          diagonal += reach_product_.transpose();
+        } else if (slot == nullptr) {
+          jtj->block(at(p), at(q), b, b) += reach_product_;
+          jtj->block(at(q), at(p), b, b) += reach_product_.transpose();
+        } else if (at(p) < at(q)) {
+          jtj->block(at(p), at(q), b, b) += reach_product_;
+        } else {
+          jtj->block(at(q), at(p), b, b) += reach_product_.transpose();
         }
       }
     }
@@ -267,13 +273,28 @@ bool RenderCost::Prepare(const double* theta, bool model_jacobian, bool render_g
   return true;
 }
 
-void RenderCost::ResetThreads(int threads, double** jacobians) const {
-  const int b = data_.model->block_size();
-  threads_.resize(threads);
-  for (ThreadState& t : threads_) {
-    t.squared_norm = 0.0;
-    t.local.resize(static_cast<size_t>(4) * kMaxPatchesPerPixel * b);
-    for (Accumulator& a : t.accumulators) a.used = false;
+void RenderCost::ResetParts(int parts, double** jacobians, bool normal) const {
+  const int b = data_.model->block_size(), V = data_.model->num_vertices();
+  parts_.resize(parts);
+  for (PartState& part : parts_) {
+    part.squared_norm = 0.0;
+    part.rows.resize(static_cast<size_t>(4) * kMaxPatchesPerPixel * b);
+    if (!normal) continue;
+    if (static_cast<int>(part.head.size()) != V) {
+      part.head.assign(V, -1);
+      part.local.assign(V, -1);
+      part.gradient.assign(3 * static_cast<size_t>(V), 0.0);
+      part.touched.clear();
+    }
+    for (const int v : part.touched) {
+      part.head[v] = -1;
+      std::fill(&part.gradient[3 * v], &part.gradient[3 * v] + 3, 0.0);
+    }
+    part.touched.clear();
+    part.blocks.clear();
+    part.last_vertices.clear();
+    part.choices.clear();  // the groups may have changed
+    part.last_choice = 0;
   }
   if (jacobians == nullptr) return;
   for (int p = 0; p < data_.model->num_patches(); ++p) {
@@ -281,50 +302,95 @@ void RenderCost::ResetThreads(int threads, double** jacobians) const {
   }
 }
 
-void RenderCost::AddPixelJacobian(ThreadState* state, int pixel, int r0, const double* r, double jacobian_scale,
-                                  bool in_band, double** jacobians, bool normal) const {
+void RenderCost::AddPixelJacobian(PartState* state, int pixel, int r0, double jacobian_scale, bool in_band,
+                                  double** jacobians) const {
   const int b = data_.model->block_size();
   PixelPatches patches;
   GatherPatches(pixel, &patches);
   const int m = patches.size * b;
-  double* local = state->local.data();
+  double* local = state->rows.data();
   ChainPixelJacobian(pixel, patches, b, local);
   for (int c = 0; c < 3 * m; ++c) local[c] *= jacobian_scale;
   const double silhouette_scale = in_band ? 0.0 : data_.silhouette_weight;
   for (int c = 3 * m; c < 4 * m; ++c) local[c] *= silhouette_scale;
-  if (jacobians != nullptr) {
-    for (int ch = 0; ch < channels_; ++ch) {
-      for (int j = 0; j < patches.size; ++j) {
-        std::copy(local + ch * m + j * b, local + ch * m + (j + 1) * b,
-                  jacobians[patches.patches[j]] + static_cast<size_t>(r0 + ch) * b);
+  for (int ch = 0; ch < channels_; ++ch) {
+    for (int j = 0; j < patches.size; ++j) {
+      std::copy(local + ch * m + j * b, local + ch * m + (j + 1) * b,
+                jacobians[patches.patches[j]] + static_cast<size_t>(r0 + ch) * b);
+    }
+  }
+}
+
+void RenderCost::AddPixelNormal(PartState* state, int pixel, const double* r, double jacobian_scale, bool in_band,
+                                const PatchGroups* groups) const {
+  PixelPatches patches;
+  GatherPatches(pixel, &patches);
+  const unsigned kept = ChoosePatches(state, patches, groups);
+  if (kept == 0) return;
+  const std::vector<int>& vertex_patch = data_.model->vertex_patches();
+  const double scale[4] = {jacobian_scale, jacobian_scale, jacobian_scale, in_band ? 0.0 : data_.silhouette_weight};
+  // The pixel's vertices, each once (a vertex is an entry per triangle),
+  // with their derivatives summed and scaled.
+  std::vector<int>& vertices = state->pixel_vertices;
+  std::vector<double>& d = state->pixel_d;
+  vertices.clear();
+  for (int k = render_->begin[pixel]; k < render_->end[pixel]; ++k) {
+    const VertexGradient& g = render_->gradients[k];
+    const int slot = static_cast<int>(
+        std::find(patches.patches, patches.patches + patches.size, vertex_patch[g.vertex]) - patches.patches);
+    if (slot == patches.size || !(kept >> slot & 1u)) continue;  // a column dropped
+    int i = state->local[g.vertex];
+    if (i < 0) {
+      i = static_cast<int>(vertices.size());
+      state->local[g.vertex] = i;
+      vertices.push_back(g.vertex);
+      if (d.size() < 12 * vertices.size()) d.resize(24 * vertices.size());
+      std::fill(&d[12 * i], &d[12 * i] + 12, 0.0);
+    }
+    for (int row = 0; row < channels_; ++row) {
+      for (int c = 0; c < 3; ++c) d[12 * i + 3 * row + c] += scale[row] * g.d[row][c];
+    }
+  }
+  const int m = static_cast<int>(vertices.size());
+  for (const int v : vertices) state->local[v] = -1;
+  for (int i = 0; i < m; ++i) {
+    double* g = &state->gradient[3 * vertices[i]];
+    for (int row = 0; row < channels_; ++row) {
+      for (int c = 0; c < 3; ++c) g[c] += d[12 * i + 3 * row + c] * r[row];
+    }
+  }
+  // Neighbouring pixels mostly depend on the same vertices: their blocks
+  // are looked up once.
+  const bool same = vertices == state->last_vertices;
+  if (!same) state->last_blocks.resize(static_cast<size_t>(m) * (m + 1) / 2);
+  int pair = 0;
+  for (int i = 0; i < m; ++i) {
+    for (int j = i; j < m; ++j, ++pair) {
+      int v = vertices[i], w = vertices[j];
+      const double* a = &d[12 * i];
+      const double* c = &d[12 * j];
+      if (v > w) {
+        std::swap(v, w);
+        std::swap(a, c);
+      }
+      if (!same) state->last_blocks[pair] = FindVertexBlock(state, v, w);
+      double* h = state->blocks[state->last_blocks[pair]].h;
+      for (int row = 0; row < channels_; ++row) {
+        const double* ar = a + 3 * row;
+        const double* cr = c + 3 * row;
+        for (int x = 0; x < 3; ++x) {
+          for (int y = 0; y < 3; ++y) h[3 * x + y] += ar[x] * cr[y];
+        }
       }
     }
   }
-  if (!normal) return;
-  Accumulator& a = FindAccumulator(state, patches, b);
-  // The silhouette's row is zero in the band and wherever the coverage is
-  // saturated (most of the surface's pixels): its residual counts, its row
-  // would only cost the rank update a quarter more.
-  int rows = channels_;
-  if (channels_ == 4 && std::all_of(local + 3 * m, local + 4 * m, [](double v) { return v == 0.0; })) {
-    rows = 3;
-    a.squared_norm += r[3] * r[3];
-  }
-  if (a.count + rows > kBlockRows) Flush(&a);
-  for (int ch = 0; ch < rows; ++ch) {
-    a.rows.row(a.count + ch) = Eigen::Map<const Eigen::RowVectorXd>(local + ch * m, m);
-    a.values[a.count + ch] = r[ch];
-  }
-  a.count += rows;
+  if (!same) state->last_vertices = vertices;
 }
 
-bool RenderCost::Compute(const double* theta, double* residuals, double** jacobians, bool normal,
-                         bool want_jacobian) const {
+bool RenderCost::Compute(const double* theta, double* residuals, double** jacobians, bool normal, bool want_jacobian,
+                         const PatchGroups* groups) const {
   if (!Prepare(theta, want_jacobian, want_jacobian)) return false;
   const cv::Rect& roi = data_.roi;
-  // Normal equations: per thread and per set of patches, Jacobian rows of
-  // covered pixels are gathered in blocks and added with one symmetric
-  // rank-k update each.
   const int threads = std::max(1, std::min(ResolveNumThreads(data_.rasterizer->options().num_threads), roi.height));
   // The rows in a fixed number of contiguous parts, each summed into its
   // own state and the states reduced in order: the sums, and so the
@@ -332,13 +398,13 @@ bool RenderCost::Compute(const double* theta, double* residuals, double** jacobi
   // row handed to whichever thread is free changed them in the last bits,
   // which a frame that is nearly lost magnifies).
   const int parts = threads == 1 ? 1 : std::min(roi.height, 4 * threads);
-  ResetThreads(parts, jacobians);
+  ResetParts(parts, jacobians, normal && want_jacobian);
   ParallelFor(
       parts, threads,
-      [&](int, int part) {
-        ThreadState& state = threads_[part];
-        const int row_end = static_cast<int>(static_cast<int64_t>(roi.height) * (part + 1) / parts);
-        for (int row = static_cast<int>(static_cast<int64_t>(roi.height) * part / parts); row < row_end; ++row) {
+      [&](int, int index) {
+        PartState& state = parts_[index];
+        const int row_end = static_cast<int>(static_cast<int64_t>(roi.height) * (index + 1) / parts);
+        for (int row = static_cast<int>(static_cast<int64_t>(roi.height) * index / parts); row < row_end; ++row) {
           const int y = roi.y + row;
           double r[4];
           for (int col = 0; col < roi.width; ++col) {
@@ -353,14 +419,17 @@ bool RenderCost::Compute(const double* theta, double* residuals, double** jacobi
             for (int ch = 0; ch < channels_; ++ch) state.squared_norm += r[ch] * r[ch];
             const int pixel = y * data_.camera.width + x;
             if (!want_jacobian || render_->end[pixel] == render_->begin[pixel]) continue;  // a zero row
-            AddPixelJacobian(&state, pixel, r0, r, jacobian_scale, in_band, jacobians, normal);
+            if (normal) {
+              AddPixelNormal(&state, pixel, r, jacobian_scale, in_band, groups);
+            } else if (jacobians != nullptr) {
+              AddPixelJacobian(&state, pixel, r0, jacobian_scale, in_band, jacobians);
+            }
           }
         }
       },
       1);
   return true;
 }
-
 bool RenderCost::VertexResiduals(const double* theta, Eigen::VectorXd* squared_residuals,
                                  Eigen::VectorXd* pixels) const {
   const JetDeformationModel& model = *data_.model;
@@ -847,21 +916,44 @@ bool TemporalCost::Evaluate(double const* const* parameters, double* residuals, 
 
 namespace {
 
-struct SeamResidual {
-  template <typename T>
-  bool operator()(T const* const* parameters, T* residuals) const {
-    for (size_t e = 0; e < edges.size(); ++e) {
-      T xa[3], na[3], xb[3], nb[3];
-      model->EdgeMidpointOnPatch(edges[e][0], edges[e][1], a, parameters[0], xa, na);
-      model->EdgeMidpointOnPatch(edges[e][0], edges[e][1], b, parameters[1], xb, nb);
-      PatchBoundaryResidual::Difference(xa, na, xb, nb, position_scale, normal_weight, residuals + 6 * e);
+// The seam's residual (PatchBoundaryResidual::Difference, linear in the
+// two points and normals) per edge, each side's Jacobian its point's and
+// normal's (EdgeMidpointJacobian) scaled, that of b negated.
+class SeamCost : public ceres::CostFunction {
+ public:
+  SeamCost(const JetDeformationModel* model, int a, int b, std::vector<Eigen::Vector2i> edges, double position_scale,
+           double normal_weight)
+      : model_(model), patches_{a, b}, edges_(std::move(edges)), position_scale_(position_scale),
+        normal_weight_(normal_weight) {
+    set_num_residuals(6 * static_cast<int>(edges_.size()));
+    mutable_parameter_block_sizes()->push_back(model->block_size());
+    mutable_parameter_block_sizes()->push_back(model->block_size());
+  }
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const int b = model_->block_size();
+    for (size_t e = 0; e < edges_.size(); ++e) {
+      double x[2][3], n[2][3];
+      for (int side = 0; side < 2; ++side) {
+        double* jacobian = jacobians != nullptr && jacobians[side] != nullptr ? jacobians[side] + 6 * e * b : nullptr;
+        model_->EdgeMidpointJacobian(edges_[e][0], edges_[e][1], patches_[side], parameters[side], x[side], n[side],
+                                     jacobian);
+        if (jacobian == nullptr) continue;
+        const double sign = side == 0 ? 1.0 : -1.0;
+        for (int row = 0; row < 6; ++row) {
+          const double scale = sign * (row < 3 ? position_scale_ : normal_weight_);
+          for (int c = 0; c < b; ++c) jacobian[row * b + c] *= scale;
+        }
+      }
+      PatchBoundaryResidual::Difference(x[0], n[0], x[1], n[1], position_scale_, normal_weight_, residuals + 6 * e);
     }
     return true;
   }
-  const JetDeformationModel* model;
-  int a, b;
-  std::vector<Eigen::Vector2i> edges;
-  double position_scale, normal_weight;
+
+ private:
+  const JetDeformationModel* model_;
+  int patches_[2];
+  std::vector<Eigen::Vector2i> edges_;
+  double position_scale_, normal_weight_;
 };
 
 }  // namespace
@@ -869,12 +961,7 @@ struct SeamResidual {
 ceres::CostFunction* CreateSeamCost(const JetDeformationModel* model, int patch_a, int patch_b,
                                     const std::vector<Eigen::Vector2i>& seam_edges, double length_scale,
                                     double position_weight, double normal_weight) {
-  auto* cost = new ceres::DynamicAutoDiffCostFunction<SeamResidual, 8>(
-      new SeamResidual{model, patch_a, patch_b, seam_edges, position_weight / length_scale, normal_weight});
-  cost->AddParameterBlock(model->block_size());
-  cost->AddParameterBlock(model->block_size());
-  cost->SetNumResiduals(6 * static_cast<int>(seam_edges.size()));
-  return cost;
+  return new SeamCost(model, patch_a, patch_b, seam_edges, position_weight / length_scale, normal_weight);
 }
 
 namespace {

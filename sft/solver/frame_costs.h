@@ -98,56 +98,75 @@ class RenderCost : public ceres::CostFunction {
                                       Eigen::VectorXd* jtr) const;
 
  private:
-  static constexpr int kBlockRows = 64;
   static constexpr int kMaxPatchesPerPixel = 8;
-  // The normal equations of the pixels whose vertices belong to `patches`
-  // (sorted), over those patches' blocks.
-  struct Accumulator {
-    int patches[kMaxPatchesPerPixel];
-    int size = 0;
-    Eigen::MatrixXd jtj;
-    Eigen::VectorXd jtr;
-    Eigen::MatrixXd rows;
-    Eigen::VectorXd values;
-    int count = 0;
-    double squared_norm = 0.0;  // of the rows' residuals
-    bool used = false;          // this evaluation (zeroed when first used)
-  };
-  struct ThreadState {
-    double squared_norm = 0.0;
-    std::vector<Accumulator> accumulators;
-    int last = 0;  // the accumulator of the previous pixel
-    // One pixel's 4 Jacobian rows over its patches' blocks (row-major).
-    std::vector<double> local;
-  };
   // Sorted patches of a pixel's vertices (at most kMaxPatchesPerPixel: the
   // strongest pulls).
   struct PixelPatches {
     int patches[kMaxPatchesPerPixel];
     int size = 0;
   };
+  // Which of a pixel's patches keep their columns (bit i: patches[i]).
+  struct PatchChoice {
+    PixelPatches patches;
+    unsigned kept = 0;
+  };
+  // H_vw (3 by 3, row-major) of a vertex pair v <= w; next: v's next block.
+  struct VertexBlock {
+    int w = 0;
+    int next = -1;
+    double h[9] = {};
+  };
+  // One part of the rows' normal equations in the vertices' screen
+  // coordinates (x, y, depth): H_vw = sum over its pixels of d_v^T d_w and
+  // g_v = sum of d_v^T r, d_v a pixel's 4 by 3 derivative against vertex
+  // v with its rows' scales. The parameters' normal equations are then
+  // S^T H S and S^T g (S = screen_theta_), a product per vertex pair
+  // instead of a rank update over the patches' blocks per pixel.
+  struct PartState {
+    double squared_norm = 0.0;
+    std::vector<int> head;     // #V: v's first block, -1 none
+    std::vector<int> touched;  // vertices with blocks, in first-touch order
+    std::vector<VertexBlock> blocks;
+    std::vector<double> gradient;  // 3 #V
+    // The pixel being added: its vertices (first-seen order), their
+    // summed 4 by 3 derivatives, and each vertex's place in that list (#V,
+    // -1 none); the previous pixel's vertices and their pairs' blocks.
+    std::vector<int> local, pixel_vertices, last_vertices, last_blocks;
+    std::vector<double> pixel_d;
+    std::vector<PatchChoice> choices;
+    int last_choice = 0;
+    // The dense path: one pixel's 4 Jacobian rows over its patches' blocks
+    // (row-major).
+    std::vector<double> rows;
+  };
 
-  // Residuals and/or Jacobians, and with `normal` the per-thread
-  // accumulators of the normal equations (when the Jacobian is wanted).
-  bool Compute(const double* theta, double* residuals, double** jacobians, bool normal, bool want_jacobian) const;
+  // Residuals and/or Jacobians, and with `normal` each part's normal
+  // equations (when the Jacobian is wanted; a pixel keeps the columns of
+  // the patches PatchGroups::Find keeps, all of them without groups).
+  bool Compute(const double* theta, double* residuals, double** jacobians, bool normal, bool want_jacobian,
+               const PatchGroups* groups) const;
   // The surface at theta (with its Jacobian against each vertex's patch
   // block, in screen coordinates: screen_theta_), rendered (with the
   // render's gradients); false when it went behind the camera.
   bool Prepare(const double* theta, bool model_jacobian, bool render_gradients) const;
-  void ResetThreads(int threads, double** jacobians) const;
-  // The pixel's Jacobian rows, into the dense Jacobians and/or its patches'
-  // normal equations.
-  void AddPixelJacobian(ThreadState* state, int pixel, int r0, const double* r, double jacobian_scale, bool in_band,
-                        double** jacobians, bool normal) const;
+  void ResetParts(int parts, double** jacobians, bool normal) const;
+  // The pixel's Jacobian rows, into the dense Jacobians.
+  void AddPixelJacobian(PartState* state, int pixel, int r0, double jacobian_scale, bool in_band,
+                        double** jacobians) const;
+  // The pixel's rows, into its part's normal equations.
+  void AddPixelNormal(PartState* state, int pixel, const double* r, double jacobian_scale, bool in_band,
+                      const PatchGroups* groups) const;
   // The pixel's residuals (RGB, silhouette), the scale of its RGB Jacobian
   // rows (robust loss) and whether its silhouette is within the band.
   void PixelResiduals(int y, int x, double* r, double* jacobian_scale, bool* in_band) const;
   void GatherPatches(int pixel, PixelPatches* out) const;
-  Accumulator& FindAccumulator(ThreadState* state, const PixelPatches& patches, int block) const;
+  unsigned ChoosePatches(PartState* state, const PixelPatches& patches, const PatchGroups* groups) const;
   void ChainPixelJacobian(int pixel, const PixelPatches& patches, int block, double* local) const;
-  static void Flush(Accumulator* a);
-  void ReduceAccumulators(int P, bool want_jacobian, double* squared_norm, Eigen::MatrixXd* jtj,
-                          Eigen::VectorXd* jtr) const;
+  static int FindVertexBlock(PartState* state, int v, int w);
+  // The parts' normal equations over the parameters, in part order: with
+  // `slot` (patch -> block) the blocks (slot[p], slot[q]) with slot[p] <=
+  // slot[q] added to, without it the whole matrix set.
+  void ReduceParts(const std::vector<int>* slot, Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr) const;
 
   Data data_;
   int channels_;
@@ -160,7 +179,10 @@ class RenderCost : public ceres::CostFunction {
   // d(x, y, depth) / d theta_p per vertex, p its patch: 3 #V by block size,
   // row-major so that a vertex's three rows are contiguous.
   mutable Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> screen_theta_;
-  mutable std::vector<ThreadState> threads_;
+  mutable std::vector<PartState> parts_;
+  // ReduceParts' buffers: per patch a vertex reaches, sum_w H_vw S_w.
+  mutable std::vector<int> reach_patches_;
+  mutable Eigen::MatrixXd reach_, reach_product_;
 };
 
 // For each face, the patches of every vertex of the faces that share a

@@ -6,12 +6,14 @@
 #include <memory>
 
 #include <ceres/crs_matrix.h>
+#include <ceres/dynamic_autodiff_cost_function.h>
 #include <ceres/jet.h>
 #include <ceres/problem.h>
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
 #include "cost_functions/gravity_inertia_residuals.h"
+#include "cost_functions/patch_boundary_residual.h"
 #include "polyfit/mesh/mesh_topology.h"
 #include "polyfit/mesh/unique_edges.h"
 #include "polyfit/util/scoped_temp_dir.h"
@@ -757,6 +759,74 @@ TEST(PatchGroupsTest, FindsTheSmallestGroupHoldingAPixelsPatches) {
   EXPECT_EQ(groups.Find(e, 1, &whole), -1);
 }
 
+// Groups that do not hold every pixel's patches: a pixel's rows keep the
+// columns of the group that holds most of them (none without one), and
+// its cost; the normal equations are those rows' J^T J and J^T r exactly.
+TEST_F(AtlasCostsTest, APixelKeepsTheColumnsOfTheGroupHoldingMostOfItsPatches) {
+  for (size_t k = 0; k < theta_.size(); ++k) theta_[k] += 0.001 * std::cos(0.3 + 7.0 * k);
+  const SoftRasterizer rasterizer(SoftRasterizerOptions(), scene_.texture);
+  const SftFrame frame = LoadFrame(scene_, 1);
+  const RenderCost cost(RenderData(rasterizer, frame));
+  const int m = cost.num_residuals(), P = model_->num_parameters(), b = model_->block_size();
+  const int K = model_->num_patches();
+  ASSERT_EQ(K, 4);
+  std::vector<double> r(m);
+  std::vector<std::vector<double>> j(K, std::vector<double>(static_cast<size_t>(m) * b));
+  std::vector<const double*> parameters;
+  std::vector<double*> jacobians;
+  for (int p = 0; p < K; ++p) {
+    parameters.push_back(theta_.data() + b * p);
+    jacobians.push_back(j[p].data());
+  }
+  ASSERT_TRUE(cost.Evaluate(parameters.data(), r.data(), jacobians.data()));
+  Eigen::MatrixXd full(m, P);
+  for (int p = 0; p < K; ++p) {
+    full.middleCols(b * p, b) =
+        Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(j[p].data(), m, b);
+  }
+  PatchGroups groups;
+  groups.groups = {{0, 1}, {2, 3}};
+  // Each pixel's four rows, the columns outside its group zeroed.
+  int dropped = 0;
+  for (int row = 0; row < m; row += 4) {
+    int patches[4], size = 0;
+    for (int p = 0; p < K; ++p) {
+      if (full.block(row, b * p, 4, b).cwiseAbs().maxCoeff() > 0.0) patches[size++] = p;
+    }
+    if (size == 0) continue;
+    bool whole = false;
+    const std::vector<int>& members = groups.groups[groups.Find(patches, size, &whole)];
+    for (int i = 0; i < size; ++i) {
+      if (std::find(members.begin(), members.end(), patches[i]) != members.end()) continue;
+      full.block(row, b * patches[i], 4, b).setZero();
+      ++dropped;
+    }
+  }
+  EXPECT_GT(dropped, 0);
+  std::vector<int> slot(K);
+  for (int p = 0; p < K; ++p) slot[p] = p;
+  double sum = 0.0;
+  Eigen::MatrixXd slotted = Eigen::MatrixXd::Zero(P, P);
+  Eigen::VectorXd slotted_jtr;
+  ASSERT_TRUE(cost.EvaluateSlottedNormalEquations(theta_.data(), groups, slot, true, &sum, &slotted, &slotted_jtr));
+  const Eigen::Map<const Eigen::VectorXd> R(r.data(), m);
+  EXPECT_NEAR(sum, R.squaredNorm(), 1e-12 * sum);
+  const Eigen::MatrixXd jtj = full.transpose() * full;
+  const Eigen::VectorXd jtr = full.transpose() * R;
+  EXPECT_LT((slotted_jtr - jtr).norm(), 1e-9 * jtr.norm());
+  for (const std::vector<int>& g : groups.groups) {
+    for (const int p : g) {
+      for (const int q : g) {
+        if (q < p) continue;
+        EXPECT_LT((slotted.block(b * p, b * q, b, b) - jtj.block(b * p, b * q, b, b)).norm(), 1e-9 * jtj.norm())
+            << p << ", " << q;
+      }
+    }
+  }
+  // No coupling across the groups.
+  EXPECT_EQ(slotted.block(0, 2 * b, 2 * b, 2 * b).norm(), 0.0);
+}
+
 TEST_F(AtlasCostsTest, TheRenderTermSplitByPatchGroupsIsTheSameProblem) {
   for (size_t k = 0; k < theta_.size(); ++k) theta_[k] += 0.001 * std::cos(0.3 + 7.0 * k);
   const PatchGroups groups = MakePatchGroups(*model_, scene_.template_mesh.faces);
@@ -974,6 +1044,55 @@ TEST_F(AtlasCostsTest, SeamsAreContinuousWhenChildrenStartAndNotOnceTheyDiffer) 
     ASSERT_TRUE(seam->Evaluate(parameters, r.data(), nullptr));
     EXPECT_GT(Eigen::Map<Eigen::VectorXd>(r.data(), r.size()).cwiseAbs().maxCoeff(), 1e-4);
   }
+}
+
+// The seam by automatic differentiation of the model's definition.
+struct SeamDefinition {
+  template <typename T>
+  bool operator()(T const* const* parameters, T* residuals) const {
+    for (size_t e = 0; e < edges.size(); ++e) {
+      T xa[3], na[3], xb[3], nb[3];
+      model->EdgeMidpointOnPatch(edges[e][0], edges[e][1], a, parameters[0], xa, na);
+      model->EdgeMidpointOnPatch(edges[e][0], edges[e][1], b, parameters[1], xb, nb);
+      PatchBoundaryResidual::Difference(xa, na, xb, nb, 100.0, 0.5, residuals + 6 * e);
+    }
+    return true;
+  }
+  const JetDeformationModel* model;
+  int a, b;
+  std::vector<Eigen::Vector2i> edges;
+};
+
+// The seam's Jacobian chained by hand (EdgeMidpointJacobian) is the one
+// automatic differentiation gives of the model's definition, with the uv
+// field and every jet coefficient away from zero.
+TEST_F(AtlasCostsTest, TheSeamsJacobianIsTheDefinitionsDerivative) {
+  for (size_t k = 0; k < theta_.size(); ++k) theta_[k] += 0.02 * std::cos(0.3 + 7.0 * k);
+  Eigen::Matrix2Xi unique = UniqueEdges(scene_.template_mesh);
+  std::vector<Eigen::Vector2i> edges;
+  for (Eigen::Index e = 0; e < unique.cols(); ++e) edges.emplace_back(unique(0, e), unique(1, e));
+  const AtlasTerms terms = GroupAtlasTerms(*model_, edges, std::vector<double>(edges.size(), 1.0));
+  ASSERT_FALSE(terms.seams.empty());
+  const AtlasTerms::Seam& s = terms.seams[0];
+  const int b = model_->block_size();
+  ceres::DynamicAutoDiffCostFunction<SeamDefinition, 8> definition(new SeamDefinition{model_.get(), s.a, s.b, s.edges});
+  definition.AddParameterBlock(b);
+  definition.AddParameterBlock(b);
+  definition.SetNumResiduals(6 * static_cast<int>(s.edges.size()));
+  std::unique_ptr<ceres::CostFunction> seam(CreateSeamCost(model_.get(), s.a, s.b, s.edges, 0.01, 1.0, 0.5));
+  ASSERT_EQ(seam->num_residuals(), definition.num_residuals());
+  const int m = seam->num_residuals();
+  const double* parameters[2] = {theta_.data() + b * s.a, theta_.data() + b * s.b};
+  std::vector<double> r(m), r_ref(m), j0(m * b), j1(m * b), k0(m * b), k1(m * b);
+  double* jacobians[2] = {j0.data(), j1.data()};
+  double* reference[2] = {k0.data(), k1.data()};
+  ASSERT_TRUE(seam->Evaluate(parameters, r.data(), jacobians));
+  ASSERT_TRUE(definition.Evaluate(parameters, r_ref.data(), reference));
+  const auto map = [](const std::vector<double>& v) { return Eigen::Map<const Eigen::VectorXd>(v.data(), v.size()); };
+  EXPECT_GT(map(r_ref).norm(), 1e-3);
+  EXPECT_LT((map(r) - map(r_ref)).norm(), 1e-12 * map(r_ref).norm());
+  EXPECT_LT((map(j0) - map(k0)).norm(), 1e-12 * map(k0).norm());
+  EXPECT_LT((map(j1) - map(k1)).norm(), 1e-12 * map(k1).norm());
 }
 
 // A flat grid split down the middle into two patches: the right one
