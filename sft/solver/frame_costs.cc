@@ -210,7 +210,6 @@ void RenderCost::ReduceParts(const std::vector<int>* slot, Eigen::MatrixXd* jtj,
   const int b = data_.model->block_size();
   const std::vector<int>& vertex_patch = data_.model->vertex_patches();
   const auto at = [&](int p) { return static_cast<Eigen::Index>(slot != nullptr ? (*slot)[p] : p) * b; };
-  reach_product_.resize(b, b);
   for (const PartState& part : parts_) {
     for (const int v : part.touched) {
       const int p = vertex_patch[v];
@@ -232,20 +231,30 @@ void RenderCost::ReduceParts(const std::vector<int>* slot, Eigen::MatrixXd* jtj,
         const double half = block.w == v ? 0.5 : 1.0;
         reach_.middleRows(3 * k, 3).noalias() += (half * Block3(block.h)) * s_w;
       }
+      // M = S_v^T T_q added as M to block (p, q) or as M^T to (q, p):
+      // each a column at a time, three axpys (Eigen's product would pack
+      // its 3-deep operands first).
+      const double* s0 = s_v.data();
+      const double* s1 = s0 + b;
+      const double* s2 = s1 + b;
       for (size_t k = 0; k < reach_patches_.size(); ++k) {
         const int q = reach_patches_[k];
-        reach_product_.noalias() = s_v.transpose() * reach_.middleRows(3 * k, 3);
-        if (q == p) {
-          auto diagonal = jtj->block(at(p), at(p), b, b);
-          diagonal += reach_product_;
-          diagonal += reach_product_.transpose();
-        } else if (slot == nullptr) {
-          jtj->block(at(p), at(q), b, b) += reach_product_;
-          jtj->block(at(q), at(p), b, b) += reach_product_.transpose();
-        } else if (at(p) < at(q)) {
-          jtj->block(at(p), at(q), b, b) += reach_product_;
-        } else {
-          jtj->block(at(q), at(p), b, b) += reach_product_.transpose();
+        const double* t0 = reach_.data() + 3 * k * b;
+        const double* t1 = t0 + b;
+        const double* t2 = t1 + b;
+        const bool plain = q == p || slot == nullptr || at(p) < at(q);
+        const bool transposed = q == p || slot == nullptr || at(p) > at(q);
+        for (int j = 0; j < b; ++j) {
+          if (plain) {  // column j of M: sum over a of T(a, j) S_v(a, :)
+            double* column = jtj->data() + (at(q) + j) * jtj->rows() + at(p);
+            const double c0 = t0[j], c1 = t1[j], c2 = t2[j];
+            for (int i = 0; i < b; ++i) column[i] += s0[i] * c0 + s1[i] * c1 + s2[i] * c2;
+          }
+          if (transposed) {  // column j of M^T: sum over a of S_v(a, j) T(a, :)
+            double* column = jtj->data() + (at(p) + j) * jtj->rows() + at(q);
+            const double c0 = s0[j], c1 = s1[j], c2 = s2[j];
+            for (int i = 0; i < b; ++i) column[i] += t0[i] * c0 + t1[i] * c1 + t2[i] * c2;
+          }
         }
       }
     }

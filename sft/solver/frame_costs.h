@@ -180,9 +180,10 @@ class RenderCost : public ceres::CostFunction {
   // row-major so that a vertex's three rows are contiguous.
   mutable Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> screen_theta_;
   mutable std::vector<PartState> parts_;
-  // ReduceParts' buffers: per patch a vertex reaches, sum_w H_vw S_w.
+  // ReduceParts' buffers: per patch a vertex reaches, sum_w H_vw S_w (3
+  // rows each, row-major).
   mutable std::vector<int> reach_patches_;
-  mutable Eigen::MatrixXd reach_, reach_product_;
+  mutable Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> reach_;
 };
 
 // For each face, the patches of every vertex of the faces that share a

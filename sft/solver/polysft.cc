@@ -187,16 +187,6 @@ double Mean(const std::vector<SftFrameSummary>& frames, double SftFrameSummary::
   return count > 0 ? sum / count : std::numeric_limits<double>::quiet_NaN();
 }
 
-// `cost` compressed (CompressedCost) where that pays: a term over a whole
-// template has far more residuals than parameters, one over a small
-// patch's vertices about as many, where compressing costs a product and a
-// factorisation per evaluation and leaves the solver as many entries.
-ceres::CostFunction* CompressedIfTall(ceres::CostFunction* cost) {
-  int parameters = 0;
-  for (const int32_t size : cost->parameter_block_sizes()) parameters += size;
-  return cost->num_residuals() > 2 * (parameters + 1) ? new CompressedCost(cost) : cost;
-}
-
 }  // namespace
 
 int ChoosePyramidLevels(const PolySftOptions& options, int image_width) {
@@ -837,7 +827,7 @@ class PolySftController {
       const std::vector<double*> blocks = Blocks(frame.theta);
       const double w = std::sqrt(10.0 / model_.num_vertices());
       for (int p = 0; p < model_.num_patches(); ++p) {
-        problem->AddResidualBlock(CompressedIfTall(new TemporalCost(&model_, p, mean_edge_, w, &target)), nullptr,
+        problem->AddResidualBlock(new CompressedCost(new TemporalCost(&model_, p, mean_edge_, w, &target)), nullptr,
                                   blocks[p]);
       }
     });
@@ -1121,7 +1111,7 @@ class PolySftController {
     const std::vector<double*> all = Blocks(frame.theta);
     std::vector<double*> some;
     for (const int p : patches) some.push_back(all[p]);
-    problem->AddResidualBlock(compress ? CompressedIfTall(cost) : cost, nullptr, some);
+    problem->AddResidualBlock(compress ? new CompressedCost(cost) : cost, nullptr, some);
   }
 
   // Inextensibility of window frame k, bending where asked, its patches'
@@ -1219,7 +1209,7 @@ class PolySftController {
     for (int p = 0; p < model_.num_patches(); ++p) {
       std::vector<double*> frames = {blocks[p]};
       for (const auto& earlier : earlier_blocks) frames.push_back(earlier[p]);
-      problem->AddResidualBlock(CompressedIfTall(new TemporalCost(&model_, p, size_, w, order, fixed, shift)),
+      problem->AddResidualBlock(new CompressedCost(new TemporalCost(&model_, p, size_, w, order, fixed, shift)),
                                 nullptr, frames);
     }
   }
@@ -1277,9 +1267,9 @@ class PolySftController {
       if (per_patch[p].empty()) continue;
       std::vector<double*> frames = {blocks[p]};
       for (const auto& earlier : earlier_blocks) frames.push_back(earlier[p]);
-      problem->AddResidualBlock(CompressedIfTall(new TemporalCost(&model_, p, size_, w, order, fixed,
-                                                                  Eigen::Vector3d::Zero(), per_patch[p],
-                                                                  options_.occluded_velocity)),
+      problem->AddResidualBlock(new CompressedCost(new TemporalCost(&model_, p, size_, w, order, fixed,
+                                                                    Eigen::Vector3d::Zero(), per_patch[p],
+                                                                    options_.occluded_velocity)),
                                 nullptr, frames);
     }
   }
