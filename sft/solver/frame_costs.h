@@ -444,7 +444,8 @@ class TemporalCost : public ceres::CostFunction {
 // past its own vertices, so two patches that meet at an angle along the
 // edges' middles (a fold on the seam) cost nothing, and a gap or a shear
 // costs its length in edges; at a split both are zero, children starting
-// as their parent (automatic differentiation: seams are short).
+// as their parent (the Jacobian chained by hand from one jet per edge
+// and side: JetDeformationModel::EdgeMidpointJacobian).
 // Parameter blocks: a's, b's.
 ceres::CostFunction* CreateSeamCost(const JetDeformationModel* model, int patch_a, int patch_b,
                                     const std::vector<Eigen::Vector2i>& seam_edges, double length_scale,
