@@ -245,15 +245,9 @@ void JetDeformationModel::EdgeMidpointJacobian(int i, int j, int p, const double
   const int m = static_cast<int>(uv_monomials_.rows());
   double uv_monomials[kMaxJetCoefficients];
   if (m > 0) JetMonomials(options_.uv_order, u0, v0, uv_monomials);
-  double du = 0.0, dv = 0.0;
-  for (int k = 0; k < m; ++k) {  // without the constant, as PointOnPatch
-    du += block[num_dalpha_ + k] * uv_monomials[k + 1];
-    dv += block[num_dalpha_ + m + k] * uv_monomials[k + 1];
-  }
-  const double u = u0 + du, v = v0 + dv;
+  double u, v, alpha[kMaxJetCoefficients];
+  ShiftedJet(u0, v0, uv_monomials + 1, block, &u, &v, alpha);  // without the constant
   const int order = patch_.order, num_alpha = NumJetCoefficients(order);
-  double alpha[kMaxJetCoefficients];
-  for (int k = 0; k < num_alpha; ++k) alpha[k] = patch_.coefficients[k] + (k >= 3 ? block[k - 3] : 0.0);
   const JetHeightDerivatives<double> d = EvaluateJetDerivatives(order, alpha, u, v);
   // The jet's variables: 0 u, 1 v, 2..4 offsets of z, z_u, z_v, 5..7 the
   // rotation, 8..10 the translation.
@@ -268,37 +262,28 @@ void JetDeformationModel::EdgeMidpointJacobian(int i, int j, int p, const double
   h.z_v.v[0] = d.z_uv;
   h.z_v.v[1] = d.z_vv;
   h.z_v.v[4] = 1.0;
-  const Eigen::Vector3d& c = centres_[p];
-  const J phi[3] = {J(u, 0) - c.x(), J(v, 1) - c.y(), h.z + (0.5 * (detail_[i] + detail_[j]) - c.z())};
   const double* r = block + rotation_offset();
   const double* t = block + translation_offset();
   const J rotation[3] = {J(r[0], 5), J(r[1], 6), J(r[2], 7)};
-  J local_normal[3], moved[3], turned[3];
-  JetNormal(h, local_normal);
-  ceres::AngleAxisRotatePoint(rotation, phi, moved);
-  ceres::AngleAxisRotatePoint(rotation, local_normal, turned);
-  for (int k = 0; k < 3; ++k) moved[k] += J(c[k]) + J(t[k], 8 + k);
+  const J translation[3] = {J(t[0], 8), J(t[1], 9), J(t[2], 10)};
+  J out[6];
+  PlaceOnPatch(J(u, 0), J(v, 1), h, 0.5 * (detail_[i] + detail_[j]), p, rotation, translation, out, out + 3);
   double m_z[kMaxJetCoefficients], m_u[kMaxJetCoefficients], m_v[kMaxJetCoefficients];
   JetMonomialGradients(order, u, v, m_z, m_u, m_v);
   const int b = block_size();
-  const Eigen::Matrix3d& frame = patch_.frame.rotation;
   for (int row = 0; row < 6; ++row) {
-    const int k = row % 3;
-    J out(row < 3 ? patch_.frame.translation[k] : 0.0);
-    for (int l = 0; l < 3; ++l) {
-      out += row < 3 ? (patch_.frame.scale * frame(k, l)) * moved[l] : frame(k, l) * turned[l];
-    }
-    (row < 3 ? x : normal)[k] = out.a;
+    const J& o = out[row];
+    (row < 3 ? x : normal)[row % 3] = o.a;
     double* g = jacobian + static_cast<size_t>(row) * b;
     std::fill(g, g + b, 0.0);  // per-vertex uv: the midpoint does not move with it
-    for (int a = 3; a < num_alpha; ++a) g[a - 3] = out.v[2] * m_z[a] + out.v[3] * m_u[a] + out.v[4] * m_v[a];
+    for (int a = 3; a < num_alpha; ++a) g[a - 3] = o.v[2] * m_z[a] + o.v[3] * m_u[a] + o.v[4] * m_v[a];
     for (int a = 0; a < m; ++a) {
-      g[num_dalpha_ + a] = out.v[0] * uv_monomials[a + 1];
-      g[num_dalpha_ + m + a] = out.v[1] * uv_monomials[a + 1];
+      g[num_dalpha_ + a] = o.v[0] * uv_monomials[a + 1];
+      g[num_dalpha_ + m + a] = o.v[1] * uv_monomials[a + 1];
     }
     for (int a = 0; a < 3; ++a) {
-      g[rotation_offset() + a] = out.v[5 + a];
-      g[translation_offset() + a] = out.v[8 + a];
+      g[rotation_offset() + a] = o.v[5 + a];
+      g[translation_offset() + a] = o.v[8 + a];
     }
   }
 }

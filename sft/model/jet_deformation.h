@@ -163,6 +163,15 @@ class JetDeformationModel {
   template <typename T>
   void PointOnPatch(double u0, double v0, const double* uv_monomials, double detail, int p, const T* block, T* x,
                     T* normal) const;
+  // Its two stages: the point's (u, v) moved by the block's uv field and
+  // the jet's coefficients with the block's offsets (alpha:
+  // NumJetCoefficients(order)); then the height graph's point and normal
+  // there (d) placed by the patch's rigid motion and frame.
+  template <typename T>
+  void ShiftedJet(double u0, double v0, const double* uv_monomials, const T* block, T* u, T* v, T* alpha) const;
+  template <typename T>
+  void PlaceOnPatch(const T& u, const T& v, const JetHeightDerivatives<T>& d, double detail, int p, const T* rotation,
+                    const T* translation, T* x, T* normal) const;
 
   void EvaluateTextureSpace(int i, const double* block, double* x, double* jacobian) const;
   void EvaluatePatchJet(int i, int p, const double* block, double* x, double* jacobian) const;
@@ -199,8 +208,16 @@ void JetDeformationModel::EdgeMidpointOnPatch(int i, int j, int p, const T* bloc
 template <typename T>
 void JetDeformationModel::PointOnPatch(double u0, double v0, const double* uv_monomials, double detail, int p,
                                        const T* block, T* x, T* normal) const {
-  const int order = patch_.order, num_alpha = NumJetCoefficients(order);
-  T alpha[kMaxJetCoefficients];
+  T u, v, alpha[kMaxJetCoefficients];
+  ShiftedJet(u0, v0, uv_monomials, block, &u, &v, alpha);
+  PlaceOnPatch(u, v, EvaluateJetDerivatives(patch_.order, alpha, u, v), detail, p, block + rotation_offset(),
+               block + translation_offset(), x, normal);
+}
+
+template <typename T>
+void JetDeformationModel::ShiftedJet(double u0, double v0, const double* uv_monomials, const T* block, T* u, T* v,
+                                     T* alpha) const {
+  const int num_alpha = NumJetCoefficients(patch_.order);
   for (int k = 0; k < num_alpha; ++k) alpha[k] = T(patch_.coefficients[k]) + (k >= 3 ? block[k - 3] : T(0.0));
   const int m = static_cast<int>(uv_monomials_.rows());
   T du(0.0), dv(0.0);
@@ -208,23 +225,27 @@ void JetDeformationModel::PointOnPatch(double u0, double v0, const double* uv_mo
     du += block[num_dalpha_ + k] * uv_monomials[k];
     dv += block[num_dalpha_ + m + k] * uv_monomials[k];
   }
-  const T u = T(u0) + du, v = T(v0) + dv;
-  const JetHeightDerivatives<T> d = EvaluateJetDerivatives(order, alpha, u, v);
+  *u = T(u0) + du;
+  *v = T(v0) + dv;
+}
+
+template <typename T>
+void JetDeformationModel::PlaceOnPatch(const T& u, const T& v, const JetHeightDerivatives<T>& d, double detail, int p,
+                                       const T* rotation, const T* translation, T* x, T* normal) const {
   const Eigen::Vector3d& c = centres_[p];
   const T phi[3] = {u - c.x(), v - c.y(), d.z + detail - c.z()};
   T local_normal[3], moved[3], turned[3];
   JetNormal(d, local_normal);
-  ceres::AngleAxisRotatePoint(block + rotation_offset(), phi, moved);
-  ceres::AngleAxisRotatePoint(block + rotation_offset(), local_normal, turned);
-  const T* translation = block + translation_offset();
+  ceres::AngleAxisRotatePoint(rotation, phi, moved);
+  ceres::AngleAxisRotatePoint(rotation, local_normal, turned);
   for (int k = 0; k < 3; ++k) moved[k] += c[k] + translation[k];
-  const Eigen::Matrix3d& rotation = patch_.frame.rotation;
+  const Eigen::Matrix3d& frame = patch_.frame.rotation;
   for (int r = 0; r < 3; ++r) {
     x[r] = T(patch_.frame.translation[r]);
     normal[r] = T(0.0);
     for (int k = 0; k < 3; ++k) {
-      x[r] += T(patch_.frame.scale * rotation(r, k)) * moved[k];
-      normal[r] += T(rotation(r, k)) * turned[k];
+      x[r] += T(patch_.frame.scale * frame(r, k)) * moved[k];
+      normal[r] += T(frame(r, k)) * turned[k];
     }
   }
 }
