@@ -91,6 +91,7 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("flow_start", flow_start),
         POLYFIT_SETTING("keypoints_when_lost", keypoints_when_lost),
         POLYFIT_SETTING("relocalize", relocalize),
+        POLYFIT_SETTING("mirrored_keypoints", features.mirrored),
         POLYFIT_SETTING("match_brightness", match_brightness),
         POLYFIT_SETTING("predict_motion", predict_motion),
         POLYFIT_SETTING("recover_lost_frames", recover_lost_frames),

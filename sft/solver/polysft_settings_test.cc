@@ -70,6 +70,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.robust_scale = 0.3;
   changed.max_frames = 7;
   changed.num_threads = 1;
+  changed.features.mirrored = false;
   changed.atlas.max_patches = 10;
   changed.atlas.split_ratio = 1.5;
   changed.atlas.split_significance = 30.0;

@@ -183,8 +183,15 @@ TEST(PolySftStressTest, KeypointsAtTheExtremes) {
     const PolySftSummary summary = Solve(path, 100.0);
     Report(name, summary);
     ExpectFiniteEverywhere(summary, o.frame_count);
-    EXPECT_FALSE(summary.warnings.empty());
     EXPECT_EQ(summary.terms[2].first, "features");
+    if (o.motion == SheetMotion::kTable) {
+      // The corner folded over shows its back, which the mirrored
+      // keypoints find: e3D 0.0153 and no frame warned lost (without
+      // them 0.0158, warned lost from frame 28 on).
+      EXPECT_LT(summary.mean_e3d, 0.02);
+    } else {
+      EXPECT_FALSE(summary.warnings.empty());  // each has a frame with an empty mask
+    }
   }
 }
 

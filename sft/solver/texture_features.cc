@@ -101,6 +101,29 @@ void DetectKeypoints(cv::SIFT& sift, const cv::Mat& grey, const cv::Mat& mask, s
   sift.compute(grey, *keypoints, *descriptors);
 }
 
+// The keypoints of `grey` (the view, or its mirror image with `mirrored`)
+// that lie on the surface, appended to `surface` and `view_points` (in the
+// view's pixels); returns their descriptors (a row each, in that order).
+cv::Mat LocatedKeypoints(cv::SIFT& sift, const cv::Mat& grey, const cv::Mat& mask, const FaceLocator& locator,
+                         bool mirrored, std::vector<FeatureMatch>* surface, std::vector<Eigen::Vector2d>* view_points) {
+  std::vector<cv::KeyPoint> keypoints;
+  cv::Mat descriptors;
+  DetectKeypoints(sift, grey, mask, &keypoints, &descriptors);
+  std::vector<int> kept;
+  for (size_t k = 0; k < keypoints.size(); ++k) {
+    const double x = mirrored ? grey.cols - 1 - keypoints[k].pt.x : keypoints[k].pt.x;
+    const Eigen::Vector2d pixel(x, keypoints[k].pt.y);
+    FeatureMatch point;
+    if (!locator.Locate(pixel, &point.face, &point.barycentric)) continue;
+    surface->push_back(point);
+    view_points->push_back(pixel);
+    kept.push_back(static_cast<int>(k));
+  }
+  cv::Mat out(static_cast<int>(kept.size()), descriptors.cols, descriptors.type());
+  for (size_t k = 0; k < kept.size(); ++k) descriptors.row(kept[k]).copyTo(out.row(static_cast<int>(k)));
+  return out;
+}
+
 }  // namespace
 
 std::string TextureFeatureOptions::Validate() const {
@@ -130,21 +153,22 @@ TextureFeatures::TextureFeatures(const TextureFeatureOptions& options, const cv:
     cv::compare(view_mask, 0.5, mask, cv::CMP_GT);
   }
   cv::Ptr<cv::SIFT> sift = cv::SIFT::create(options.max_texture_keypoints);
-  std::vector<cv::KeyPoint> keypoints;
-  cv::Mat descriptors;
-  DetectKeypoints(*sift, Grey8(view), mask, &keypoints, &descriptors);
   const FaceLocator locator(corner_pixels, corner_depths);
-  std::vector<int> kept;
-  for (size_t k = 0; k < keypoints.size(); ++k) {
-    const Eigen::Vector2d pixel(keypoints[k].pt.x, keypoints[k].pt.y);
-    FeatureMatch point;
-    if (!locator.Locate(pixel, &point.face, &point.barycentric)) continue;
-    surface_.push_back(point);
-    view_points_.push_back(pixel);
-    kept.push_back(static_cast<int>(k));
+  const cv::Mat grey = Grey8(view);
+  descriptors_ = LocatedKeypoints(*sift, grey, mask, locator, false, &surface_, &view_points_);
+  distinct_ = descriptors_.rows;
+  if (options.mirrored) {
+    cv::Mat flipped, flipped_mask;
+    cv::flip(grey, flipped, 1);
+    if (!mask.empty()) cv::flip(mask, flipped_mask, 1);
+    mirrored_descriptors_ = LocatedKeypoints(*sift, flipped, flipped_mask, locator, true, &surface_, &view_points_);
+    // SIFT places a pattern and its mirror image a pixel or two apart.
+    constexpr double kSamePlacePx = 3.0;
+    for (size_t k = descriptors_.rows; k < view_points_.size(); ++k) {
+      const auto near = [&](const Eigen::Vector2d& p) { return (p - view_points_[k]).squaredNorm() <= kSamePlacePx * kSamePlacePx; };
+      distinct_ += std::none_of(view_points_.begin(), view_points_.begin() + descriptors_.rows, near);
+    }
   }
-  descriptors_ = cv::Mat(static_cast<int>(kept.size()), descriptors.cols, descriptors.type());
-  for (size_t k = 0; k < kept.size(); ++k) descriptors.row(kept[k]).copyTo(descriptors_.row(static_cast<int>(k)));
 }
 
 std::vector<FeatureMatch> TextureFeatures::Match(const cv::Mat& frame, const cv::Mat& mask) const {
@@ -173,19 +197,37 @@ std::vector<FeatureMatch> TextureFeatures::Match(const cv::Mat& frame, const cv:
                   &keypoints, &descriptors);
   if (keypoints.empty()) return {};
   for (cv::KeyPoint& k : keypoints) k.pt += cv::Point2f(static_cast<float>(region.x), static_cast<float>(region.y));
-  std::vector<std::vector<cv::DMatch>> knn;
-  cv::BFMatcher(cv::NORM_L2).knnMatch(descriptors, descriptors_, knn, 2);
-  // The best frame keypoint per texture keypoint, among those passing the
-  // ratio test.
+  // Per frame keypoint, its nearest texture keypoint that passes the ratio
+  // test among the view's and, apart (a symmetric pattern's two
+  // descriptors would fail each other's test), among the mirror image's;
+  // the nearer of the two.
+  std::vector<int> nearest(keypoints.size(), -1);
+  std::vector<float> nearest_distance(keypoints.size(), 0.0f);
+  auto match_set = [&](const cv::Mat& set, int offset) {
+    if (set.rows == 0) return;
+    std::vector<std::vector<cv::DMatch>> knn;
+    cv::BFMatcher(cv::NORM_L2).knnMatch(descriptors, set, knn, 2);
+    for (const std::vector<cv::DMatch>& m : knn) {
+      if (m.empty()) continue;
+      if (m.size() == 2 && !(m[0].distance < options_.ratio * m[1].distance)) continue;
+      const int q = m[0].queryIdx;
+      if (nearest[q] < 0 || m[0].distance < nearest_distance[q]) {
+        nearest[q] = offset + m[0].trainIdx;
+        nearest_distance[q] = m[0].distance;
+      }
+    }
+  };
+  match_set(descriptors_, 0);
+  match_set(mirrored_descriptors_, descriptors_.rows);
+  // The best frame keypoint per texture keypoint.
   std::vector<int> best(surface_.size(), -1);
   std::vector<float> best_distance(surface_.size(), 0.0f);
-  for (const std::vector<cv::DMatch>& m : knn) {
-    if (m.empty()) continue;
-    if (m.size() == 2 && !(m[0].distance < options_.ratio * m[1].distance)) continue;
-    const int t = m[0].trainIdx;
-    if (best[t] < 0 || m[0].distance < best_distance[t]) {
-      best[t] = m[0].queryIdx;
-      best_distance[t] = m[0].distance;
+  for (size_t q = 0; q < keypoints.size(); ++q) {
+    const int t = nearest[q];
+    if (t < 0) continue;
+    if (best[t] < 0 || nearest_distance[q] < best_distance[t]) {
+      best[t] = static_cast<int>(q);
+      best_distance[t] = nearest_distance[q];
     }
   }
   std::vector<int> texture_index;

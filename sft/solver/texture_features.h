@@ -38,6 +38,12 @@ struct TextureFeatureOptions {
   double relative_tolerance = 0.15;
   // Fewer matches than this in a frame: none (too few to trust).
   int min_matches = 8;
+  // A cloth shows its back too: a flap turned over, a corner folded onto
+  // the sheet. Seen from behind, its texture is the mirror image of the
+  // view's, whose descriptors SIFT does not match; with this on, the
+  // view's mirror image gives keypoints of its own (the same surface
+  // points where a pattern is symmetric), matched apart from the view's.
+  bool mirrored = true;
 
   std::string Validate() const;
 };
@@ -70,8 +76,11 @@ class TextureFeatures {
   TextureFeatures(const TextureFeatureOptions& options, const cv::Mat& view, const cv::Mat& view_mask,
                   const Eigen::Matrix2Xd& corner_pixels, const Eigen::VectorXd& corner_depths);
 
-  // Keypoints of the view that lie on the surface.
-  int size() const { return static_cast<int>(surface_.size()); }
+  // Keypoints of the view that lie on the surface, at distinct places: a
+  // mirrored keypoint (TextureFeatureOptions::mirrored) within 3 pixels
+  // of one of the view's (a symmetric pattern, an outline's corner) counts
+  // once.
+  int size() const { return distinct_; }
 
   // Correspondences in `frame` (RGB CV_32FC3 in [0, 1], pixels as the
   // frame's); with a mask (CV_32F, 1 inside), keypoints only within a few
@@ -81,10 +90,14 @@ class TextureFeatures {
  private:
   TextureFeatureOptions options_;
   // Per surface keypoint: its face and barycentric coordinates, its
-  // position in the view, and its descriptor (a row).
+  // position in the view, and its descriptor (a row): the view's first,
+  // then (TextureFeatureOptions::mirrored) its mirror image's, whose
+  // positions are mapped back into the view.
   std::vector<FeatureMatch> surface_;
   std::vector<Eigen::Vector2d> view_points_;
   cv::Mat descriptors_;
+  cv::Mat mirrored_descriptors_;
+  int distinct_ = 0;
 };
 
 // The consistency check alone (exposed for tests): of matches from points
