@@ -65,10 +65,11 @@ struct PatchAtlasOptions {
   // most even one after each frame: where a patch's jet holds both, the
   // parts in view carry the hidden ones off with them (a folded table's
   // hidden layer, centimetres behind the table). 0: never, the default.
-  // At 0.2 (with max_patches 32) the simulated tables the solver keeps end
-  // at e3D 0.007-0.015 instead of 0.015-0.017 (but another table is lost,
-  // and the falls lose 0.0005), at 2.5-3 times the time a frame
-  // (docs/benchmarks.md); not yet measured on every scene.
+  // At 0.2 (with max_patches 32) 12 of 13 simulated tables are kept, 11 at
+  // e3D 0.007-0.013 instead of 0.014-0.018, but the falls lose
+  // 0.0006-0.0013, a sheet turning edge-on 3 mm, and a frame takes twice
+  // the time (table 3 on two threads: 1.07 s against 0.52;
+  // docs/benchmarks.md, "the cloth's back found by mirrored keypoints").
   double hidden_split_share = 0.0;
   // Seam continuity (SeamCost): positions (in template edge lengths) and
   // normals. Normals are left free by default: a crease on a seam is a
