@@ -165,7 +165,9 @@ TextureFeatures::TextureFeatures(const TextureFeatureOptions& options, const cv:
     // SIFT places a pattern and its mirror image a pixel or two apart.
     constexpr double kSamePlacePx = 3.0;
     for (size_t k = descriptors_.rows; k < view_points_.size(); ++k) {
-      const auto near = [&](const Eigen::Vector2d& p) { return (p - view_points_[k]).squaredNorm() <= kSamePlacePx * kSamePlacePx; };
+      const auto near = [&](const Eigen::Vector2d& p) {
+        return (p - view_points_[k]).squaredNorm() <= kSamePlacePx * kSamePlacePx;
+      };
       distinct_ += std::none_of(view_points_.begin(), view_points_.begin() + descriptors_.rows, near);
     }
   }
