@@ -6,9 +6,11 @@
 
 namespace polyfit {
 
-std::vector<std::uint8_t> OccludedVertices(const ScreenMesh& mesh, int width, int height, double tolerance) {
+std::vector<std::uint8_t> OccludedVertices(const ScreenMesh& mesh, int width, int height, double tolerance,
+                                           std::vector<int>* occluders) {
   const int n = static_cast<int>(mesh.pixels.cols());
   std::vector<std::uint8_t> occluded(n, 0);
+  if (occluders) occluders->assign(n, -1);
   if (width <= 0 || height <= 0 || n == 0) return occluded;
   // Inverse depth, the largest (nearest) per pixel, over the pixels the
   // mesh's box covers in the image (each triangle and vertex lies in it).
@@ -19,7 +21,9 @@ std::vector<std::uint8_t> OccludedVertices(const ScreenMesh& mesh, int width, in
   if (right < left || bottom < top) return occluded;
   const int box_width = right - left + 1;
   std::vector<double> nearest(static_cast<size_t>(box_width) * (bottom - top + 1), 0.0);
-  auto at = [&](int x, int y) -> double& { return nearest[static_cast<size_t>(y - top) * box_width + (x - left)]; };
+  std::vector<int> nearest_face(occluders ? nearest.size() : 0, -1);
+  auto index = [&](int x, int y) { return static_cast<size_t>(y - top) * box_width + (x - left); };
+  auto at = [&](int x, int y) -> double& { return nearest[index(x, y)]; };
   for (int f = 0; f < mesh.faces.cols(); ++f) {
     const int i0 = mesh.faces(0, f), i1 = mesh.faces(1, f), i2 = mesh.faces(2, f);
     const Eigen::Vector2d a = mesh.pixels.col(i0), b = mesh.pixels.col(i1), c = mesh.pixels.col(i2);
@@ -39,7 +43,11 @@ std::vector<std::uint8_t> OccludedVertices(const ScreenMesh& mesh, int width, in
         const double w0 = 1.0 - w1 - w2;
         if (w0 < 0.0 || w1 < 0.0 || w2 < 0.0) continue;
         double& z = at(x, y);
-        z = std::max(z, w0 * inv[0] + w1 * inv[1] + w2 * inv[2]);
+        const double here = w0 * inv[0] + w1 * inv[1] + w2 * inv[2];
+        if (here > z) {
+          z = here;
+          if (occluders) nearest_face[index(x, y)] = f;
+        }
       }
     }
   }
@@ -58,6 +66,7 @@ std::vector<std::uint8_t> OccludedVertices(const ScreenMesh& mesh, int width, in
       hidden = z > 0.0 && mesh.depths[v] > 1.0 / z + tolerance;
     }
     occluded[v] = hidden;
+    if (hidden && occluders) (*occluders)[v] = nearest_face[index(std::min(x0, width - 1), std::min(y0, height - 1))];
   }
   return occluded;
 }

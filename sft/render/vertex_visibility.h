@@ -16,8 +16,11 @@ namespace polyfit {
 // and where it falls outside the width by height image. The
 // z-buffer holds each triangle's depth at the pixel centres it covers
 // (perspective-correct: 1/z interpolated on screen). `mesh`: pixels,
-// depths and faces (ProjectVertices).
-std::vector<std::uint8_t> OccludedVertices(const ScreenMesh& mesh, int width, int height, double tolerance);
+// depths and faces (ProjectVertices). occluders (optional, #V): per
+// hidden vertex, the face nearest the camera at the pixel centre at or
+// before it (its floor), -1 where the vertex is seen.
+std::vector<std::uint8_t> OccludedVertices(const ScreenMesh& mesh, int width, int height, double tolerance,
+                                           std::vector<int>* occluders = nullptr);
 
 }  // namespace polyfit
 

@@ -39,7 +39,10 @@ TEST(VertexVisibilityTest, TheLayerBehindAFoldIsHiddenWhereTheNearOneCoversIt) {
     ScreenMesh screen;
     screen.faces = faces;
     ASSERT_TRUE(ProjectVertices(TestCamera(), vertices, &screen, nullptr));
-    const std::vector<std::uint8_t> occluded = OccludedVertices(screen, 320, 240, 0.01);
+    std::vector<int> occluders;
+    const std::vector<std::uint8_t> occluded = OccludedVertices(screen, 320, 240, 0.01, &occluders);
+    EXPECT_EQ(OccludedVertices(screen, 320, 240, 0.01), occluded);
+    ASSERT_EQ(occluders.size(), 50u);
     for (int v = 0; v < 50; ++v) {
       // The near grid spans x in [-0.45, -0.05] at depth 1, and the far
       // grid's points project inside it where x / (1 + gap) < -0.05 (its
@@ -48,6 +51,13 @@ TEST(VertexVisibilityTest, TheLayerBehindAFoldIsHiddenWhereTheNearOneCoversIt) {
       const bool covered = v < 25 && x / (1.0 + gap) < -0.05 && y / (1.0 + gap) < 0.15;
       const bool expected = covered && gap > 0.01;
       EXPECT_EQ(occluded[v], expected) << "gap " << gap << " vertex " << v;
+      // What hides it is a face of the near grid (faces 32-63).
+      if (expected) {
+        EXPECT_GE(occluders[v], 32) << v;
+        EXPECT_LT(occluders[v], 64) << v;
+      } else {
+        EXPECT_EQ(occluders[v], -1) << v;
+      }
     }
   }
 }
@@ -59,7 +69,7 @@ TEST(VertexVisibilityTest, ASingleSheetAndVerticesOutsideTheImageAreSeen) {
   Eigen::Matrix3Xi faces(3, 0);
   AddGrid(-0.2, -0.2, 1.0, &vertices, &faces);
   for (int v = 0; v < 25; ++v) vertices(2, v) += 2.0 * vertices(0, v);  // 63 degrees of slant
-  AddGrid(2.0, 0.0, 1.0, &vertices, &faces);                           // beyond the image's right edge
+  AddGrid(2.0, 0.0, 1.0, &vertices, &faces);                            // beyond the image's right edge
   ScreenMesh screen;
   screen.faces = faces;
   ASSERT_TRUE(ProjectVertices(TestCamera(), vertices, &screen, nullptr));

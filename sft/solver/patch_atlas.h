@@ -59,17 +59,22 @@ struct PatchAtlasOptions {
   // A patch too small for `children` such children splits into as many as
   // it holds, down to min_children (0: `children`, never fewer).
   int min_children = 0;
-  // A patch that a nearer part of the surface hides in part (at least this
-  // share of its vertices hidden, and this share seen, in the newest
-  // frame's estimate) splits into its hidden and its seen vertices, the
+  // A patch that a nearer part of the surface turned over hides in part
+  // (at least this share of its vertices hidden, and this share seen, in
+  // the newest frame's estimate; hidden vertices count where they face
+  // the camera as in the template and what hides them faces the other way:
+  // a layer under a flap folded onto it, not a drape's far side or what a
+  // wave's crest hides) splits into its hidden and its seen vertices, the
   // most even one after each frame: where a patch's jet holds both, the
   // parts in view carry the hidden ones off with them (a folded table's
   // hidden layer, centimetres behind the table). 0: never, the default.
-  // At 0.2 (with max_patches 32) 12 of 13 simulated tables are kept, 11 at
-  // e3D 0.007-0.013 instead of 0.014-0.018, but the falls lose
-  // 0.0006-0.0013, a sheet turning edge-on 3 mm, and a frame takes twice
-  // the time (table 3 on two threads: 1.07 s against 0.52;
-  // docs/benchmarks.md, "the cloth's back found by mirrored keypoints").
+  // At 0.2 (with max_patches 32) 11 of 13 simulated tables end at e3D
+  // 0.007-0.015 instead of 0.014-0.018 (table 1 half-lost, as without;
+  // table 13 lost in that run), the falls as without (which lost
+  // 0.0006-0.0013 before the facing test), a sheet turning edge-on loses
+  // 3 mm, and a frame takes twice the time (table 3 on two threads: 1.07
+  // s against 0.52; docs/benchmarks.md, "the cloth's back found by
+  // mirrored keypoints").
   double hidden_split_share = 0.0;
   // Seam continuity (SeamCost): positions (in template edge lengths) and
   // normals. Normals are left free by default: a crease on a seam is a

@@ -20,6 +20,7 @@
 #include "cost_functions/compressed_cost.h"
 #include "cost_functions/gravity_inertia_residuals.h"
 #include "cost_functions/hinge_bending.h"
+#include "polyfit/eval/mesh_metrics.h"
 #include "polyfit/mesh/hinge_rest.h"
 #include "polyfit/mesh/mesh_io.h"
 #include "polyfit/mesh/unique_edges.h"
@@ -424,6 +425,7 @@ class PolySftController {
       }
     }
     for (double length : rest_lengths_) mean_edge_ += length / rest_lengths_.size();
+    if (options_.atlas.hidden_split_share > 0.0) template_facing_ = FacesCamera(mesh.vertices);
     if (options_.bending_weight > 0.0 || options_.new_crease_bending_weight > 0.0 || options_.mirror_new_creases) {
       hinges_ = MeasureHingeRest(mesh);
     }
@@ -1236,11 +1238,37 @@ class PolySftController {
   // Per vertex (#V) of a surface at `vertices` (3 by #V), whether a nearer
   // part of it hides the vertex in the finest level's view
   // (OccludedVertices); empty when the surface is behind the camera.
-  std::vector<std::uint8_t> HiddenVertices(const Eigen::Matrix3Xd& vertices) const {
+  // occluders: OccludedVertices'.
+  std::vector<std::uint8_t> HiddenVertices(const Eigen::Matrix3Xd& vertices,
+                                           std::vector<int>* occluders = nullptr) const {
     const LevelData& finest = levels_.back();
     ScreenMesh screen = mesh_template_;
     if (!ProjectVertices(finest.camera, vertices, &screen, nullptr)) return {};
-    return OccludedVertices(screen, finest.camera.width, finest.camera.height, kOccludedDepthTolerance * size_);
+    return OccludedVertices(screen, finest.camera.width, finest.camera.height, kOccludedDepthTolerance * size_,
+                            occluders);
+  }
+
+  // Per vertex (#V) and per face (#F) of the template's faces at
+  // `vertices` (3 by #V, camera frame): whether its normal points toward
+  // the camera.
+  struct Facing {
+    std::vector<std::uint8_t> vertices, faces;
+  };
+  Facing FacesCamera(const Eigen::Matrix3Xd& vertices) const {
+    TriangleMesh mesh;
+    mesh.vertices = vertices;
+    mesh.faces = scene_.template_mesh.faces;
+    const Eigen::Matrix3Xd normals = VertexNormals(mesh);
+    Facing facing;
+    facing.vertices.resize(vertices.cols());
+    for (Eigen::Index v = 0; v < vertices.cols(); ++v) facing.vertices[v] = normals.col(v).dot(vertices.col(v)) < 0.0;
+    facing.faces.resize(mesh.faces.cols());
+    for (Eigen::Index f = 0; f < mesh.faces.cols(); ++f) {
+      const Eigen::Vector3d a = vertices.col(mesh.faces(0, f)), b = vertices.col(mesh.faces(1, f)),
+                            c = vertices.col(mesh.faces(2, f));
+      facing.faces[f] = (b - a).cross(c - a).dot(a + b + c) < 0.0;
+    }
+    return facing;
   }
 
   // PolySftOptions::occluded_temporal_weight: window frame k's vertices
@@ -1463,8 +1491,20 @@ class PolySftController {
     FrameData& newest = *window_.back();
     Eigen::Matrix3Xd vertices;
     model_.Evaluate(newest.theta.data(), &vertices);
-    const std::vector<std::uint8_t> occluded = HiddenVertices(vertices);
+    std::vector<int> occluders;
+    std::vector<std::uint8_t> occluded = HiddenVertices(vertices, &occluders);
     if (occluded.empty()) return false;
+    // A layer under another: hidden, facing the camera as in the template,
+    // and hidden by a part turned over (the cloth under a flap folded onto
+    // it). A hidden vertex turned away (a drape's far side) or hidden by a
+    // part that faces as it does (a wave's crest, a sheet seen edge-on) is
+    // on one sheet with what hides it, which the jets they share carry on.
+    const Facing facing = FacesCamera(vertices);
+    for (int v = 0; v < model_.num_vertices(); ++v) {
+      const int f = occluders[v];
+      occluded[v] &=
+          facing.vertices[v] == template_facing_.vertices[v] && f >= 0 && facing.faces[f] != template_facing_.faces[f];
+    }
     const std::vector<int> sizes = model_.PatchSizes();
     int best = -1;
     double best_balance = 0.0;
@@ -1914,6 +1954,8 @@ class PolySftController {
   // The template's keypoints on the surface (with use_features_), and the
   // finest level's texture they are rendered with.
   std::unique_ptr<TextureFeatures> features_;
+  // FacesCamera of the template (SplitAlongOcclusion).
+  Facing template_facing_;
   ScreenMesh mesh_template_;
   double size_ = 0.0;                         // the template's bounding-box diagonal
   SoftRasterizerOptions rasterizer_options_;  // options_.rasterizer, gamma from depth_softness
