@@ -23,6 +23,7 @@
 #include "polyfit/eval/mesh_metrics.h"
 #include "polyfit/mesh/hinge_rest.h"
 #include "polyfit/mesh/mesh_io.h"
+#include "polyfit/mesh/per_face_normals.h"
 #include "polyfit/mesh/unique_edges.h"
 #include "polyfit/util/atomic_file.h"
 #include "polyfit/util/json_number.h"
@@ -1262,11 +1263,10 @@ class PolySftController {
     Facing facing;
     facing.vertices.resize(vertices.cols());
     for (Eigen::Index v = 0; v < vertices.cols(); ++v) facing.vertices[v] = normals.col(v).dot(vertices.col(v)) < 0.0;
+    const Eigen::Matrix3Xd face_normals = PerFaceNormals(mesh);
     facing.faces.resize(mesh.faces.cols());
     for (Eigen::Index f = 0; f < mesh.faces.cols(); ++f) {
-      const Eigen::Vector3d a = vertices.col(mesh.faces(0, f)), b = vertices.col(mesh.faces(1, f)),
-                            c = vertices.col(mesh.faces(2, f));
-      facing.faces[f] = (b - a).cross(c - a).dot(a + b + c) < 0.0;
+      facing.faces[f] = face_normals.col(f).dot(vertices.col(mesh.faces(0, f))) < 0.0;
     }
     return facing;
   }
