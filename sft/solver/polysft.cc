@@ -287,7 +287,11 @@ class PolySftController {
       if (!SolveWindow(&cost, &iterations)) break;
       frame_cost_[t] = cost;  // whether it is tracked, for RefineAtlas
       if (RefineAtlas(t) && !SolveWindow(&cost, &iterations)) break;
-      if (SplitAlongOcclusion(t) && !SolveWindow(&cost, &iterations)) break;
+      // A hidden split leaves the surface where it was, and the hidden
+      // child has no image to fit: the next frame's window solve frees it
+      // (solving this window again cost a third of the tables' time, for
+      // nothing measurable: docs/benchmarks.md).
+      SplitAlongOcclusion(t);
       RecoverLostFrame(t, &cost, &iterations);
       SecondOpinionOnNewCrease(t, &cost, &iterations);
       const bool misfit = t > 0 && CostRatio(cost) > kLostCostRatio;
@@ -1483,11 +1487,11 @@ class PolySftController {
   }
 
   // PatchAtlasOptions::hidden_split_share, after frame t's window is
-  // solved: true when a patch split, and the window must be solved again.
+  // solved: true when a patch split.
   bool SplitAlongOcclusion(int t) {
     const double min_share = options_.atlas.hidden_split_share;
     if (!(min_share > 0.0) || t == 0 || !model_.can_split()) return false;
-    if (model_.num_patches() + 1 > options_.atlas.max_patches) return false;
+    if (hidden_patches_ + 1 > options_.atlas.max_hidden_patches) return false;
     FrameData& newest = *window_.back();
     Eigen::Matrix3Xd vertices;
     model_.Evaluate(newest.theta.data(), &vertices);
@@ -1523,6 +1527,7 @@ class PolySftController {
     }
     const PatchSplit split = SplitPatchInPlace(best, child);
     KeepSplit(split);
+    ++hidden_patches_;
     // No score test: its ratio, significance and step are 0.
     summary_.splits.push_back({newest.frame.index, best, split.num_children, 0.0, 0.0, 0.0});
     return true;
@@ -1547,7 +1552,9 @@ class PolySftController {
     const bool found_misfit = Lost(newest) && FoundByKeypoints(&newest);
     if (t > 0 && !(Tracked(newest) && (newest.settled || found_misfit))) return false;
     // A full atlas: nothing to measure.
-    if (t > 0 && model_.num_patches() + options_.atlas.FewestChildren() - 1 > options_.atlas.max_patches) return false;
+    if (t > 0 && model_.num_patches() - hidden_patches_ + options_.atlas.FewestChildren() - 1 > options_.atlas.max_patches) {
+      return false;
+    }
     RenderCost::Data d;
     if (!ImageTerm(static_cast<int>(levels_.size()) - 1, newest, false, &d) || d.roi.area() <= 0) return false;
     const int channels = d.mask.empty() ? 3 : 4;
@@ -1561,8 +1568,9 @@ class PolySftController {
       return false;
     }
     std::vector<double> ratios;
-    const std::vector<int> chosen =
-        PatchesToSplit(options_.atlas, model_, squared, pixels, floor_squared_, floor_pixels_, &ratios);
+    PatchAtlasOptions room = options_.atlas;
+    room.max_patches += hidden_patches_;  // the hidden splits' patches count apart
+    const std::vector<int> chosen = PatchesToSplit(room, model_, squared, pixels, floor_squared_, floor_pixels_, &ratios);
     // A patch that failed the test is tried again only once it fits worse
     // than it did then: on a smooth scene the same patch would otherwise
     // be tested, and fail, every frame.
@@ -1956,6 +1964,7 @@ class PolySftController {
   std::unique_ptr<TextureFeatures> features_;
   // FacesCamera of the template (SplitAlongOcclusion).
   Facing template_facing_;
+  int hidden_patches_ = 0;  // patches the hidden splits added
   ScreenMesh mesh_template_;
   double size_ = 0.0;                         // the template's bounding-box diagonal
   SoftRasterizerOptions rasterizer_options_;  // options_.rasterizer, gamma from depth_softness

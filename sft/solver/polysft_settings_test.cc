@@ -83,7 +83,8 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.atlas.seen_seam_position_weight = 0.3;
   changed.atlas.seam_normal_weight = 0.01;
   changed.atlas.seam_uv_weight = 1.0;
-  changed.atlas.hidden_split_share = 0.2;
+  changed.atlas.hidden_split_share = 0.3;
+  changed.atlas.max_hidden_patches = 8;
   const nlohmann::json written = PolySftSettingsToJson(changed);
   EXPECT_EQ(written.size(), PolySftSettingKeys().size());
   PolySftOptions read;

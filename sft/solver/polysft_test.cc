@@ -400,6 +400,12 @@ TEST(PolySftTest, TheCoarseLevelsDoNotTakeAStartAwayFromItsTruth) {
   PolySftOptions options;
   options.num_threads = 2;
   options.ground_truth_start = GroundTruthStart::kThisFrame;
+  // Without the hidden splits, and the hidden vertices held still: with
+  // them the cloth under the corner no longer drags the surface off its
+  // truth (frame 14 at 0.0029 unchecked), and the coarse levels' pull is
+  // what this test isolates.
+  options.atlas.hidden_split_share = 0.0;
+  options.occluded_velocity = 0.0;
   options.check_coarse_levels = true;
   const PolySftSummary checked = SolvePolySft(options, scene);
   options.check_coarse_levels = false;
@@ -420,7 +426,8 @@ TEST(PolySftTest, TheCoarseLevelsDoNotTakeAStartAwayFromItsTruth) {
 
 // PatchAtlasOptions::hidden_split_share: as the table's lifted corner
 // turns over and hides part of the cloth, the patches it hides in part
-// split into their hidden and their seen vertices.
+// split into their hidden and their seen vertices, in a room of their own
+// (max_hidden_patches) beside the residual's splits (max_patches).
 TEST(PolySftTest, APatchTheSurfaceHidesInPartSplitsAlongWhatItHides) {
   ScopedTempDir dir("polyfit_sft_hidden_split");
   SheetSceneOptions o;
@@ -431,8 +438,8 @@ TEST(PolySftTest, APatchTheSurfaceHidesInPartSplitsAlongWhatItHides) {
   PolySftOptions options;
   options.num_threads = 2;
   options.ground_truth_start = GroundTruthStart::kThisFrame;
-  options.atlas.max_patches = 32;
-  options.atlas.hidden_split_share = 0.2;
+  options.atlas.max_patches = 13;
+  ASSERT_EQ(options.atlas.hidden_split_share, 0.2);  // the default
   const PolySftSummary split = SolvePolySft(options, scene);
   options.atlas.hidden_split_share = 0.0;
   const PolySftSummary whole = SolvePolySft(options, scene);
@@ -444,15 +451,19 @@ TEST(PolySftTest, APatchTheSurfaceHidesInPartSplitsAlongWhatItHides) {
     hidden_splits += s.children == 2 ? 1 : 0;
     patches += s.children - 1;
   }
-  std::cerr << "hidden splits " << hidden_splits << ", patches " << split.frames.back().patches << " against "
+  std::cerr << "hidden splits " << hidden_splits << ", patches " << patches << " against "
             << whole.frames.back().patches << ", e3D " << split.mean_e3d << " against " << whole.mean_e3d << "\n";
-  // Measured: 3 such splits (16 patches against 13); the mean e3D 0.0018
-  // against 0.0016 here, where little is hidden yet: the gain is on the
+  // Measured: 4 such splits (17 patches against 13: past max_patches);
+  // the mean e3D 0.0010 either way here, where little is hidden yet: the gain is on the
   // layer the fold hides later (tracked, the table's frames 37-44;
   // docs/benchmarks.md). The score-tested splits need not be the same in
   // both runs (the solves differ once a patch has split).
   EXPECT_GT(hidden_splits, 0);
-  EXPECT_EQ(split.frames.back().patches, patches);
+  EXPECT_LE(hidden_splits, options.atlas.max_hidden_patches);
+  EXPECT_EQ(static_cast<int>(split.patch_vertices.size()), patches);
+  EXPECT_LE(whole.frames.back().patches, options.atlas.max_patches);
+  EXPECT_LE(patches - hidden_splits, options.atlas.max_patches);
+  EXPECT_GT(patches, options.atlas.max_patches);
   EXPECT_GT(split.frames.back().patches, whole.frames.back().patches);
   EXPECT_LT(split.mean_e3d, 1.5 * whole.mean_e3d);
   EXPECT_LT(split.frames[14].e3d, 0.015);
