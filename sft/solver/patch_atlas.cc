@@ -16,6 +16,7 @@ std::string PatchAtlasOptions::Validate() const {
   if (!(split_ratio >= 1.0)) return "atlas.split_ratio must be >= 1";
   if (!(split_significance > 0.0)) return "atlas.split_significance must be > 0";
   if (max_hidden_patches < 0) return "atlas.max_hidden_patches must be >= 0";
+  if (min_hidden_vertices < 1) return "atlas.min_hidden_vertices must be >= 1";
   if (!(hidden_split_share >= 0.0 && hidden_split_share <= 0.5)) {
     return "atlas.hidden_split_share must be in [0, 0.5] (0: never)";
   }

@@ -1516,7 +1516,7 @@ class PolySftController {
     for (int v = 0; v < model_.num_vertices(); ++v) hidden[model_.patch_of_vertex(v)] += occluded[v] ? 1 : 0;
     for (int p = 0; p < model_.num_patches(); ++p) {
       const int h = hidden[p], seen = sizes[p] - hidden[p];
-      if (h < 3 || seen < 3) continue;
+      if (h < options_.atlas.min_hidden_vertices || seen < 3) continue;
       const double share = static_cast<double>(std::min(h, seen)) / sizes[p];
       if (share >= min_share && share > best_balance) best_balance = share, best = p;
     }

@@ -110,6 +110,7 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("seam_uv_weight", atlas.seam_uv_weight),
         POLYFIT_SETTING("hidden_split_share", atlas.hidden_split_share),
         POLYFIT_SETTING("max_hidden_patches", atlas.max_hidden_patches),
+        POLYFIT_SETTING("min_hidden_vertices", atlas.min_hidden_vertices),
         POLYFIT_SETTING("sigma", rasterizer.sigma),
         POLYFIT_SETTING("gamma", rasterizer.gamma),
         POLYFIT_SETTING("depth_softness", depth_softness),

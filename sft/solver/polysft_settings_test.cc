@@ -85,6 +85,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.atlas.seam_uv_weight = 1.0;
   changed.atlas.hidden_split_share = 0.3;
   changed.atlas.max_hidden_patches = 8;
+  changed.atlas.min_hidden_vertices = 5;
   const nlohmann::json written = PolySftSettingsToJson(changed);
   EXPECT_EQ(written.size(), PolySftSettingKeys().size());
   PolySftOptions read;
