@@ -72,13 +72,14 @@ struct PatchAtlasOptions {
   // carries it (held still, a child under a fold that rolls on is left
   // behind: a simulated table lost). At 0.2, with occluded_velocity 0.5
   // and its own room (below), 12 of 13 simulated tables end at e3D
-  // 0.0078-0.0122 instead of 0.014-0.018 (table 1 found instead of
-  // half-lost; table 8 0.0163 -> 0.0244, its last frames lost either way),
-  // at about the defaults' time; the falls, flags and hanging cloths
-  // barely split (e_n within 0.3 degrees but flag 6, which tips); a sheet
-  // turning edge-on, lost in its edge-on frames either way, is further off
-  // there (RMSE 7.9 -> 12.8 mm, e3D 0.0043 -> 0.0057): docs/benchmarks.md,
-  // "the hidden layer a patch of its own, by default".
+  // 0.0067-0.0115 instead of 0.014-0.018 (table 1 found instead of
+  // half-lost; table 8 0.0163 -> 0.0209, its last frames lost either way),
+  // table 3 at 0.84 s a frame on two threads against 0.53; the falls,
+  // flags and hanging cloths barely split (e_n within 0.5 degrees but flag
+  // 6, which tips); a sheet turning edge-on, lost in its edge-on frames
+  // either way, is further off there (RMSE 7.9 -> 8.5 mm, e3D 0.0043 ->
+  // 0.0036): docs/benchmarks.md, "the hidden layer a patch of its own, by
+  // default".
   double hidden_split_share = 0.2;
   // The hidden splits' own room: the patches they add count against this,
   // not against max_patches, so that the residual's splits keep theirs
