@@ -289,8 +289,8 @@ class PolySftController {
       if (RefineAtlas(t) && !SolveWindow(&cost, &iterations)) break;
       // A hidden split leaves the surface where it was, and the hidden
       // child has no image to fit: the next frame's window solve frees it
-      // (solving this window again cost a third of the tables' time, for
-      // nothing measurable: docs/benchmarks.md).
+      // (solving this window again cost table 3 a sixth of its time, for
+      // no better errors: docs/benchmarks.md).
       SplitAlongOcclusion(t);
       RecoverLostFrame(t, &cost, &iterations);
       SecondOpinionOnNewCrease(t, &cost, &iterations);

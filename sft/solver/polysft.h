@@ -222,7 +222,7 @@ struct PolySftOptions {
   // left behind. With the hidden splits (PatchAtlasOptions::
   // hidden_split_share, whose children it alone carries), 0 -> 0.5: a
   // table lost (0.077) found (0.0093), the falls' e_n 9.78 / 9.64 -> 9.57
-  // / 9.10 degrees, the flags even (mean e3D 0.0158 -> 0.0164, one of
+  // / 9.10 degrees, the flags even (mean e3D 0.0158 -> 0.0163, one of
   // nine worse by 0.004, as they tip); a sheet turning edge-on and back is
   // further off in the frames it is lost in either way (docs/
   // benchmarks.md, "the hidden layer a patch of its own, by default"). In
