@@ -1551,10 +1551,11 @@ class PolySftController {
     // fits about as well as the tracked ones waits until it settles.
     const bool found_misfit = Lost(newest) && FoundByKeypoints(&newest);
     if (t > 0 && !(Tracked(newest) && (newest.settled || found_misfit))) return false;
+    // The residual's splits' room: the hidden splits' children count apart.
+    PatchAtlasOptions room = options_.atlas;
+    room.max_patches += hidden_patches_;
     // A full atlas: nothing to measure.
-    if (t > 0 && model_.num_patches() - hidden_patches_ + options_.atlas.FewestChildren() - 1 > options_.atlas.max_patches) {
-      return false;
-    }
+    if (t > 0 && model_.num_patches() + room.FewestChildren() - 1 > room.max_patches) return false;
     RenderCost::Data d;
     if (!ImageTerm(static_cast<int>(levels_.size()) - 1, newest, false, &d) || d.roi.area() <= 0) return false;
     const int channels = d.mask.empty() ? 3 : 4;
@@ -1568,8 +1569,6 @@ class PolySftController {
       return false;
     }
     std::vector<double> ratios;
-    PatchAtlasOptions room = options_.atlas;
-    room.max_patches += hidden_patches_;  // the hidden splits' patches count apart
     const std::vector<int> chosen = PatchesToSplit(room, model_, squared, pixels, floor_squared_, floor_pixels_, &ratios);
     // A patch that failed the test is tried again only once it fits worse
     // than it did then: on a smooth scene the same patch would otherwise
