@@ -117,6 +117,14 @@ class WindowCallback : public ceres::IterationCallback {
                  Clock::time_point start, std::function<double()> e3d)
       : options_(options), trace_(trace), row_(row), start_(start), e3d_(std::move(e3d)) {}
 
+  // The solve stops after `cap` iterations (as Ceres' max_num_iterations
+  // would: capped() says so) unless go_on(cost) says it may go on to
+  // its max_num_iterations.
+  void GoOnPast(int cap, std::function<bool(double cost)> go_on) {
+    cap_ = cap;
+    go_on_ = std::move(go_on);
+  }
+
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
     SftIterationSummary row = row_;
     row.iteration = iterations_++;
@@ -125,15 +133,22 @@ class WindowCallback : public ceres::IterationCallback {
     row.cost = rejected ? last_cost_ : s.cost;
     if (e3d_) row.e3d = e3d_();
     trace_->push_back(row);
-    if (rejected) return ceres::SOLVER_CONTINUE;
-    if (s.iteration > 0) {
-      const double improvement = (last_cost_ - s.cost) / std::max(last_cost_, 1e-300);
-      stalled_ = improvement < options_.improvement_tolerance ? stalled_ + 1 : 0;
+    if (!rejected) {
+      if (s.iteration > 0) {
+        const double improvement = (last_cost_ - s.cost) / std::max(last_cost_, 1e-300);
+        stalled_ = improvement < options_.improvement_tolerance ? stalled_ + 1 : 0;
+      }
+      last_cost_ = s.cost;
+      if (stalled_ >= options_.patience) return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
     }
-    last_cost_ = s.cost;
-    return stalled_ >= options_.patience ? ceres::SOLVER_TERMINATE_SUCCESSFULLY : ceres::SOLVER_CONTINUE;
+    if (go_on_ && s.iteration == cap_ && !go_on_(last_cost_)) {
+      capped_ = true;
+      return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
+    }
+    return ceres::SOLVER_CONTINUE;
   }
   int iterations() const { return iterations_; }
+  bool capped() const { return capped_; }
 
  private:
   const PolySftOptions& options_;
@@ -144,6 +159,9 @@ class WindowCallback : public ceres::IterationCallback {
   double last_cost_ = 0.0;
   int stalled_ = 0;
   int iterations_ = 0;
+  int cap_ = 0;
+  std::function<bool(double)> go_on_;
+  bool capped_ = false;
 };
 
 // Pixels that can matter: the projected mesh and the mask, with a margin.
@@ -207,6 +225,7 @@ std::string PolySftOptions::Validate() const {
   if (pyramid_levels < 0 || pyramid_levels > 6) return "pyramid_levels must be in [1, 6], or 0 (chosen by width)";
   if (max_image_width < 0) return "max_image_width must be >= 0";
   if (max_iterations_per_level < 1) return "max_iterations_per_level must be >= 1";
+  if (tracked_finest_iterations < 0) return "tracked_finest_iterations must be >= 0";
   if (patience < 1) return "patience must be >= 1";
   if (iterative_min_patches < 2) return "iterative_min_patches must be >= 2";
   if (!(iterative_eta > 0.0 && iterative_eta < 1.0)) return "iterative_eta must be in (0, 1)";
@@ -1436,9 +1455,11 @@ class PolySftController {
         };
       }
       WindowCallback callback(options_, &summary_.trace, row, start_, e3d);
+      if (l + 1 == static_cast<int>(levels_.size())) GoOnWhileTracked(&solver, &callback);
       solver.callbacks.push_back(&callback);
       ceres::Solver::Summary result;
       ceres::Solve(solver, &problem, &result);
+      if (callback.capped()) result.termination_type = ceres::NO_CONVERGENCE;
       if (result.termination_type == ceres::FAILURE) {
         // Its start could not be evaluated: nothing moved, and its cost is
         // not the frame's.
@@ -1466,6 +1487,19 @@ class PolySftController {
     }
     MeasureFeatureErrors();
     return true;
+  }
+
+  // PolySftOptions::tracked_finest_iterations: the finest level's solve
+  // goes on past max_iterations_per_level while the window's cost per
+  // frame is a tracked frame's (the first frame, which the others are
+  // measured against, always).
+  void GoOnWhileTracked(ceres::Solver::Options* solver, WindowCallback* callback) const {
+    if (options_.tracked_finest_iterations <= options_.max_iterations_per_level) return;
+    solver->max_num_iterations = options_.tracked_finest_iterations;
+    const double frames = static_cast<double>(window_.size());
+    const bool first = window_.back()->frame.index == scene_.first_frame;
+    callback->GoOnPast(options_.max_iterations_per_level,
+                       [this, frames, first](double cost) { return first || CostRatio(cost / frames) <= kLostCostRatio; });
   }
 
   // Splits patch p (SplitPatch's child_of_vertex) and carries the window's

@@ -63,6 +63,7 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("pyramid_levels", pyramid_levels),
         POLYFIT_SETTING("max_image_width", max_image_width),
         POLYFIT_SETTING("max_iterations_per_level", max_iterations_per_level),
+        POLYFIT_SETTING("tracked_finest_iterations", tracked_finest_iterations),
         POLYFIT_SETTING("patience", patience),
         POLYFIT_SETTING("improvement_tolerance", improvement_tolerance),
         POLYFIT_SETTING("iterative_min_patches", iterative_min_patches),

@@ -33,6 +33,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.pyramid_levels = 2;
   changed.max_image_width = 640;
   changed.max_iterations_per_level = 9;
+  changed.tracked_finest_iterations = 20;
   changed.patience = 3;
   changed.improvement_tolerance = 0.05;
   changed.iterative_min_patches = 12;

@@ -767,6 +767,38 @@ TEST(PolySftTest, AFrameThatFitsFarWorseIsWarnedAbout) {
   EXPECT_TRUE(warned);
 }
 
+// PolySftOptions::tracked_finest_iterations: a tracked frame's finest
+// level goes on past max_iterations_per_level; a frame that shows
+// something else entirely stops there.
+TEST(PolySftTest, TheFinestLevelGoesOnOnlyWhileTheFrameIsTracked) {
+  ScopedTempDir dir("polyfit_sft_go_on");
+  GenerateSheetScene(SmallScene(SheetMotion::kBend, 12), dir.path().string());
+  cv::Mat noise(120, 160, CV_8UC3);
+  cv::randu(noise, 0, 255);
+  cv::imwrite((dir.path() / "frames" / "000003.png").string(), noise);
+  const SftScene scene = LoadScene(dir.path().string());
+  PolySftOptions options;
+  options.max_frames = 5;
+  options.max_iterations_per_level = 2;
+  options.improvement_tolerance = 1e-9;  // each level to its cap
+  // Per newest frame, the most iterations any of its level solves took.
+  auto longest = [&](int tracked_finest_iterations) {
+    options.tracked_finest_iterations = tracked_finest_iterations;
+    const PolySftSummary summary = SolvePolySft(options, scene);
+    ExpectFinite(summary);
+    std::vector<int> most(options.max_frames, 0);
+    for (const SftIterationSummary& row : summary.trace) most[row.frame] = std::max(most[row.frame], row.iteration);
+    return most;
+  };
+  const std::vector<int> capped = longest(0);
+  for (int t = 0; t < options.max_frames; ++t) EXPECT_LE(capped[t], 2) << "frame " << t;
+  const std::vector<int> going_on = longest(30);
+  EXPECT_LE(going_on[3], 2);
+  int went_on = 0;
+  for (int t : {0, 1, 2}) went_on += going_on[t] > 2;
+  EXPECT_GE(went_on, 2);
+}
+
 // Real footage's masks and lighting (sft/solver/silhouette_band.h,
 // brightness.h): a mask grown by 2 px is measured on the first frame and
 // no longer pulls the sheet toward the camera, and a frame brighter than
