@@ -749,16 +749,21 @@ TEST(PolySftTest, InitialPatchesSplitTheTemplateBeforeTheFirstFrame) {
   EXPECT_NE(options.Validate().find("initial_patches"), std::string::npos);
 }
 
-TEST(PolySftTest, AFrameThatFitsFarWorseIsWarnedAbout) {
-  ScopedTempDir dir("polyfit_sft_lost");
+// A small bending sheet whose frame 3 shows something else entirely.
+SftScene BendWithANoiseFrame(const ScopedTempDir& dir) {
   GenerateSheetScene(SmallScene(SheetMotion::kBend, 12), dir.path().string());
-  // Frame 3 shows something else entirely.
   cv::Mat noise(120, 160, CV_8UC3);
   cv::randu(noise, 0, 255);
   cv::imwrite((dir.path() / "frames" / "000003.png").string(), noise);
+  return LoadScene(dir.path().string());
+}
+
+TEST(PolySftTest, AFrameThatFitsFarWorseIsWarnedAbout) {
+  ScopedTempDir dir("polyfit_sft_lost");
+  const SftScene scene = BendWithANoiseFrame(dir);
   PolySftOptions options;
   options.max_frames = 5;
-  const PolySftSummary summary = SolvePolySft(options, LoadScene(dir.path().string()));
+  const PolySftSummary summary = SolvePolySft(options, scene);
   ExpectFinite(summary);
   bool warned = false;
   // Its cost (brightness matching scales a noisy frame's residuals down)
@@ -772,11 +777,7 @@ TEST(PolySftTest, AFrameThatFitsFarWorseIsWarnedAbout) {
 // something else entirely stops there.
 TEST(PolySftTest, TheFinestLevelGoesOnOnlyWhileTheFrameIsTracked) {
   ScopedTempDir dir("polyfit_sft_go_on");
-  GenerateSheetScene(SmallScene(SheetMotion::kBend, 12), dir.path().string());
-  cv::Mat noise(120, 160, CV_8UC3);
-  cv::randu(noise, 0, 255);
-  cv::imwrite((dir.path() / "frames" / "000003.png").string(), noise);
-  const SftScene scene = LoadScene(dir.path().string());
+  const SftScene scene = BendWithANoiseFrame(dir);
   PolySftOptions options;
   options.max_frames = 5;
   options.max_iterations_per_level = 2;
