@@ -313,7 +313,7 @@ class PolySftController {
       SplitAlongOcclusion(t);
       RecoverLostFrame(t, &cost, &iterations);
       SecondOpinionOnNewCrease(t, &cost, &iterations);
-      const bool misfit = t > 0 && CostRatio(cost) > kLostCostRatio;
+      const bool misfit = FitsFarWorse(t, cost);
       const bool lost = misfit && !FoundByKeypoints(window_.back().get());
       if (misfit) KeypointsFromNowOn(t);
       frame_time_[t] = Seconds(frame_start);
@@ -586,8 +586,13 @@ class PolySftController {
   // Tracked).
   bool Lost(const FrameData& data) const {
     const int t = data.frame.index - scene_.first_frame;
-    return t > 0 && CostRatio(frame_cost_[t]) > kLostCostRatio;
+    return FitsFarWorse(t, frame_cost_[t]);
   }
+
+  // Whether frame t at `cost` (per frame of its window) fits
+  // kLostCostRatio times worse than the tracked frames; never the first,
+  // which they are measured against.
+  bool FitsFarWorse(int t, double cost) const { return t > 0 && CostRatio(cost) > kLostCostRatio; }
 
   // A frame's cost against what the frames tracked so far cost (their
   // median; the first frame's alone at first): a frame is lost when it
@@ -1491,15 +1496,14 @@ class PolySftController {
 
   // PolySftOptions::tracked_finest_iterations: the finest level's solve
   // goes on past max_iterations_per_level while the window's cost per
-  // frame is a tracked frame's (the first frame, which the others are
-  // measured against, always).
+  // frame is a tracked frame's (FitsFarWorse: the first frame always).
   void GoOnWhileTracked(ceres::Solver::Options* solver, WindowCallback* callback) const {
     if (options_.tracked_finest_iterations <= options_.max_iterations_per_level) return;
     solver->max_num_iterations = options_.tracked_finest_iterations;
     const double frames = static_cast<double>(window_.size());
-    const bool first = window_.back()->frame.index == scene_.first_frame;
+    const int t = window_.back()->frame.index - scene_.first_frame;
     callback->GoOnPast(options_.max_iterations_per_level,
-                       [this, frames, first](double cost) { return first || CostRatio(cost / frames) <= kLostCostRatio; });
+                       [this, frames, t](double cost) { return !FitsFarWorse(t, cost / frames); });
   }
 
   // Splits patch p (SplitPatch's child_of_vertex) and carries the window's
@@ -1715,11 +1719,11 @@ class PolySftController {
       std::snprintf(why, sizeof(why), "lost (cost %.0f times the tracked frames')", CostRatio(*cost));
       return std::string(why);
     };
-    if (options_.recover_lost_frames && use_masks_ && !newest.frame.mask.empty() && CostRatio(*cost) > kLostCostRatio) {
+    if (options_.recover_lost_frames && use_masks_ && !newest.frame.mask.empty() && FitsFarWorse(t, *cost)) {
       SolveAgainFrom(kRecoveryMask, lost(), "moved onto its mask", [&](int*) { return MoveOntoMask(&newest); }, cost,
                      iterations);
     }
-    if (options_.relocalize && use_photometric_ && !newest.relocalized && CostRatio(*cost) > kLostCostRatio) {
+    if (options_.relocalize && use_photometric_ && !newest.relocalized && FitsFarWorse(t, *cost)) {
       // Not where its keypoints find the surface already (its misfit is
       // the model's: a fold one jet cannot hold), nor where the template
       // placed on them fits the coarsest level worse than the frame's own
