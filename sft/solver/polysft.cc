@@ -94,9 +94,11 @@ struct FrameData {
   bool after_lost = false;
   bool relocalized = false;
   // The parameters (JetDeformationModel layout), and where its first solve
-  // started.
+  // started; whether that is not where the frame before ended (a motion
+  // prediction, a flow or keypoint fit, the ground truth).
   std::vector<double> theta;
   std::vector<double> start;
+  bool moved_start = false;
   // The atlas's patches when the frame was last solved, and the patch of
   // each vertex then.
   int patches = 1;
@@ -450,9 +452,7 @@ class PolySftController {
     }
     for (double length : rest_lengths_) mean_edge_ += length / rest_lengths_.size();
     if (options_.atlas.hidden_split_share > 0.0) template_facing_ = FacesCamera(mesh.vertices);
-    if (options_.bending_weight > 0.0 || options_.new_crease_bending_weight > 0.0 || options_.mirror_new_creases) {
-      hinges_ = MeasureHingeRest(mesh);
-    }
+    if (options_.bending_weight > 0.0 || NewCreaseOpinions()) hinges_ = MeasureHingeRest(mesh);
     ScreenMesh screen = mesh_template_;
     ProjectVertices(scene_.camera, mesh.vertices, &screen, nullptr);
     template_pixels_ = 0.0;
@@ -567,19 +567,29 @@ class PolySftController {
   // frame prefers them: a motion that reverses between frames is
   // overshot by the prediction.
   std::vector<double> WarmStart(const FrameData& data) const {
-    if (window_.empty()) return std::vector<double>(model_.num_parameters(), 0.0);
-    const std::vector<double>& last = window_.back()->theta;
-    const std::vector<double>* before = window_.size() >= 2 ? &window_[window_.size() - 2]->theta
-                                        : !finals_.empty()  ? &previous_final_theta_
-                                                            : nullptr;
+    const std::vector<double>* last = Solved(0);
+    if (last == nullptr) return std::vector<double>(model_.num_parameters(), 0.0);
+    const std::vector<double>* before = Solved(1);
     if (!options_.predict_motion || before == nullptr || data.mask_empty || (!use_photometric_ && !use_masks_) ||
-        !Tracked(*window_.back()) || (window_.size() >= 2 && !Tracked(*window_[window_.size() - 2]))) {
-      return last;
+        !NewestSolvedTracked() || (window_.size() >= 2 && !Tracked(*window_[window_.size() - 2]))) {
+      return *last;
     }
-    std::vector<double> predicted = last;
-    for (size_t k = 0; k < predicted.size(); ++k) predicted[k] += last[k] - (*before)[k];
-    return ImageCost(0, data, predicted.data()) < ImageCost(0, data, last.data()) ? predicted : last;
+    std::vector<double> predicted = *last;
+    for (size_t k = 0; k < predicted.size(); ++k) predicted[k] += (*last)[k] - (*before)[k];
+    return ImageCost(0, data, predicted.data()) < ImageCost(0, data, last->data()) ? predicted : *last;
   }
+
+  // The parameters of the k-th newest frame solved so far (0: the
+  // newest): from the window, then the frames that left it (with a window
+  // of one frame, the frames before); null past those.
+  const std::vector<double>* Solved(size_t k) const {
+    if (k < window_.size()) return &window_[window_.size() - 1 - k]->theta;
+    k -= window_.size();
+    return k < final_thetas_.size() ? &final_thetas_[k] : nullptr;
+  }
+
+  // Whether Solved(0) was tracked (true before the first frame).
+  bool NewestSolvedTracked() const { return window_.empty() ? previous_final_tracked_ : Tracked(*window_.back()); }
 
   // Whether a solved frame fits far worse than the tracked frames (its
   // motion is no motion to carry on, unless its keypoints find it:
@@ -697,7 +707,7 @@ class PolySftController {
       summary_.warnings.emplace_back("frame " + std::to_string(data->frame.index) +
                                      ": the mask is empty (object not visible?): its image terms are skipped");
     }
-    data->after_lost = !window_.empty() && !Tracked(*window_.back());
+    data->after_lost = !NewestSolvedTracked();
     // The template's keypoints from the first frame's view of it, for
     // whichever later frame needs them.
     if (t == 0 && use_photometric_ && !data->mask_empty &&
@@ -714,6 +724,8 @@ class PolySftController {
     if (options_.relocalize) StartFromKeypoints();
     if (options_.ground_truth_start != GroundTruthStart::kNone) StartFromGroundTruth();
     window_.back()->start = window_.back()->theta;
+    const std::vector<double>* before = Solved(1);
+    window_.back()->moved_start = before != nullptr && window_.back()->start != *before;
   }
 
   // PolySftOptions::keypoints_when_lost: the keypoint term on from the
@@ -1511,7 +1523,7 @@ class PolySftController {
   PatchSplit SplitPatchInPlace(int p, const std::vector<int>& child) {
     const PatchSplit split = model_.SplitPatch(p, child);
     for (auto& frame : window_) frame->theta = model_.InheritParameters(split, frame->theta);
-    if (!finals_.empty()) previous_final_theta_ = model_.InheritParameters(split, previous_final_theta_);
+    for (auto& theta : final_thetas_) theta = model_.InheritParameters(split, theta);
     atlas_terms_ = GroupAtlasTerms(model_, edges_, rest_lengths_, Hinges());
     render_groups_ = MakePatchGroups(model_, scene_.template_mesh.faces);
     return split;
@@ -1630,7 +1642,7 @@ class PolySftController {
     const PatchGroups unsplit_groups = render_groups_;
     std::vector<std::vector<double>> thetas;
     for (auto& frame : window_) thetas.push_back(frame->theta);
-    const std::vector<double> previous = previous_final_theta_;
+    const std::vector<std::vector<double>> finals = final_thetas_;
     const PatchSplit split = SplitPatchInPlace(p, child);
     Eigen::VectorXd step;
     const double gain = PredictedDecrease(&step) - before;
@@ -1645,7 +1657,7 @@ class PolySftController {
     atlas_terms_ = unsplit_terms;
     render_groups_ = unsplit_groups;
     for (size_t k = 0; k < window_.size(); ++k) window_[k]->theta = thetas[k];
-    previous_final_theta_ = previous;
+    final_thetas_ = finals;
     failed_ratio_[p] = ratios[p];
     return false;
   }
@@ -1738,12 +1750,20 @@ class PolySftController {
     }
   }
 
+  // Whether a frame with a new crease is solved again (any of
+  // SecondOpinionOnNewCrease's starts is on).
+  bool NewCreaseOpinions() const {
+    return options_.new_crease_bending_weight > 0.0 || options_.mirror_new_creases ||
+           options_.new_crease_from_frame_before;
+  }
+
   // trace.csv's `recovery`: the re-solve's start (RecoverLostFrame,
   // SecondOpinionOnNewCrease).
   static constexpr int kRecoveryMask = 1;
   static constexpr int kRecoveryKeypoints = 2;
   static constexpr int kRecoveryBending = 3;
   static constexpr int kRecoveryMirror = 4;
+  static constexpr int kRecoveryFrameBefore = 5;
 
   // The window solved again from `restart`'s change to the newest frame
   // (which may solve it itself, counting its iterations in `more`), where
@@ -1785,16 +1805,18 @@ class PolySftController {
 
   // PolySftOptions::new_crease_bending_weight: a frame whose solve made a
   // new crease solved again from its start under a bending prior, then
-  // without it from there, the lower cost kept.
+  // without it from there; mirror_new_creases, with its flap mirrored;
+  // new_crease_from_frame_before, from where the frame before ended. The
+  // lowest cost kept.
   void SecondOpinionOnNewCrease(int t, double* cost, int* iterations) {
     FrameData& newest = *window_.back();
-    const bool bend = options_.new_crease_bending_weight > 0.0;
-    if (t == 0 || newest.mask_empty || !(bend || options_.mirror_new_creases) || hinges_.hinges.empty()) return;
+    if (t == 0 || newest.mask_empty || !NewCreaseOpinions() || hinges_.hinges.empty()) return;
     const std::vector<double> changes = HingeChanges();
     const double crease = changes.empty() ? 0.0 : *std::max_element(changes.begin(), changes.end());
     if (!(crease > options_.new_crease_angle_deg)) return;
     char why[80];
     std::snprintf(why, sizeof(why), "a new crease (%.0f deg)", crease);
+    const bool bend = options_.new_crease_bending_weight > 0.0;
     bool bent_kept = false;
     if (bend) {
       auto bent = [&](int* more) {
@@ -1810,6 +1832,15 @@ class PolySftController {
     }
     // Measured again where the bending prior's opinion was kept.
     if (options_.mirror_new_creases) MirrorNewCrease(why, bent_kept ? HingeChanges() : changes, cost, iterations);
+    if (options_.new_crease_from_frame_before && newest.moved_start) {
+      // Copied: the window's solve moves the frame before too.
+      const std::vector<double> before = *Solved(1);
+      auto from_before = [&](int*) {
+        newest.theta = before;
+        return true;
+      };
+      SolveAgainFrom(kRecoveryFrameBefore, why, "from where the frame before ended", from_before, cost, iterations);
+    }
   }
 
   // PolySftOptions::mirror_new_creases: the newest frame's flap beyond its
@@ -1948,7 +1979,9 @@ class PolySftController {
     // The frames before the window that temporal_order reads, newest first.
     finals_.insert(finals_.begin(), result.vertices);
     finals_.resize(std::min<size_t>(finals_.size(), 2));
-    previous_final_theta_ = data.theta;
+    final_thetas_.insert(final_thetas_.begin(), data.theta);
+    final_thetas_.resize(finals_.size());
+    previous_final_tracked_ = Tracked(data);
     summary_.frames.push_back(result);
     if (on_frame_) on_frame_(summary_.frames.back());
   }
@@ -2015,7 +2048,8 @@ class PolySftController {
   std::vector<LevelData> levels_;
   std::deque<std::unique_ptr<FrameData>> window_;
   std::vector<Eigen::Matrix3Xd> finals_;  // the two frames before the window, newest first, once there are
-  std::vector<double> previous_final_theta_;
+  std::vector<std::vector<double>> final_thetas_;  // their parameters
+  bool previous_final_tracked_ = true;
   int recovery_ = 0;  // solving a lost frame again (RecoverLostFrame): its kRecovery start
   Eigen::Matrix3Xd previous_truth_;  // the last frame's ground truth (ground_truth_start kFrameBefore)
   std::vector<double> frame_time_, frame_cost_;

@@ -196,6 +196,17 @@ struct PolySftOptions {
   // to it and solved again, the lower final cost kept (trace.csv's
   // recovery 4).
   bool mirror_new_creases = true;
+  // And, on the same trigger, where the frame's start was moved on from
+  // where the frame before ended (the constant-velocity prediction, the
+  // flow's or the keypoints' fit), the frame solved again from where the
+  // frame before ended, the lower final cost kept (trace.csv's recovery
+  // 5): a flap whose motion turns between frames is carried by the
+  // prediction past the hinge angle it turns back from, into the basin
+  // that folds it the other way. On the nine simulated flags, mean e_n
+  // 11.63 -> 11.24 degrees (flag 1's corner: 19-33 -> 7-10 degrees in
+  // frames 34-37); the tables, falls, hanging cloths and sheets within
+  // 0.0001 e3D (docs/benchmarks.md).
+  bool new_crease_from_frame_before = true;
   // What the temporal term holds each frame to (TemporalCost): 1, the
   // frame before (the paper's: a surface that moves fast is held back);
   // 2, the line through the two frames before (constant velocity, inertia
@@ -438,8 +449,9 @@ struct SftIterationSummary {
   double e3d = std::numeric_limits<double>::quiet_NaN();
   // On a frame's re-solve: 1 a lost frame moved onto its mask
   // (PolySftOptions::recover_lost_frames), 2 placed on its keypoints
-  // (relocalize), 3 a new crease's second opinion under a bending prior
-  // (new_crease_bending_weight).
+  // (relocalize); a new crease's second opinion: 3 under a bending prior
+  // (new_crease_bending_weight), 4 its flap mirrored (mirror_new_creases),
+  // 5 from where the frame before ended (new_crease_from_frame_before).
   int recovery = 0;
 };
 

@@ -75,6 +75,7 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("new_crease_bending_weight", new_crease_bending_weight),
         POLYFIT_SETTING("new_crease_angle_deg", new_crease_angle_deg),
         POLYFIT_SETTING("mirror_new_creases", mirror_new_creases),
+        POLYFIT_SETTING("new_crease_from_frame_before", new_crease_from_frame_before),
         POLYFIT_SETTING("temporal_weight", temporal_weight),
         POLYFIT_SETTING("temporal_order", temporal_order),
         POLYFIT_SETTING("gravity_prior", gravity_prior),

@@ -45,6 +45,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.new_crease_bending_weight = 3e-4;
   changed.new_crease_angle_deg = 45.0;
   changed.mirror_new_creases = false;
+  changed.new_crease_from_frame_before = false;
   changed.temporal_weight = 0.3;
   changed.temporal_order = 2;
   changed.gravity_prior = true;

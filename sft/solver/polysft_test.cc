@@ -14,6 +14,7 @@
 #include "cost_functions/hinge_bending.h"
 #include "polyfit/mesh/hinge_rest.h"
 #include "polyfit/util/scoped_temp_dir.h"
+#include "sft/scene/sft_metrics.h"
 #include "sft/synthetic/sheet_scene.h"
 
 namespace polyfit {
@@ -349,6 +350,70 @@ TEST(PolySftTest, ANewCreaseGetsASecondOpinionUnderABendingPrior) {
   // Measured: 143 rows of re-solves, 3 kept; RMSE 0.75 -> 0.77 mm.
   EXPECT_GT(kept, 0);
   EXPECT_LT(c.mean_rmse_mm, 1.2 * a.mean_rmse_mm);
+}
+
+// new_crease_from_frame_before: with every frame's solve taken for a new
+// crease, a frame whose start the prediction or the flow moved is solved
+// again from where the frame before ended, and the lower cost kept; a
+// start that was not moved is not solved from there again.
+TEST(PolySftTest, ANewCreaseIsSolvedAgainFromWhereTheFrameBeforeEnded) {
+  ScopedTempDir dir("polyfit_sft_crease_from_before");
+  GenerateSheetScene(SmallScene(SheetMotion::kBend, 6), dir.path().string());
+  const SftScene scene = LoadScene(dir.path().string());
+  PolySftOptions off;
+  off.num_threads = 1;
+  off.new_crease_angle_deg = 1e-3;  // every frame
+  off.new_crease_bending_weight = 0.0;
+  off.mirror_new_creases = false;
+  off.new_crease_from_frame_before = false;
+  PolySftOptions on = off;
+  on.new_crease_from_frame_before = true;
+  auto again = [](const PolySftSummary& s, int frame) {
+    return std::count_if(s.trace.begin(), s.trace.end(), [frame](const SftIterationSummary& r) {
+      return r.recovery == 5 && (frame < 0 || r.frame == frame);
+    });
+  };
+  const PolySftSummary a = SolvePolySft(off, scene), b = SolvePolySft(on, scene);
+  ExpectFinite(b);
+  EXPECT_EQ(again(a, -1), 0);
+  // Frame 0 has no frame before and frame 1 no motion to carry on; the
+  // bend's later frames start where the prediction puts them.
+  EXPECT_EQ(again(b, 1), 0);
+  int first = -1;
+  for (int t = 2; t < 6 && first < 0; ++t) first = again(b, t) > 0 ? t : -1;
+  ASSERT_GE(first, 2);
+  // Until then the two runs are the same; there the lower cost is kept.
+  for (int t = 0; t < first; ++t) EXPECT_EQ(a.frames[t].cost, b.frames[t].cost) << "frame " << t;
+  EXPECT_LE(b.frames[first].cost, a.frames[first].cost);
+  EXPECT_LT(b.mean_rmse_mm, 1.2 * a.mean_rmse_mm);
+  // Without a moved start nothing is solved again.
+  PolySftOptions unmoved = WarmStartAlone();
+  unmoved.num_threads = 1;
+  unmoved.new_crease_angle_deg = 1e-3;
+  unmoved.new_crease_bending_weight = 0.0;
+  unmoved.mirror_new_creases = false;
+  EXPECT_EQ(again(SolvePolySft(unmoved, scene), -1), 0);
+}
+
+// With a window of one frame, the frame before has left the window when a
+// frame starts: it starts where that frame ended (not from the template),
+// as a frame of a longer window does.
+TEST(PolySftTest, AWindowOfOneFrameStartsWhereTheFrameBeforeEnded) {
+  ScopedTempDir dir("polyfit_sft_window_one");
+  GenerateSheetScene(SmallScene(SheetMotion::kBend, 5), dir.path().string());
+  const SftScene scene = LoadScene(dir.path().string());
+  PolySftOptions options = WarmStartAlone();
+  options.window_size = 1;
+  const PolySftSummary summary = SolvePolySft(options, scene);
+  ExpectFinite(summary);
+  ASSERT_EQ(summary.frames.size(), 5u);
+  for (int t = 1; t < 5; ++t) {
+    const auto first = std::find_if(summary.trace.begin(), summary.trace.end(),
+                                    [t](const SftIterationSummary& r) { return r.frame == t; });
+    ASSERT_NE(first, summary.trace.end());
+    const Eigen::Matrix3Xd& truth = LoadFrame(scene, t).ground_truth;
+    EXPECT_NEAR(first->e3d, ComputeE3D(summary.frames[t - 1].vertices, truth), 1e-12) << "frame " << t;
+  }
 }
 
 TEST(PolySftTest, StiffInextensibilityStaysFiniteAndIsWarnedAbout) {
