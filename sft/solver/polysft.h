@@ -203,7 +203,7 @@ struct PolySftOptions {
   // 5): a flap whose motion turns between frames is carried by the
   // prediction past the hinge angle it turns back from, into the basin
   // that folds it the other way. On the nine simulated flags, mean e_n
-  // 11.63 -> 11.24 degrees (flag 1's corner: 19-33 -> 7-10 degrees in
+  // 11.63 -> 11.27 degrees (flag 1's corner: 19-33 -> 7-10 degrees in
   // frames 34-37); the tables, falls, hanging cloths and sheets within
   // 0.0001 e3D (docs/benchmarks.md).
   bool new_crease_from_frame_before = true;
