@@ -49,11 +49,11 @@ bool RenderCost::EvaluateNormalEquations(const double* theta, double* squared_no
 
 bool RenderCost::EvaluateSlottedNormalEquations(const double* theta, const PatchGroups& groups,
                                                 const std::vector<int>& slot, bool want_jacobian,
-                                                double* squared_norm, Eigen::MatrixXd* jtj,
-                                                Eigen::VectorXd* jtr) const {
+                                                double* squared_norm, Eigen::MatrixXd* jtj, Eigen::VectorXd* jtr,
+                                                RenderReuse render) const {
   const int b = data_.model->block_size();
   jtr->setZero(static_cast<Eigen::Index>(b) * data_.model->num_patches());
-  const bool ok = Compute(theta, nullptr, nullptr, true, want_jacobian, &groups);
+  const bool ok = Compute(theta, nullptr, nullptr, true, want_jacobian, &groups, render);
   *squared_norm = 0.0;
   for (const PartState& part : parts_) *squared_norm += part.squared_norm;
   if (want_jacobian) ReduceParts(&slot, jtj, jtr);
@@ -397,8 +397,17 @@ void RenderCost::AddPixelNormal(PartState* state, int pixel, const double* r, do
 }
 
 bool RenderCost::Compute(const double* theta, double* residuals, double** jacobians, bool normal, bool want_jacobian,
-                         const PatchGroups* groups) const {
-  if (!Prepare(theta, want_jacobian, want_jacobian)) return false;
+                         const PatchGroups* groups, RenderReuse render) const {
+  // The values are the same with the gradients or without (the model's,
+  // the projection's and the render's), so a kept render gives the cost
+  // a fresh one would, to the bit.
+  const size_t size = static_cast<size_t>(data_.model->block_size()) * data_.model->num_patches();
+  const bool reuse = render == RenderReuse::kReuse && kept_theta_.size() == size &&
+                     std::equal(kept_theta_.begin(), kept_theta_.end(), theta);
+  const bool gradients = want_jacobian || render == RenderReuse::kKeep;
+  kept_theta_.clear();
+  if (!reuse && !Prepare(theta, gradients, gradients)) return false;
+  if (render == RenderReuse::kKeep) kept_theta_.assign(theta, theta + size);
   const cv::Rect& roi = data_.roi;
   const int threads = std::max(1, std::min(ResolveNumThreads(data_.rasterizer->options().num_threads), roi.height));
   // The rows in a fixed number of contiguous parts, each summed into its
@@ -646,7 +655,15 @@ bool SplitRenderTerm::Prepare(bool jacobians, bool new_point) {
       for (const int k : later_[i]) jtj_.block(i * b, k * b, b, b).setZero();
     }
   }
-  ok_ = cost_.EvaluateSlottedNormalEquations(theta_, groups_, slot_, jacobians, &squared_norm_, &jtj_, &jtr_);
+  // A trial point's cost is rendered with its gradients too: most steps
+  // are taken (nine in ten on the flags), and Ceres then asks for the
+  // normal equations at the same point (new_point false), which reuse
+  // that render instead of making it again. A render with gradients
+  // costs 4.7 ms on a flag, 2.1 without; flag 7 on two threads 0.81 ->
+  // 0.75 s a frame, solved to the same bit (docs/benchmarks.md).
+  using Reuse = RenderCost::RenderReuse;
+  const Reuse render = !jacobians ? Reuse::kKeep : new_point ? Reuse::kNone : Reuse::kReuse;
+  ok_ = cost_.EvaluateSlottedNormalEquations(theta_, groups_, slot_, jacobians, &squared_norm_, &jtj_, &jtr_, render);
   ok_ = AddAttached(jacobians) && ok_;
   have_jacobians_ = jacobians;
   // Factorised here, where the callback prepares the window's frames side

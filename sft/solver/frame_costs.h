@@ -93,9 +93,19 @@ class RenderCost : public ceres::CostFunction {
   // (PatchGroups::Find); when no group holds them all, with the one that
   // holds most, without the other patches' columns (its cost kept, its pull
   // on them lost). jtr (n) is set.
+  // render: how the frame is rendered (RenderReuse).
+  enum class RenderReuse {
+    kNone,  // for what is asked
+    // The cost alone asked, but rendered with the gradients too, kept for
+    // an evaluation of the normal equations at the same theta (kReuse).
+    kKeep,
+    // The render kept by the evaluation before (kKeep) where it was at
+    // this theta; afresh otherwise.
+    kReuse,
+  };
   bool EvaluateSlottedNormalEquations(const double* theta, const PatchGroups& groups, const std::vector<int>& slot,
                                       bool want_jacobian, double* squared_norm, Eigen::MatrixXd* jtj,
-                                      Eigen::VectorXd* jtr) const;
+                                      Eigen::VectorXd* jtr, RenderReuse render = RenderReuse::kNone) const;
 
  private:
   static constexpr int kMaxPatchesPerPixel = 8;
@@ -144,7 +154,7 @@ class RenderCost : public ceres::CostFunction {
   // equations (when the Jacobian is wanted; a pixel keeps the columns of
   // the patches PatchGroups::Find keeps, all of them without groups).
   bool Compute(const double* theta, double* residuals, double** jacobians, bool normal, bool want_jacobian,
-               const PatchGroups* groups) const;
+               const PatchGroups* groups, RenderReuse render = RenderReuse::kNone) const;
   // The surface at theta (with its Jacobian against each vertex's patch
   // block, in screen coordinates: screen_theta_), rendered (with the
   // render's gradients); false when it went behind the camera.
@@ -176,6 +186,9 @@ class RenderCost : public ceres::CostFunction {
   mutable Eigen::Matrix3Xd vertices_;
   mutable Eigen::MatrixXd model_jacobian_, screen_jacobian_;
   mutable std::vector<double> theta_;
+  // Where the render kept for RenderReuse::kReuse was made (empty: none
+  // kept).
+  mutable std::vector<double> kept_theta_;
   // d(x, y, depth) / d theta_p per vertex, p its patch: 3 #V by block size,
   // row-major so that a vertex's three rows are contiguous.
   mutable Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> screen_theta_;

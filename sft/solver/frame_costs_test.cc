@@ -827,6 +827,52 @@ TEST_F(AtlasCostsTest, APixelKeepsTheColumnsOfTheGroupHoldingMostOfItsPatches) {
   EXPECT_EQ(slotted.block(0, 2 * b, 2 * b, 2 * b).norm(), 0.0);
 }
 
+// A trial point's render kept (the cost alone, rendered with its
+// gradients) gives the normal equations at that point to the bit, and a
+// different point is rendered afresh.
+TEST_F(AtlasCostsTest, ARenderKeptAtATrialPointGivesTheSameNormalEquations) {
+  using Reuse = RenderCost::RenderReuse;
+  for (size_t k = 0; k < theta_.size(); ++k) theta_[k] += 0.001 * std::cos(0.3 + 7.0 * k);
+  const PatchGroups groups = MakePatchGroups(*model_, scene_.template_mesh.faces);
+  const SoftRasterizer rasterizer(SoftRasterizerOptions(), scene_.texture);
+  const SftFrame frame = LoadFrame(scene_, 1);
+  const int P = model_->num_parameters(), K = model_->num_patches();
+  std::vector<int> slot(K);
+  for (int p = 0; p < K; ++p) slot[p] = p;
+  std::vector<double> moved = theta_;
+  for (size_t k = 0; k < moved.size(); ++k) moved[k] += 0.002 * std::sin(1.0 + 3.0 * k);
+  struct Result {
+    double cost = 0.0, trial_cost = 0.0;
+    Eigen::MatrixXd jtj;
+    Eigen::VectorXd jtr;
+  };
+  // The cost alone at `trial`, then the normal equations at `at`.
+  const auto evaluate = [&](const RenderCost& cost, Reuse trial_render, Reuse render, const std::vector<double>& trial,
+                            const std::vector<double>& at) {
+    Result result;
+    result.jtj = Eigen::MatrixXd::Zero(P, P);
+    EXPECT_TRUE(cost.EvaluateSlottedNormalEquations(trial.data(), groups, slot, false, &result.trial_cost,
+                                                    &result.jtj, &result.jtr, trial_render));
+    EXPECT_TRUE(cost.EvaluateSlottedNormalEquations(at.data(), groups, slot, true, &result.cost, &result.jtj,
+                                                    &result.jtr, render));
+    return result;
+  };
+  const RenderCost fresh_cost(RenderData(rasterizer, frame)), kept_cost(RenderData(rasterizer, frame));
+  for (const std::vector<double>* at : {&theta_, &moved}) {
+    const Result fresh = evaluate(fresh_cost, Reuse::kNone, Reuse::kNone, theta_, *at);
+    const Result kept = evaluate(kept_cost, Reuse::kKeep, Reuse::kReuse, theta_, *at);
+    EXPECT_EQ(kept.trial_cost, fresh.trial_cost);
+    EXPECT_EQ(kept.cost, fresh.cost);
+    EXPECT_EQ((kept.jtj - fresh.jtj).cwiseAbs().maxCoeff(), 0.0);
+    EXPECT_EQ((kept.jtr - fresh.jtr).cwiseAbs().maxCoeff(), 0.0);
+    EXPECT_GT(fresh.jtr.norm(), 0.0);
+  }
+  // The second point's normal equations are its own, not the trial's.
+  const Result there = evaluate(fresh_cost, Reuse::kNone, Reuse::kNone, moved, moved);
+  const Result here = evaluate(fresh_cost, Reuse::kNone, Reuse::kNone, theta_, theta_);
+  EXPECT_NE(there.cost, here.cost);
+}
+
 TEST_F(AtlasCostsTest, TheRenderTermSplitByPatchGroupsIsTheSameProblem) {
   for (size_t k = 0; k < theta_.size(); ++k) theta_[k] += 0.001 * std::cos(0.3 + 7.0 * k);
   const PatchGroups groups = MakePatchGroups(*model_, scene_.template_mesh.faces);
