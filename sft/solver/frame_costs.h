@@ -85,15 +85,7 @@ class RenderCost : public ceres::CostFunction {
   // (where the surface fits worse than elsewhere).
   bool VertexResiduals(const double* theta, Eigen::VectorXd* squared_residuals, Eigen::VectorXd* pixels) const;
 
-  // The normal equations as SplitRenderTerm keeps them: patch p's
-  // parameters at block slot[p] (n = #patches by block size), only the
-  // blocks (slot[p], slot[q]) with slot[p] <= slot[q] of patches p, q that
-  // one of `groups` holds together added to (the caller zeroes them; the
-  // diagonal blocks whole). A pixel's rows go with the group of its patches
-  // (PatchGroups::Find); when no group holds them all, with the one that
-  // holds most, without the other patches' columns (its cost kept, its pull
-  // on them lost). jtr (n) is set.
-  // render: how the frame is rendered (RenderReuse).
+  // How EvaluateSlottedNormalEquations renders the frame.
   enum class RenderReuse {
     kNone,  // for what is asked
     // The cost alone asked, but rendered with the gradients too, kept for
@@ -103,6 +95,15 @@ class RenderCost : public ceres::CostFunction {
     // this theta; afresh otherwise.
     kReuse,
   };
+  // The normal equations as SplitRenderTerm keeps them: patch p's
+  // parameters at block slot[p] (n = #patches by block size), only the
+  // blocks (slot[p], slot[q]) with slot[p] <= slot[q] of patches p, q that
+  // one of `groups` holds together added to (the caller zeroes them; the
+  // diagonal blocks whole). A pixel's rows go with the group of its patches
+  // (PatchGroups::Find); when no group holds them all, with the one that
+  // holds most, without the other patches' columns (its cost kept, its pull
+  // on them lost). jtr (n) is set. `render`: whether the render is kept
+  // for, or reused from, an evaluation at the same theta.
   bool EvaluateSlottedNormalEquations(const double* theta, const PatchGroups& groups, const std::vector<int>& slot,
                                       bool want_jacobian, double* squared_norm, Eigen::MatrixXd* jtj,
                                       Eigen::VectorXd* jtr, RenderReuse render = RenderReuse::kNone) const;
