@@ -867,7 +867,8 @@ TEST_F(AtlasCostsTest, ARenderKeptAtATrialPointGivesTheSameNormalEquations) {
     EXPECT_EQ((kept.jtr - fresh.jtr).cwiseAbs().maxCoeff(), 0.0);
     EXPECT_GT(fresh.jtr.norm(), 0.0);
   }
-  // The second point's normal equations are its own, not the trial's.
+  // The two points differ, so the loop's second case did render afresh
+  // rather than reuse the trial's render.
   const Result there = evaluate(fresh_cost, Reuse::kNone, Reuse::kNone, moved, moved);
   const Result here = evaluate(fresh_cost, Reuse::kNone, Reuse::kNone, theta_, theta_);
   EXPECT_NE(there.cost, here.cost);
