@@ -55,6 +55,31 @@ TEST(EdgeInextensibilityResidualTest, ValueAndJacobian) {
   EXPECT_NEAR(residual, -3.0, 1e-12);
 }
 
+TEST(EdgeInextensibilityResidualTest, RobustAboveItsStrainAndItsJacobianIsRight) {
+  const double rest = 2.0, weight = 3.0, b = 0.03;
+  std::unique_ptr<ceres::CostFunction> robust(EdgeInextensibilityResidual::Create(rest, weight, b));
+  std::unique_ptr<ceres::CostFunction> plain(EdgeInextensibilityResidual::Create(rest, weight));
+  double origin[3] = {0.0, 0.0, 0.0};
+  for (double strain : {-0.5, -0.05, -0.001, 0.0, 1e-4, 0.003, 0.03, 0.2, 2.0}) {
+    double x[3] = {rest * (1.0 + strain) * 0.6, 0.0, rest * (1.0 + strain) * 0.8};
+    double* parameters[2] = {x, origin};
+    double r, r_plain;
+    ASSERT_TRUE(robust->Evaluate(parameters, &r, nullptr));
+    ASSERT_TRUE(plain->Evaluate(parameters, &r_plain, nullptr));
+    EXPECT_NEAR(r_plain, weight * strain, 1e-12);
+    // The pseudo-Huber penalty, with the residual's sign.
+    const double penalty = weight * weight * 2.0 * b * b * (std::sqrt(1.0 + (strain / b) * (strain / b)) - 1.0);
+    EXPECT_NEAR(r * r, penalty, 1e-12 * std::max(1.0, penalty)) << strain;
+    EXPECT_TRUE(r * strain >= 0.0) << strain;
+    // Quadratic well below b (the squared term), linear well above.
+    if (std::abs(strain) <= 0.003) EXPECT_NEAR(r, r_plain, 0.01 * std::abs(r_plain) + 1e-15) << strain;
+    if (std::abs(strain) >= 0.2) EXPECT_NEAR(r * r, 2.0 * b * weight * weight * std::abs(strain), 0.2 * r * r);
+    ExpectJacobiansMatchFiniteDifferences(*robust, x, origin);
+  }
+  EXPECT_THROW(EdgeInextensibilityResidual::Create(rest, weight, -0.1), std::invalid_argument);
+  EXPECT_THROW(EdgeInextensibilityResidual::Create(rest, weight, std::nan("")), std::invalid_argument);
+}
+
 // Two triangles on the edge (0,0,0) -> (1,0,0), the second turned about
 // it by `fold` radians away from the first's normal (0, 0, 1).
 void Hinge(double fold, double* x_i, double* x_j, double* x_k, double* x_l) {

@@ -841,10 +841,11 @@ std::vector<std::array<int, 2>> AsArrays(const std::vector<Eigen::Vector2i>& edg
   return out;
 }
 
-std::vector<EdgeInextensibilityResidual> EdgeFunctors(const std::vector<double>& rest_lengths, double weight) {
+std::vector<EdgeInextensibilityResidual> EdgeFunctors(const std::vector<double>& rest_lengths, double weight,
+                                                      double robust_strain) {
   std::vector<EdgeInextensibilityResidual> out;
   out.reserve(rest_lengths.size());
-  for (double length : rest_lengths) out.emplace_back(length, weight);
+  for (double length : rest_lengths) out.emplace_back(length, weight, robust_strain);
   return out;
 }
 
@@ -861,8 +862,9 @@ std::vector<HingeBendingResidual> HingeFunctors(const std::vector<double>& rest_
 
 InextensibilityCost::InextensibilityCost(const JetDeformationModel* model, const std::vector<int>& patches,
                                          const std::vector<Eigen::Vector2i>& edges,
-                                         const std::vector<double>& rest_lengths, double weight)
-    : VertexTupleCost(model, patches, AsArrays(edges), EdgeFunctors(rest_lengths, weight)) {}
+                                         const std::vector<double>& rest_lengths, double weight,
+                                         double robust_strain)
+    : VertexTupleCost(model, patches, AsArrays(edges), EdgeFunctors(rest_lengths, weight, robust_strain)) {}
 
 BendingCost::BendingCost(const JetDeformationModel* model, const std::vector<int>& patches,
                          const std::vector<std::array<int, 4>>& hinges, const std::vector<double>& rest_angles,

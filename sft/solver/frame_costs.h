@@ -329,12 +329,13 @@ class VertexTupleCost : public ceres::CostFunction {
   mutable Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> jacobian_;  // 3 per vertex
 };
 
-// Edge inextensibility (EdgeInextensibilityResidual, weight w) over edges.
+// Edge inextensibility (EdgeInextensibilityResidual, weight w, robust
+// above the strain robust_strain; 0: squared) over edges.
 class InextensibilityCost : public VertexTupleCost<2, EdgeInextensibilityResidual> {
  public:
   InextensibilityCost(const JetDeformationModel* model, const std::vector<int>& patches,
                       const std::vector<Eigen::Vector2i>& edges, const std::vector<double>& rest_lengths,
-                      double weight);
+                      double weight, double robust_strain = 0.0);
 };
 
 // Bending (HingeBendingResidual) over hinges (i, j, k, l), each with its

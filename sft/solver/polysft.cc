@@ -244,6 +244,9 @@ std::string PolySftOptions::Validate() const {
   for (const auto& [name, w] : weights) {
     if (!(w >= 0.0) || !std::isfinite(w)) return std::string(name) + " must be finite and >= 0";
   }
+  if (!(inextensibility_robust_strain >= 0.0) || !std::isfinite(inextensibility_robust_strain)) {
+    return "inextensibility_robust_strain must be finite and >= 0 (0: squared)";
+  }
   if (!(occluded_velocity >= 0.0 && occluded_velocity <= 1.0)) return "occluded_velocity must be in [0, 1]";
   if (!(depth_softness >= 0.0) || !std::isfinite(depth_softness)) {
     return "depth_softness must be finite and >= 0 (m; 0: rasterizer.gamma as given)";
@@ -1179,8 +1182,10 @@ class PolySftController {
     if (use_inextensibility_ && !edges_.empty()) {
       const double w = std::sqrt(options_.inextensibility_weight / edges_.size());
       for (const AtlasTerms::EdgeGroup& g : atlas_terms_.edge_groups) {
-        AddFrameTerm(frame, new InextensibilityCost(&model_, g.patches, g.edges, g.rest_lengths, w), g.patches, problem,
-                     render);
+        AddFrameTerm(frame,
+                     new InextensibilityCost(&model_, g.patches, g.edges, g.rest_lengths, w,
+                                             options_.inextensibility_robust_strain),
+                     g.patches, problem, render);
       }
     }
     const double bending = options_.bending_weight + (bending_prior_on_ ? options_.new_crease_bending_weight : 0.0);

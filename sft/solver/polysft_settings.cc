@@ -71,6 +71,7 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("photometric_weight", photometric_weight),
         POLYFIT_SETTING("silhouette_weight", silhouette_weight),
         POLYFIT_SETTING("inextensibility_weight", inextensibility_weight),
+        POLYFIT_SETTING("inextensibility_robust_strain", inextensibility_robust_strain),
         POLYFIT_SETTING("bending_weight", bending_weight),
         POLYFIT_SETTING("new_crease_bending_weight", new_crease_bending_weight),
         POLYFIT_SETTING("new_crease_angle_deg", new_crease_angle_deg),

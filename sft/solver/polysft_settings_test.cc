@@ -41,6 +41,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.photometric_weight = 0.5;
   changed.silhouette_weight = 2.0;
   changed.inextensibility_weight = 20.0;
+  changed.inextensibility_robust_strain = 0.05;
   changed.bending_weight = 1e-4;
   changed.new_crease_bending_weight = 3e-4;
   changed.new_crease_angle_deg = 45.0;

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 
 #include <Eigen/Core>
 #include <gtest/gtest.h>
@@ -471,6 +472,7 @@ TEST(PolySftTest, TheCoarseLevelsDoNotTakeAStartAwayFromItsTruth) {
   // what this test isolates.
   options.atlas.hidden_split_share = 0.0;
   options.occluded_velocity = 0.0;
+  options.inextensibility_robust_strain = 0.0;  // as measured below
   options.check_coarse_levels = true;
   const PolySftSummary checked = SolvePolySft(options, scene);
   options.check_coarse_levels = false;
@@ -967,6 +969,11 @@ TEST(PolySftTest, InvalidOptionsThrow) {
   options = PolySftOptions();
   options.inextensibility_weight = std::nan("");
   EXPECT_FALSE(options.Validate().empty());
+  options = PolySftOptions();
+  options.inextensibility_robust_strain = -0.01;
+  EXPECT_NE(options.Validate().find("inextensibility_robust_strain"), std::string::npos);
+  options.inextensibility_robust_strain = std::numeric_limits<double>::infinity();
+  EXPECT_NE(options.Validate().find("inextensibility_robust_strain"), std::string::npos);
   options = PolySftOptions();
   options.bending_weight = -1.0;
   EXPECT_NE(options.Validate().find("bending_weight"), std::string::npos);
