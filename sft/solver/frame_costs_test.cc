@@ -561,6 +561,17 @@ TEST_F(AtlasCostsTest, APatchTooSmallForFourChildrenSplitsInTwoWhereAllowed) {
   EXPECT_TRUE(PatchesToSplit(options, *model_, squared, pixels, floor, pixels).empty());
   options.min_children = 5;
   EXPECT_NE(options.Validate().find("min_children"), std::string::npos);
+  options.min_children = 2;
+  for (double PatchAtlasOptions::*weight : {&PatchAtlasOptions::seam_uv_weight, &PatchAtlasOptions::coarse_seam_uv_weight,
+                                           &PatchAtlasOptions::seen_seam_uv_weight}) {
+    PatchAtlasOptions bad = options;
+    bad.*weight = -1.0;
+    EXPECT_NE(bad.Validate().find("seam weights"), std::string::npos);
+    bad.*weight = std::nan("");
+    EXPECT_NE(bad.Validate().find("seam weights"), std::string::npos);
+    bad.*weight = 0.0;
+    EXPECT_TRUE(bad.Validate().empty()) << bad.Validate();
+  }
 }
 
 TEST_F(AtlasCostsTest, CostsOverPatchBlocksAreExact) {

@@ -30,7 +30,7 @@ std::string PatchAtlasOptions::Validate() const {
   }
   if (!(seam_position_weight >= 0.0) || !(coarse_seam_position_weight >= 0.0) ||
       !(seen_seam_position_weight >= 0.0) || !(seam_normal_weight >= 0.0) ||
-      !(seam_uv_weight >= 0.0)) {
+      !(seam_uv_weight >= 0.0) || !(coarse_seam_uv_weight >= 0.0) || !(seen_seam_uv_weight >= 0.0)) {
     return "atlas seam weights must be >= 0";
   }
   return {};

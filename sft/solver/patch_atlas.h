@@ -120,6 +120,14 @@ struct PatchAtlasOptions {
   // patches that each slide on their own lose a smooth bend that one patch
   // holds (docs/benchmarks.md); tied, they share how the surface slides.
   double seam_uv_weight = 10.0;
+  // The same on the pyramid's coarse levels, and at most this on a seam
+  // the frame sees both sides of. Scene-dependent, so the defaults keep
+  // the tie everywhere (docs/benchmarks.md, "the seams' shared uv fields,
+  // measured"): free where seen, twenty flags gain 1.1 degrees of e_n and
+  // hanging cloth 1.2, but a table whose corner is lifted drifts (6 of 13
+  // lost); free on the coarse levels, both tables tried are lost.
+  double coarse_seam_uv_weight = 10.0;
+  double seen_seam_uv_weight = 10.0;
 
   std::string Validate() const;
   // The children a patch of `vertices` vertices splits into (0: none).

@@ -1217,8 +1217,11 @@ class PolySftController {
         AddFrameTerm(frame, CreateSeamCost(&model_, seam.a, seam.b, seam.edges, mean_edge_, wx, wn),
                      {seam.a, seam.b}, problem, render);
       }
-      if (atlas.seam_uv_weight > 0.0) {
-        AddFrameTerm(frame, CreateSharedUvCost(&model_, std::sqrt(atlas.seam_uv_weight / atlas_terms_.seams.size())),
+      const double level_uv_weight = coarse ? atlas.coarse_seam_uv_weight : atlas.seam_uv_weight;
+      const double uv_weight =
+          seen[seam.a] && seen[seam.b] ? std::min(level_uv_weight, atlas.seen_seam_uv_weight) : level_uv_weight;
+      if (uv_weight > 0.0) {
+        AddFrameTerm(frame, CreateSharedUvCost(&model_, std::sqrt(uv_weight / atlas_terms_.seams.size())),
                      {seam.a, seam.b}, problem, render, false);
       }
     }
