@@ -1209,6 +1209,10 @@ class PolySftController {
     size_t count = 0;
     for (const AtlasTerms::Seam& seam : atlas_terms_.seams) count += seam.edges.size();
     const std::vector<std::uint8_t> seen = SeenPatches(frame, vertices);
+    const std::vector<std::uint8_t> textured =
+        atlas.seen_seam_uv_weight < std::max(atlas.seam_uv_weight, atlas.coarse_seam_uv_weight)
+            ? TexturedPatches(seen, vertices)
+            : std::vector<std::uint8_t>(seen.size(), 0);
     const double wn = std::sqrt(atlas.seam_normal_weight / count);
     for (const AtlasTerms::Seam& seam : atlas_terms_.seams) {
       const double wx =
@@ -1218,8 +1222,9 @@ class PolySftController {
                      {seam.a, seam.b}, problem, render);
       }
       const double level_uv_weight = coarse ? atlas.coarse_seam_uv_weight : atlas.seam_uv_weight;
-      const double uv_weight =
-          seen[seam.a] && seen[seam.b] ? std::min(level_uv_weight, atlas.seen_seam_uv_weight) : level_uv_weight;
+      const double uv_weight = textured[seam.a] && textured[seam.b]
+                                   ? std::min(level_uv_weight, atlas.seen_seam_uv_weight)
+                                   : level_uv_weight;
       if (uv_weight > 0.0) {
         AddFrameTerm(frame, CreateSharedUvCost(&model_, std::sqrt(uv_weight / atlas_terms_.seams.size())),
                      {seam.a, seam.b}, problem, render, false);
@@ -1281,6 +1286,35 @@ class PolySftController {
       inside[p] += pixel.x() >= 0.0 && pixel.y() >= 0.0 && pixel.x() < camera.width && pixel.y() < camera.height;
     }
     for (int p = 0; p < model_.num_patches(); ++p) seen[p] = inside[p] >= 0.95 * all[p];
+    return seen;
+  }
+
+  // Of the `seen` patches, those whose texture the frame shows: at most a
+  // tenth of their vertices hidden by a nearer part, and their faces
+  // turned to the camera, at most 60 degrees from it on average (a flap
+  // edge-on or turned over shows no texture to tell how it slides).
+  std::vector<std::uint8_t> TexturedPatches(std::vector<std::uint8_t> seen, const Eigen::Matrix3Xd& vertices) const {
+    const std::vector<std::uint8_t> hidden = HiddenVertices(vertices);
+    if (hidden.empty()) return std::vector<std::uint8_t>(seen.size(), 0);
+    std::vector<int> hidden_count(seen.size(), 0), count(seen.size(), 0), faces(seen.size(), 0);
+    std::vector<double> facing(seen.size(), 0.0);
+    for (int v = 0; v < model_.num_vertices(); ++v) {
+      ++count[model_.patch_of_vertex(v)];
+      hidden_count[model_.patch_of_vertex(v)] += hidden[v];
+    }
+    TriangleMesh mesh;
+    mesh.vertices = vertices;
+    mesh.faces = scene_.template_mesh.faces;
+    const Eigen::Matrix3Xd normals = PerFaceNormals(mesh);
+    for (Eigen::Index f = 0; f < mesh.faces.cols(); ++f) {
+      const int p = model_.patch_of_vertex(mesh.faces(0, f));
+      const Eigen::Vector3d at = vertices.col(mesh.faces(0, f));
+      facing[p] += std::max(0.0, -normals.col(f).dot(at) / std::max(at.norm(), 1e-12));
+      ++faces[p];
+    }
+    for (size_t p = 0; p < seen.size(); ++p) {
+      seen[p] = seen[p] && 10 * hidden_count[p] <= count[p] && faces[p] > 0 && facing[p] >= 0.5 * faces[p];
+    }
     return seen;
   }
 
