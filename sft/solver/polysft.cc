@@ -1171,9 +1171,12 @@ class PolySftController {
     // and the occluded hold's choices).
     Eigen::Matrix3Xd vertices;
     model_.Evaluate(window_[k]->theta.data(), &vertices);
+    // Which vertices a nearer part hides: an occlusion render, made at most
+    // once for the seams and the hold of hidden vertices.
+    std::optional<std::vector<std::uint8_t>> hidden;
     AddShapeTerms(*window_[k], problem, render);
-    AddSeams(*window_[k], coarse, vertices, problem, render);
-    AddOccludedHold(k, vertices, problem);
+    AddSeams(*window_[k], coarse, vertices, &hidden, problem, render);
+    AddOccludedHold(k, vertices, &hidden, problem);
     AddTemporal(k, problem);
   }
 
@@ -1201,7 +1204,8 @@ class PolySftController {
 
   // AddRegularizers: the seams of one frame at `vertices` (3 by #V), loose
   // where its images see both patches, and their uv fields held alike.
-  void AddSeams(FrameData& frame, bool coarse, const Eigen::Matrix3Xd& vertices, ceres::Problem* problem,
+  void AddSeams(FrameData& frame, bool coarse, const Eigen::Matrix3Xd& vertices,
+                std::optional<std::vector<std::uint8_t>>* hidden, ceres::Problem* problem,
                 SplitRenderTerm* render) {
     if (atlas_terms_.seams.empty()) return;
     const PatchAtlasOptions& atlas = options_.atlas;
@@ -1211,7 +1215,7 @@ class PolySftController {
     const std::vector<std::uint8_t> seen = SeenPatches(frame, vertices);
     const std::vector<std::uint8_t> textured =
         atlas.seen_seam_uv_weight < std::max(atlas.seam_uv_weight, atlas.coarse_seam_uv_weight)
-            ? TexturedPatches(seen, vertices)
+            ? TexturedPatches(seen, vertices, HiddenOnce(vertices, hidden))
             : std::vector<std::uint8_t>(seen.size(), 0);
     const double wn = std::sqrt(atlas.seam_normal_weight / count);
     for (const AtlasTerms::Seam& seam : atlas_terms_.seams) {
@@ -1293,8 +1297,9 @@ class PolySftController {
   // tenth of their vertices hidden by a nearer part, and their faces
   // turned to the camera, at most 60 degrees from it on average (a flap
   // edge-on or turned over shows no texture to tell how it slides).
-  std::vector<std::uint8_t> TexturedPatches(std::vector<std::uint8_t> seen, const Eigen::Matrix3Xd& vertices) const {
-    const std::vector<std::uint8_t> hidden = HiddenVertices(vertices);
+  // hidden: HiddenVertices(vertices).
+  std::vector<std::uint8_t> TexturedPatches(std::vector<std::uint8_t> seen, const Eigen::Matrix3Xd& vertices,
+                                            const std::vector<std::uint8_t>& hidden) const {
     if (hidden.empty()) return std::vector<std::uint8_t>(seen.size(), 0);
     std::vector<int> hidden_count(seen.size(), 0), count(seen.size(), 0), faces(seen.size(), 0);
     std::vector<double> facing(seen.size(), 0.0);
@@ -1316,6 +1321,13 @@ class PolySftController {
       seen[p] = seen[p] && 10 * hidden_count[p] <= count[p] && faces[p] > 0 && facing[p] >= 0.5 * faces[p];
     }
     return seen;
+  }
+
+  // HiddenVertices(vertices), rendered on the first call and kept in `cache`.
+  const std::vector<std::uint8_t>& HiddenOnce(const Eigen::Matrix3Xd& vertices,
+                                              std::optional<std::vector<std::uint8_t>>* cache) const {
+    if (!cache->has_value()) *cache = HiddenVertices(vertices);
+    return **cache;
   }
 
   // Per vertex (#V) of a surface at `vertices` (3 by #V), whether a nearer
@@ -1357,7 +1369,8 @@ class PolySftController {
   // that another part of its surface hides (where its estimate is now)
   // held to where the frame before put them, carried on at
   // occluded_velocity times their velocity there.
-  void AddOccludedHold(size_t k, const Eigen::Matrix3Xd& vertices, ceres::Problem* problem) {
+  void AddOccludedHold(size_t k, const Eigen::Matrix3Xd& vertices, std::optional<std::vector<std::uint8_t>>* hidden,
+                       ceres::Problem* problem) {
     if (options_.occluded_temporal_weight <= 0.0) return;
     // With a velocity to carry, the two frames before; order 1 where there
     // is only one (the second frame).
@@ -1365,7 +1378,7 @@ class PolySftController {
     std::vector<const Eigen::Matrix3Xd*> fixed;
     const int order = EarlierFrames(k, options_.occluded_velocity > 0.0 ? 2 : 1, &earlier_blocks, &fixed);
     if (order == 0) return;  // the first frame
-    const std::vector<std::uint8_t> occluded = HiddenVertices(vertices);
+    const std::vector<std::uint8_t>& occluded = HiddenOnce(vertices, hidden);
     if (occluded.empty()) return;
     std::vector<std::vector<int>> per_patch(model_.num_patches());
     for (int v = 0; v < model_.num_vertices(); ++v) {
