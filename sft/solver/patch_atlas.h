@@ -125,9 +125,10 @@ struct PatchAtlasOptions {
   // tenth hidden, turned to the camera: a flap edge-on or turned over
   // keeps the tie). Scene-dependent, so the defaults keep the tie
   // everywhere (docs/benchmarks.md, "the seams' shared uv fields,
-  // measured"): 0 there, the hanging cloth gains 1.3 degrees of e_n and
-  // six flags -0.2 on average (from -2.3 to +2.3), the tables hold within
-  // 0.6 degrees; free on either level alone, tables are lost.
+  // measured", "the uv tie on every tracked scene"): 0 there, the hanging
+  // cloths gain 1.3 and 0.7 degrees of e_n and the tables hold, but twenty
+  // flags lose 1.1 on average and a frame costs half as much again; free
+  // on either level alone, tables are lost.
   double coarse_seam_uv_weight = 10.0;
   double seen_seam_uv_weight = 10.0;
 
