@@ -1301,12 +1301,10 @@ class PolySftController {
   std::vector<std::uint8_t> TexturedPatches(std::vector<std::uint8_t> seen, const Eigen::Matrix3Xd& vertices,
                                             const std::vector<std::uint8_t>& hidden) const {
     if (hidden.empty()) return std::vector<std::uint8_t>(seen.size(), 0);
-    std::vector<int> hidden_count(seen.size(), 0), count(seen.size(), 0), faces(seen.size(), 0);
+    const std::vector<int> count = model_.PatchSizes();
+    std::vector<int> hidden_count(seen.size(), 0), faces(seen.size(), 0);
     std::vector<double> facing(seen.size(), 0.0);
-    for (int v = 0; v < model_.num_vertices(); ++v) {
-      ++count[model_.patch_of_vertex(v)];
-      hidden_count[model_.patch_of_vertex(v)] += hidden[v];
-    }
+    for (int v = 0; v < model_.num_vertices(); ++v) hidden_count[model_.patch_of_vertex(v)] += hidden[v];
     TriangleMesh mesh;
     mesh.vertices = vertices;
     mesh.faces = scene_.template_mesh.faces;
