@@ -18,6 +18,8 @@
 
 #include <ceres/autodiff_cost_function.h>
 
+#include "cost_functions/pseudo_huber.h"
+
 namespace polyfit {
 
 class EdgeInextensibilityResidual {
@@ -33,10 +35,7 @@ class EdgeInextensibilityResidual {
     const T length = sqrt(dx * dx + dy * dy + dz * dz + T(1e-30));
     const T strain = (length - T(rest_length_)) / T(rest_length_);
     residual[0] = T(weight_) * strain;
-    if (robust_strain_ > 0.0) {
-      const T x = strain / T(robust_strain_);
-      residual[0] *= sqrt(T(2.0) / (T(1.0) + sqrt(T(1.0) + x * x)));
-    }
+    if (robust_strain_ > 0.0) residual[0] *= PseudoHuberFactor(strain / T(robust_strain_));
     return true;
   }
 

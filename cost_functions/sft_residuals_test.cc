@@ -72,8 +72,12 @@ TEST(EdgeInextensibilityResidualTest, RobustAboveItsStrainAndItsJacobianIsRight)
     EXPECT_NEAR(r * r, penalty, 1e-12 * std::max(1.0, penalty)) << strain;
     EXPECT_TRUE(r * strain >= 0.0) << strain;
     // Quadratic well below b (the squared term), linear well above.
-    if (std::abs(strain) <= 0.003) EXPECT_NEAR(r, r_plain, 0.01 * std::abs(r_plain) + 1e-15) << strain;
-    if (std::abs(strain) >= 0.2) EXPECT_NEAR(r * r, 2.0 * b * weight * weight * std::abs(strain), 0.2 * r * r);
+    if (std::abs(strain) <= 0.003) {
+      EXPECT_NEAR(r, r_plain, 0.01 * std::abs(r_plain) + 1e-15) << strain;
+    }
+    if (std::abs(strain) >= 0.2) {
+      EXPECT_NEAR(r * r, 2.0 * b * weight * weight * std::abs(strain), 0.2 * r * r);
+    }
     ExpectJacobiansMatchFiniteDifferences(*robust, x, origin);
   }
   EXPECT_THROW(EdgeInextensibilityResidual::Create(rest, weight, -0.1), std::invalid_argument);

@@ -35,7 +35,9 @@ TEST(MeshHelpersTest, UniqueEdgesFollowEulersFormula) {
   EXPECT_EQ(edges.cols(), sphere.num_vertices() + sphere.num_faces() - 2);
   for (Eigen::Index e = 0; e < edges.cols(); ++e) {
     EXPECT_LT(edges(0, e), edges(1, e));
-    if (e > 0) EXPECT_TRUE(edges(0, e - 1) < edges(0, e) || edges(1, e - 1) < edges(1, e));
+    if (e > 0) {
+      EXPECT_TRUE(edges(0, e - 1) < edges(0, e) || edges(1, e - 1) < edges(1, e));
+    }
   }
   for (int f = 0; f < sphere.num_faces(); ++f) {
     for (int c = 0; c < 3; ++c) {

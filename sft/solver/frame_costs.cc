@@ -9,6 +9,7 @@
 #include <ceres/jet.h>
 
 #include "cost_functions/patch_boundary_residual.h"
+#include "cost_functions/pseudo_huber.h"
 #include "cost_functions/temporal_consistency.h"
 #include "polyfit/util/parallel_for.h"
 
@@ -996,8 +997,13 @@ namespace {
 
 class SharedUv : public ceres::CostFunction {
  public:
-  SharedUv(const JetDeformationModel* model, double weight)
-      : offset_(model->num_dalpha()), count_(model->num_duv()), weight_(weight) {
+  SharedUv(const JetDeformationModel* model, double weight, const IsometricUvField* isometric_a,
+           const IsometricUvField* isometric_b, double robust)
+      : offset_(model->num_dalpha()),
+        count_(model->num_duv()),
+        weight_(weight),
+        robust_(robust),
+        isometric_{isometric_a, isometric_b} {
     set_num_residuals(count_);
     mutable_parameter_block_sizes()->push_back(model->block_size());
     mutable_parameter_block_sizes()->push_back(model->block_size());
@@ -1010,18 +1016,65 @@ class SharedUv : public ceres::CostFunction {
       std::fill(jacobians[j], jacobians[j] + count_ * b, 0.0);
       for (int k = 0; k < count_; ++k) jacobians[j][k * b + offset_ + k] = j == 0 ? weight_ : -weight_;
     }
+    if (isometric_[0] != nullptr) {
+      // Less each side's isometric slide: r = w ((c_a - c_iso,a) - (c_b - c_iso,b)).
+      double iso[2 * kMaxJetCoefficients], d_iso[2 * kMaxJetCoefficients * kMaxJetCoefficients];
+      for (int j = 0; j < 2; ++j) {
+        const bool jacobian = jacobians != nullptr && jacobians[j] != nullptr;
+        isometric_[j]->Evaluate(parameters[j], iso, jacobian ? d_iso : nullptr);
+        const double sign = j == 0 ? -weight_ : weight_;
+        for (int k = 0; k < count_; ++k) residuals[k] += sign * iso[k];
+        if (!jacobian) continue;
+        for (int k = 0; k < count_; ++k) {
+          for (int a = 0; a < offset_; ++a) jacobians[j][k * b + a] = sign * d_iso[k * offset_ + a];
+        }
+      }
+    }
+    if (robust_ > 0.0) Robustify(b, residuals, jacobians);
     return true;
   }
 
  private:
+  // r' = phi(x) r, x = |r| / (w b) (the fields' difference in units of b):
+  // the pseudo-Huber penalty; dr' = phi dr + phi'(x) / (x w^2 b^2) r r^T dr.
+  void Robustify(int b, double* residuals, double** jacobians) const {
+    double norm2 = 0.0;
+    for (int k = 0; k < count_; ++k) norm2 += residuals[k] * residuals[k];
+    const double x = std::sqrt(norm2) / (weight_ * robust_);
+    const ceres::Jet<double, 1> phi = PseudoHuberFactor(ceres::Jet<double, 1>(x, 0));
+    const double slope = x > 0.0 ? phi.v[0] / (x * weight_ * weight_ * robust_ * robust_) : 0.0;
+    for (int j = 0; jacobians != nullptr && j < 2; ++j) {
+      if (jacobians[j] == nullptr) continue;
+      for (int c = 0; c < b; ++c) {
+        double dot = 0.0;
+        for (int k = 0; k < count_; ++k) dot += residuals[k] * jacobians[j][k * b + c];
+        for (int k = 0; k < count_; ++k) {
+          jacobians[j][k * b + c] = phi.a * jacobians[j][k * b + c] + slope * residuals[k] * dot;
+        }
+      }
+    }
+    for (int k = 0; k < count_; ++k) residuals[k] *= phi.a;
+  }
+
+ private:
   int offset_, count_;
-  double weight_;
+  double weight_, robust_;
+  const IsometricUvField* isometric_[2];
 };
 
 }  // namespace
 
-ceres::CostFunction* CreateSharedUvCost(const JetDeformationModel* model, double weight) {
-  return new SharedUv(model, weight);
+ceres::CostFunction* CreateSharedUvCost(const JetDeformationModel* model, double weight,
+                                        const IsometricUvField* isometric_a, const IsometricUvField* isometric_b,
+                                        double robust_scale) {
+  if ((isometric_a == nullptr) != (isometric_b == nullptr)) {
+    throw std::invalid_argument("CreateSharedUvCost: both patches' isometric fields, or neither");
+  }
+  if (!(weight > 0.0) || !std::isfinite(weight)) throw std::invalid_argument("CreateSharedUvCost: weight must be > 0");
+  if (!(robust_scale >= 0.0) || !std::isfinite(robust_scale)) {
+    throw std::invalid_argument("CreateSharedUvCost: robust_scale must be finite and >= 0");
+  }
+  return new SharedUv(model, weight, isometric_a, isometric_b, robust_scale);
 }
 
 double SampleOutsideDistance(const cv::Mat& distance, double x, double y, Eigen::Vector2d* gradient) {

@@ -18,6 +18,7 @@
 #include "cost_functions/compressed_cost.h"
 #include "cost_functions/edge_inextensibility.h"
 #include "cost_functions/hinge_bending.h"
+#include "sft/model/isometric_uv.h"
 #include "sft/model/jet_deformation.h"
 #include "sft/render/soft_rasterizer.h"
 #include "sft/scene/scene.h"
@@ -468,8 +469,16 @@ ceres::CostFunction* CreateSeamCost(const JetDeformationModel* model, int patch_
 
 // The uv fields of patches a and b alike (their compact fields'
 // coefficients): r = w (duv_a - duv_b), so that patches share how the
-// surface slides and differ in shape and pose. Parameter blocks: a's, b's.
-ceres::CostFunction* CreateSharedUvCost(const JetDeformationModel* model, double weight);
+// surface slides and differ in shape and pose. With both patches'
+// isometric fields (isometric_uv.h), what each one's bending slides is
+// taken off first: r = w ((duv_a - c_iso,a) - (duv_b - c_iso,b)). With
+// robust_scale b > 0, r is scaled to the pseudo-Huber penalty of its
+// difference d = r / w (pseudo_huber.h): |d|^2 well below b, 2 b |d| above,
+// so that a seam across which the surface truly slides apart (a fold) is
+// let go. Parameter blocks: a's, b's.
+ceres::CostFunction* CreateSharedUvCost(const JetDeformationModel* model, double weight,
+                                        const IsometricUvField* isometric_a = nullptr,
+                                        const IsometricUvField* isometric_b = nullptr, double robust_scale = 0.0);
 
 }  // namespace polyfit
 

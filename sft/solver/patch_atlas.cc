@@ -33,6 +33,9 @@ std::string PatchAtlasOptions::Validate() const {
       !(seam_uv_weight >= 0.0) || !(coarse_seam_uv_weight >= 0.0) || !(seen_seam_uv_weight >= 0.0)) {
     return "atlas seam weights must be >= 0";
   }
+  if (!(seam_uv_robust >= 0.0) || !std::isfinite(seam_uv_robust)) {
+    return "atlas.seam_uv_robust must be finite and >= 0 (0: squared)";
+  }
   return {};
 }
 

@@ -31,6 +31,7 @@
 
 #include "polyfit/mesh/hinge_rest.h"
 #include "polyfit/mesh/triangle_mesh.h"
+#include "sft/model/isometric_uv.h"
 #include "sft/model/jet_deformation.h"
 
 namespace polyfit {
@@ -131,6 +132,14 @@ struct PatchAtlasOptions {
   // on either level alone, tables are lost.
   double coarse_seam_uv_weight = 10.0;
   double seen_seam_uv_weight = 10.0;
+  // Tie the fields after taking off the slide each patch's own bending
+  // asks for (IsometricUvField), so that a fold inside one patch does not
+  // pull its neighbours' fields along.
+  bool seam_uv_isometric = false;
+  // The tie's pseudo-Huber scale on the fields' difference (coefficients
+  // in the template frame's units): a seam whose fields differ by more
+  // is held linearly, not squared. 0: squared.
+  double seam_uv_robust = 0.0;
 
   std::string Validate() const;
   // The children a patch of `vertices` vertices splits into (0: none).
@@ -160,6 +169,7 @@ struct AtlasTerms {
   std::vector<EdgeGroup> edge_groups;
   std::vector<Seam> seams;
   std::vector<HingeGroup> hinge_groups;  // with `hinges` only
+  std::vector<IsometricUvField> isometric_uv;  // per patch, with seam_uv_isometric only
 };
 
 // Edges, and hinges where given, grouped by the patches of their vertices.
