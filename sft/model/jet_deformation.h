@@ -93,8 +93,6 @@ class JetDeformationModel {
   int num_dalpha() const { return num_dalpha_; }
   int num_duv() const { return num_duv_; }
   int rotation_offset() const { return num_dalpha_ + num_duv_; }
-  // The compact uv field's order m (its monomials up to degree m).
-  int uv_order() const { return options_.uv_order; }
   int translation_offset() const { return num_dalpha_ + num_duv_ + 3; }
   const JetPatch& patch() const { return patch_; }
   // 2 by #V template parameters.

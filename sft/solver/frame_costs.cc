@@ -997,13 +997,8 @@ namespace {
 
 class SharedUv : public ceres::CostFunction {
  public:
-  SharedUv(const JetDeformationModel* model, double weight, const IsometricUvField* isometric_a,
-           const IsometricUvField* isometric_b, double robust)
-      : offset_(model->num_dalpha()),
-        count_(model->num_duv()),
-        weight_(weight),
-        robust_(robust),
-        isometric_{isometric_a, isometric_b} {
+  SharedUv(const JetDeformationModel* model, double weight, double robust)
+      : offset_(model->num_dalpha()), count_(model->num_duv()), weight_(weight), robust_(robust) {
     set_num_residuals(count_);
     mutable_parameter_block_sizes()->push_back(model->block_size());
     mutable_parameter_block_sizes()->push_back(model->block_size());
@@ -1015,20 +1010,6 @@ class SharedUv : public ceres::CostFunction {
       if (jacobians[j] == nullptr) continue;
       std::fill(jacobians[j], jacobians[j] + count_ * b, 0.0);
       for (int k = 0; k < count_; ++k) jacobians[j][k * b + offset_ + k] = j == 0 ? weight_ : -weight_;
-    }
-    if (isometric_[0] != nullptr) {
-      // Less each side's isometric slide: r = w ((c_a - c_iso,a) - (c_b - c_iso,b)).
-      double iso[2 * kMaxJetCoefficients], d_iso[2 * kMaxJetCoefficients * kMaxJetCoefficients];
-      for (int j = 0; j < 2; ++j) {
-        const bool jacobian = jacobians != nullptr && jacobians[j] != nullptr;
-        isometric_[j]->Evaluate(parameters[j], iso, jacobian ? d_iso : nullptr);
-        const double sign = j == 0 ? -weight_ : weight_;
-        for (int k = 0; k < count_; ++k) residuals[k] += sign * iso[k];
-        if (!jacobian) continue;
-        for (int k = 0; k < count_; ++k) {
-          for (int a = 0; a < offset_; ++a) jacobians[j][k * b + a] = sign * d_iso[k * offset_ + a];
-        }
-      }
     }
     if (robust_ > 0.0) Robustify(b, residuals, jacobians);
     return true;
@@ -1059,22 +1040,16 @@ class SharedUv : public ceres::CostFunction {
  private:
   int offset_, count_;
   double weight_, robust_;
-  const IsometricUvField* isometric_[2];
 };
 
 }  // namespace
 
-ceres::CostFunction* CreateSharedUvCost(const JetDeformationModel* model, double weight,
-                                        const IsometricUvField* isometric_a, const IsometricUvField* isometric_b,
-                                        double robust_scale) {
-  if ((isometric_a == nullptr) != (isometric_b == nullptr)) {
-    throw std::invalid_argument("CreateSharedUvCost: both patches' isometric fields, or neither");
-  }
+ceres::CostFunction* CreateSharedUvCost(const JetDeformationModel* model, double weight, double robust_scale) {
   if (!(weight > 0.0) || !std::isfinite(weight)) throw std::invalid_argument("CreateSharedUvCost: weight must be > 0");
   if (!(robust_scale >= 0.0) || !std::isfinite(robust_scale)) {
     throw std::invalid_argument("CreateSharedUvCost: robust_scale must be finite and >= 0");
   }
-  return new SharedUv(model, weight, isometric_a, isometric_b, robust_scale);
+  return new SharedUv(model, weight, robust_scale);
 }
 
 double SampleOutsideDistance(const cv::Mat& distance, double x, double y, Eigen::Vector2d* gradient) {

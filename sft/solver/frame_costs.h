@@ -18,7 +18,6 @@
 #include "cost_functions/compressed_cost.h"
 #include "cost_functions/edge_inextensibility.h"
 #include "cost_functions/hinge_bending.h"
-#include "sft/model/isometric_uv.h"
 #include "sft/model/jet_deformation.h"
 #include "sft/render/soft_rasterizer.h"
 #include "sft/scene/scene.h"
@@ -469,16 +468,14 @@ ceres::CostFunction* CreateSeamCost(const JetDeformationModel* model, int patch_
 
 // The uv fields of patches a and b alike (their compact fields'
 // coefficients): r = w (duv_a - duv_b), so that patches share how the
-// surface slides and differ in shape and pose. With both patches'
-// isometric fields (isometric_uv.h), what each one's bending slides is
-// taken off first: r = w ((duv_a - c_iso,a) - (duv_b - c_iso,b)). With
-// robust_scale b > 0, r is scaled to the pseudo-Huber penalty of its
-// difference d = r / w (pseudo_huber.h): |d|^2 well below b, 2 b |d| above,
-// so that a seam across which the surface truly slides apart (a fold) is
-// let go. Parameter blocks: a's, b's.
-ceres::CostFunction* CreateSharedUvCost(const JetDeformationModel* model, double weight,
-                                        const IsometricUvField* isometric_a = nullptr,
-                                        const IsometricUvField* isometric_b = nullptr, double robust_scale = 0.0);
+// surface slides and differ in shape and pose. With robust_scale b > 0, r
+// is scaled to the pseudo-Huber penalty of the difference d = duv_a -
+// duv_b (pseudo_huber.h): w^2 |d|^2 below b, 2 w^2 b |d| above. The fields
+// then stay one while what pulls them apart is weaker than w^2 b, and a
+// seam across which the images ask them to differ (a fold) is let go at
+// that constant pull. Throws std::invalid_argument for weight <= 0 or b < 0
+// (or not finite). Parameter blocks: a's, b's.
+ceres::CostFunction* CreateSharedUvCost(const JetDeformationModel* model, double weight, double robust_scale = 0.0);
 
 }  // namespace polyfit
 

@@ -656,20 +656,13 @@ TEST_F(AtlasCostsTest, CostsOverPatchBlocksAreExact) {
   std::unique_ptr<ceres::CostFunction> shared_uv(CreateSharedUvCost(model_.get(), 3.0));
   EXPECT_EQ(shared_uv->num_residuals(), model_->num_duv());
   EXPECT_LT(RelativeJacobianError(*shared_uv, pair_theta, 1e-7), 1e-8);
-  // Less each side's isometric slide: the jets' offsets now move it too.
-  const std::vector<IsometricUvField> isometric = IsometricUvFields(*model_);
-  std::unique_ptr<ceres::CostFunction> isometric_uv(
-      CreateSharedUvCost(model_.get(), 3.0, &isometric[pair[0]], &isometric[pair[1]]));
-  EXPECT_LT(RelativeJacobianError(*isometric_uv, pair_theta, 1e-7), 1e-6);
-  EXPECT_THROW(CreateSharedUvCost(model_.get(), 3.0, &isometric[pair[0]], nullptr), std::invalid_argument);
   // Robust: the pseudo-Huber penalty of the fields' difference, and its Jacobian.
   for (double scale : {0.003, 0.3}) {
-    std::unique_ptr<ceres::CostFunction> robust(
-        CreateSharedUvCost(model_.get(), 3.0, &isometric[pair[0]], &isometric[pair[1]], scale));
+    std::unique_ptr<ceres::CostFunction> robust(CreateSharedUvCost(model_.get(), 3.0, scale));
     EXPECT_LT(RelativeJacobianError(*robust, pair_theta, 1e-7), 1e-6);
     std::vector<double> plain_r(shared_uv->num_residuals()), robust_r(plain_r.size());
     const double* blocks[] = {pair_theta.data(), pair_theta.data() + b};
-    isometric_uv->Evaluate(blocks, plain_r.data(), nullptr);
+    shared_uv->Evaluate(blocks, plain_r.data(), nullptr);
     robust->Evaluate(blocks, robust_r.data(), nullptr);
     double plain2 = 0.0, robust2 = 0.0;
     for (size_t k = 0; k < plain_r.size(); ++k) {
@@ -679,7 +672,8 @@ TEST_F(AtlasCostsTest, CostsOverPatchBlocksAreExact) {
     const double wb = 3.0 * scale;  // the penalty in the residual's units
     EXPECT_NEAR(robust2, 2.0 * wb * wb * (std::sqrt(1.0 + plain2 / (wb * wb)) - 1.0), 1e-9 * robust2);
   }
-  EXPECT_THROW(CreateSharedUvCost(model_.get(), 3.0, nullptr, nullptr, -1.0), std::invalid_argument);
+  EXPECT_THROW(CreateSharedUvCost(model_.get(), 3.0, -1.0), std::invalid_argument);
+  EXPECT_THROW(CreateSharedUvCost(model_.get(), 0.0), std::invalid_argument);
 }
 
 // The sheet seen from so far that a pixel covers most of it: its vertices

@@ -31,7 +31,6 @@
 
 #include "polyfit/mesh/hinge_rest.h"
 #include "polyfit/mesh/triangle_mesh.h"
-#include "sft/model/isometric_uv.h"
 #include "sft/model/jet_deformation.h"
 
 namespace polyfit {
@@ -132,14 +131,18 @@ struct PatchAtlasOptions {
   // on either level alone, tables are lost.
   double coarse_seam_uv_weight = 10.0;
   double seen_seam_uv_weight = 10.0;
-  // Tie the fields after taking off the slide each patch's own bending
-  // asks for (IsometricUvField), so that a fold inside one patch does not
-  // pull its neighbours' fields along.
-  bool seam_uv_isometric = false;
-  // The tie's pseudo-Huber scale on the fields' difference (coefficients
-  // in the template frame's units): a seam whose fields differ by more
-  // is held linearly, not squared. 0: squared.
-  double seam_uv_robust = 0.0;
+  // The tie's pseudo-Huber scale b on the fields' difference d (their
+  // coefficients, in the template frame's (u, v), whose extent is 1):
+  // w^2 |d|^2 below b, 2 w^2 b |d| above (SharedUvCost). Two fields stay
+  // one while what pulls them apart is weaker than w^2 b, so that a
+  // drifting flap keeps sliding with its neighbours, and a seam across
+  // which the images ask them to differ (a fold inside a patch, which
+  // squared spread its stretch over the cloth) is let go. 0: squared.
+  // At 1e-4, against squared, tracked (docs/benchmarks.md, "the seams'
+  // uv tie robust"): thirteen tables' e_n -0.75 deg (12 better, none
+  // lost), twenty flags -0.33, falls -0.67, hanging -0.85; 3e-4 loses a
+  // table.
+  double seam_uv_robust = 1e-4;
 
   std::string Validate() const;
   // The children a patch of `vertices` vertices splits into (0: none).
@@ -169,7 +172,6 @@ struct AtlasTerms {
   std::vector<EdgeGroup> edge_groups;
   std::vector<Seam> seams;
   std::vector<HingeGroup> hinge_groups;  // with `hinges` only
-  std::vector<IsometricUvField> isometric_uv;  // per patch, with seam_uv_isometric only
 };
 
 // Edges, and hinges where given, grouped by the patches of their vertices.

@@ -294,7 +294,7 @@ class PolySftController {
     CheckTemplate();
     PrepareTemplateData();
     SplitInitialPatches();
-    GroupTerms();
+    atlas_terms_ = GroupAtlasTerms(model_, edges_, rest_lengths_, Hinges());
     render_groups_ = MakePatchGroups(model_, scene_.template_mesh.faces);
     BuildPyramid();
     CreateRasterizers();
@@ -1202,12 +1202,6 @@ class PolySftController {
     }
   }
 
-  // The atlas's terms for the model's patches.
-  void GroupTerms() {
-    atlas_terms_ = GroupAtlasTerms(model_, edges_, rest_lengths_, Hinges());
-    if (options_.atlas.seam_uv_isometric) atlas_terms_.isometric_uv = IsometricUvFields(model_);
-  }
-
   // AddRegularizers: the seams of one frame at `vertices` (3 by #V), loose
   // where its images see both patches, and their uv fields held alike.
   void AddSeams(FrameData& frame, bool coarse, const Eigen::Matrix3Xd& vertices,
@@ -1236,11 +1230,8 @@ class PolySftController {
                                    ? std::min(level_uv_weight, atlas.seen_seam_uv_weight)
                                    : level_uv_weight;
       if (uv_weight > 0.0) {
-        const bool isometric = !atlas_terms_.isometric_uv.empty();
         AddFrameTerm(frame,
                      CreateSharedUvCost(&model_, std::sqrt(uv_weight / atlas_terms_.seams.size()),
-                                        isometric ? &atlas_terms_.isometric_uv[seam.a] : nullptr,
-                                        isometric ? &atlas_terms_.isometric_uv[seam.b] : nullptr,
                                         atlas.seam_uv_robust),
                      {seam.a, seam.b}, problem, render, false);
       }
@@ -1588,7 +1579,7 @@ class PolySftController {
     const PatchSplit split = model_.SplitPatch(p, child);
     for (auto& frame : window_) frame->theta = model_.InheritParameters(split, frame->theta);
     for (auto& theta : final_thetas_) theta = model_.InheritParameters(split, theta);
-    GroupTerms();
+    atlas_terms_ = GroupAtlasTerms(model_, edges_, rest_lengths_, Hinges());
     render_groups_ = MakePatchGroups(model_, scene_.template_mesh.faces);
     return split;
   }

@@ -113,7 +113,6 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("seam_uv_weight", atlas.seam_uv_weight),
         POLYFIT_SETTING("coarse_seam_uv_weight", atlas.coarse_seam_uv_weight),
         POLYFIT_SETTING("seen_seam_uv_weight", atlas.seen_seam_uv_weight),
-        POLYFIT_SETTING("seam_uv_isometric", atlas.seam_uv_isometric),
         POLYFIT_SETTING("seam_uv_robust", atlas.seam_uv_robust),
         POLYFIT_SETTING("hidden_split_share", atlas.hidden_split_share),
         POLYFIT_SETTING("max_hidden_patches", atlas.max_hidden_patches),

@@ -88,7 +88,6 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.atlas.seam_uv_weight = 1.0;
   changed.atlas.coarse_seam_uv_weight = 2.0;
   changed.atlas.seen_seam_uv_weight = 0.5;
-  changed.atlas.seam_uv_isometric = true;
   changed.atlas.seam_uv_robust = 0.05;
   changed.atlas.hidden_split_share = 0.3;
   changed.atlas.max_hidden_patches = 8;
