@@ -1017,7 +1017,8 @@ class SharedUv : public ceres::CostFunction {
 
  private:
   // r' = phi(x) r, x = |r| / (w b) (the fields' difference in units of b):
-  // the pseudo-Huber penalty; dr' = phi dr + phi'(x) / (x w^2 b^2) r r^T dr.
+  // the pseudo-Huber penalty; dr' = phi dr + phi'(x) / (x w^2 b^2) r r^T dr,
+  // over the uv columns only (r's Jacobian is zero elsewhere).
   void Robustify(int b, double* residuals, double** jacobians) const {
     double norm2 = 0.0;
     for (int k = 0; k < count_; ++k) norm2 += residuals[k] * residuals[k];
@@ -1026,7 +1027,7 @@ class SharedUv : public ceres::CostFunction {
     const double slope = x > 0.0 ? phi.v[0] / (x * weight_ * weight_ * robust_ * robust_) : 0.0;
     for (int j = 0; jacobians != nullptr && j < 2; ++j) {
       if (jacobians[j] == nullptr) continue;
-      for (int c = 0; c < b; ++c) {
+      for (int c = offset_; c < offset_ + count_; ++c) {
         double dot = 0.0;
         for (int k = 0; k < count_; ++k) dot += residuals[k] * jacobians[j][k * b + c];
         for (int k = 0; k < count_; ++k) {
@@ -1037,7 +1038,6 @@ class SharedUv : public ceres::CostFunction {
     for (int k = 0; k < count_; ++k) residuals[k] *= phi.a;
   }
 
- private:
   int offset_, count_;
   double weight_, robust_;
 };
