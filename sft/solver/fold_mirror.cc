@@ -1,6 +1,7 @@
 #include "sft/solver/fold_mirror.h"
 
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 
 #include <Eigen/SVD>
@@ -12,6 +13,24 @@ namespace {
 int Find(std::vector<int>* parent, int x) {
   while ((*parent)[x] != x) x = (*parent)[x] = (*parent)[(*parent)[x]];
   return x;
+}
+
+// The least-squares plane through `vertices`' columns `points`: false
+// where there are fewer than three or they lie on a line.
+bool FitPlane(const Eigen::Matrix3Xd& vertices, const std::vector<int>& points, Eigen::Vector3d* centre,
+              Eigen::Vector3d* normal) {
+  if (points.size() < 3) return false;
+  *centre = Eigen::Vector3d::Zero();
+  for (int v : points) *centre += vertices.col(v);
+  *centre /= static_cast<double>(points.size());
+  Eigen::Matrix3Xd spread(3, points.size());
+  for (size_t i = 0; i < points.size(); ++i) spread.col(i) = vertices.col(points[i]) - *centre;
+  const Eigen::JacobiSVD<Eigen::Matrix3Xd> svd(spread, Eigen::ComputeFullU);
+  const Eigen::Vector3d s = svd.singularValues();
+  // A line (the crease alone, the sheet beside it flat on it) has no plane.
+  if (!(s[1] > 1e-6 * s[0])) return false;
+  *normal = svd.matrixU().col(2);
+  return true;
 }
 
 }  // namespace
@@ -69,21 +88,82 @@ int MirrorFoldFlap(const TriangleMesh& mesh, const std::vector<MeshHinge>& hinge
   for (int v = 0; v < num_vertices; ++v) {
     if (near[v]) points.push_back(v);
   }
-  if (points.size() < 3) return 0;
-  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-  for (int v : points) centre += vertices.col(v);
-  centre /= static_cast<double>(points.size());
-  Eigen::Matrix3Xd spread(3, points.size());
-  for (size_t i = 0; i < points.size(); ++i) spread.col(i) = vertices.col(points[i]) - centre;
-  const Eigen::JacobiSVD<Eigen::Matrix3Xd> svd(spread, Eigen::ComputeFullU);
-  const Eigen::Vector3d s = svd.singularValues();
-  // A line (the crease alone, the sheet beside it flat on it) has no plane.
-  if (!(s[1] > 1e-6 * s[0])) return 0;
-  const Eigen::Vector3d normal = svd.matrixU().col(2);
+  Eigen::Vector3d centre, normal;
+  if (!FitPlane(vertices, points, &centre, &normal)) return 0;
   int count = 0;
   for (int v = 0; v < num_vertices; ++v) {
     if (!in_flap[v] || elsewhere[v]) continue;
     mirrored->col(v) -= 2.0 * normal.dot(vertices.col(v) - centre) * normal;
+    ++count;
+  }
+  return count;
+}
+
+int FlipCreaseAlongRays(const TriangleMesh& mesh, const std::vector<MeshHinge>& hinges,
+                        const std::vector<std::uint8_t>& crease, const Eigen::Matrix3Xd& vertices,
+                        Eigen::Matrix3Xd* flipped, int min_faces) {
+  *flipped = vertices;
+  const int num_faces = static_cast<int>(mesh.faces.cols());
+  const int num_vertices = static_cast<int>(vertices.cols());
+  if (crease.size() != hinges.size() || num_faces == 0) return 0;
+  // The faces on crease hinges, joined where their hinges meet.
+  std::vector<int> parent(num_faces);
+  std::iota(parent.begin(), parent.end(), 0);
+  std::vector<std::uint8_t> on_crease(num_faces, 0);
+  std::vector<int> face_at(num_vertices, -1);
+  for (size_t h = 0; h < hinges.size(); ++h) {
+    if (!crease[h]) continue;
+    const int f = hinges[h].faces[0];
+    on_crease[f] = on_crease[hinges[h].faces[1]] = 1;
+    parent[Find(&parent, hinges[h].faces[1])] = Find(&parent, f);
+    for (int v : {hinges[h].vertices[0], hinges[h].vertices[1]}) {
+      if (face_at[v] >= 0) parent[Find(&parent, face_at[v])] = Find(&parent, f);
+      face_at[v] = f;
+    }
+  }
+  std::vector<int> size(num_faces, 0);
+  int band = -1;
+  for (int f = 0; f < num_faces; ++f) {
+    if (on_crease[f]) ++size[Find(&parent, f)];
+  }
+  for (int f = 0; f < num_faces; ++f) {
+    if (on_crease[f] && parent[f] == f && (band < 0 || size[f] > size[band])) band = f;
+  }
+  if (band < 0 || size[band] < min_faces) return 0;
+  std::vector<std::uint8_t> inside(num_vertices, 0);
+  for (int f = 0; f < num_faces; ++f) {
+    if (!on_crease[f] || Find(&parent, f) != band) continue;
+    for (int c = 0; c < 3; ++c) inside[mesh.faces(c, f)] = 1;
+  }
+  // One edge outside: a face with vertices on both sides.
+  std::vector<std::uint8_t> ring(num_vertices, 0);
+  for (int f = 0; f < num_faces; ++f) {
+    bool touches = false;
+    for (int c = 0; c < 3; ++c) touches = touches || inside[mesh.faces(c, f)];
+    if (!touches) continue;
+    for (int c = 0; c < 3; ++c) ring[mesh.faces(c, f)] = !inside[mesh.faces(c, f)];
+  }
+  std::vector<int> points;
+  for (int v = 0; v < num_vertices; ++v) {
+    if (ring[v]) points.push_back(v);
+  }
+  Eigen::Vector3d centre, normal;
+  if (!FitPlane(vertices, points, &centre, &normal)) return 0;
+  // X' = t X on the ray, n.(X' - c) = -n.(X - c): t = (2 n.c - n.X) / n.X.
+  const double offset = normal.dot(centre);
+  for (int v = 0; v < num_vertices; ++v) {
+    if (!inside[v]) continue;
+    const double along = normal.dot(vertices.col(v));
+    // Edge-on, or sent behind the camera.
+    if (!(std::abs(along) > 0.1 * vertices.col(v).norm()) || !((2.0 * offset - along) / along > 0.1)) {
+      *flipped = vertices;
+      return 0;
+    }
+  }
+  int count = 0;
+  for (int v = 0; v < num_vertices; ++v) {
+    if (!inside[v]) continue;
+    flipped->col(v) *= (2.0 * offset - normal.dot(vertices.col(v))) / normal.dot(vertices.col(v));
     ++count;
   }
   return count;

@@ -31,6 +31,22 @@ int MirrorFoldFlap(const TriangleMesh& mesh, const std::vector<MeshHinge>& hinge
                    const std::vector<std::uint8_t>& crease, const Eigen::Matrix3Xd& vertices,
                    Eigen::Matrix3Xd* mirrored, int min_flap_faces = 4);
 
+// `vertices` (3 by #V, in the camera's frame: the camera at the origin)
+// with a crease that cuts no flap off turned inside out: a ridge that
+// dies out inside the sheet becomes a valley, which the camera sees alike
+// (the same to first order where the sheet beside faces it). The largest
+// set of faces on crease hinges joined where the hinges meet (at least
+// min_faces) is the crease's band; its vertices slide along their
+// rays to the other side of the plane (least squares) through the
+// vertices one edge outside it, as far as they were on this side, so
+// that every one projects where it did. Returns the number of vertices
+// moved: 0 (and `flipped` = `vertices`) without such a band, without a
+// plane, or where the plane is seen within about 6 degrees of edge-on
+// from one of them.
+int FlipCreaseAlongRays(const TriangleMesh& mesh, const std::vector<MeshHinge>& hinges,
+                        const std::vector<std::uint8_t>& crease, const Eigen::Matrix3Xd& vertices,
+                        Eigen::Matrix3Xd* flipped, int min_faces = 4);
+
 }  // namespace polyfit
 
 #endif  // POLYFIT_SFT_SOLVER_FOLD_MIRROR_H_

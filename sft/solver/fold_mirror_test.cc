@@ -80,5 +80,56 @@ TEST(FoldMirrorTest, NothingMirroredWithoutAFlapOrAPlane) {
   EXPECT_LT((mirrored - mesh.vertices).cwiseAbs().maxCoeff(), 1e-12);
 }
 
+// A ridge along x = 3 that dies out inside the sheet (y = 1..5), pulled
+// toward the camera at the origin: turned inside out, it lies as far
+// behind the sheet's plane z = 2, every vertex on its own ray; the rest
+// stays.
+TEST(FoldMirrorTest, ACreaseInsideTheSheetTurnsInsideOutAlongTheRays) {
+  const TriangleMesh mesh = Grid(8);
+  const std::vector<MeshHinge> hinges = InteriorHinges(mesh);
+  std::vector<std::uint8_t> crease = CreaseAt(mesh, hinges, 3.0);
+  for (size_t h = 0; h < hinges.size(); ++h) {
+    for (int k : {0, 1}) crease[h] = crease[h] && mesh.vertices(1, hinges[h].vertices[k]) >= 1.0;
+    for (int k : {0, 1}) crease[h] = crease[h] && mesh.vertices(1, hinges[h].vertices[k]) <= 5.0;
+  }
+  Eigen::Matrix3Xd ridge = mesh.vertices;
+  for (int v = 0; v < ridge.cols(); ++v) {
+    const double y = mesh.vertices(1, v);
+    if (mesh.vertices(0, v) == 3.0 && y >= 1.0 && y <= 5.0) ridge.col(v) *= 1.0 - 0.05 * (1.0 + (y == 3.0));
+  }
+  EXPECT_EQ(MirrorFoldFlap(mesh, hinges, crease, ridge, &ridge), 0);  // no flap cut off
+  Eigen::Matrix3Xd flipped;
+  const int count = FlipCreaseAlongRays(mesh, hinges, crease, ridge, &flipped);
+  EXPECT_GE(count, 5);  // the ridge's five and the band's vertices beside it, on the plane
+  for (int v = 0; v < ridge.cols(); ++v) {
+    EXPECT_NEAR(flipped(2, v) - 2.0, -(ridge(2, v) - 2.0), 1e-12) << v;
+    EXPECT_NEAR(flipped(0, v) / flipped(2, v), ridge(0, v) / ridge(2, v), 1e-12) << v;
+    EXPECT_NEAR(flipped(1, v) / flipped(2, v), ridge(1, v) / ridge(2, v), 1e-12) << v;
+  }
+  EXPECT_GT((flipped - ridge).cwiseAbs().maxCoeff(), 0.1);
+  EXPECT_EQ(FlipCreaseAlongRays(mesh, hinges, crease, flipped, &flipped), count);  // and back
+  EXPECT_LT((flipped - ridge).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+// No crease, a band smaller than asked for, a sheet whose plane holds the
+// camera (seen edge-on): nothing moved.
+TEST(FoldMirrorTest, NothingTurnedWithoutABandOrSeenEdgeOn) {
+  const TriangleMesh mesh = Grid(8);
+  const std::vector<MeshHinge> hinges = InteriorHinges(mesh);
+  const Eigen::Matrix3Xd folded = Folded(mesh, 5.0, 0.6);
+  Eigen::Matrix3Xd flipped;
+  EXPECT_EQ(FlipCreaseAlongRays(mesh, hinges, std::vector<std::uint8_t>(hinges.size(), 0), folded, &flipped), 0);
+  EXPECT_EQ(flipped, folded);
+  const std::vector<std::uint8_t> crease = CreaseAt(mesh, hinges, 5.0);  // 7 hinges, 14 faces
+  Eigen::Matrix3Xd far = folded;
+  far.row(2).array() += 8.0;  // seen within 60 degrees of straight on
+  EXPECT_EQ(FlipCreaseAlongRays(mesh, hinges, crease, far, &flipped, 15), 0);
+  EXPECT_GT(FlipCreaseAlongRays(mesh, hinges, crease, far, &flipped, 14), 0);
+  Eigen::Matrix3Xd edge_on = mesh.vertices;
+  edge_on.row(2).setZero();  // the plane z = 0 holds the camera
+  EXPECT_EQ(FlipCreaseAlongRays(mesh, hinges, crease, edge_on, &flipped), 0);
+  EXPECT_EQ(flipped, edge_on);
+}
+
 }  // namespace
 }  // namespace polyfit

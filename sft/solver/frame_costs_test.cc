@@ -575,7 +575,10 @@ TEST_F(AtlasCostsTest, APatchTooSmallForFourChildrenSplitsInTwoWhereAllowed) {
   for (double value : {-1e-4, std::nan(""), HUGE_VAL}) {
     PatchAtlasOptions bad = options;
     bad.seam_uv_robust = value;
-    EXPECT_NE(bad.Validate().find("seam_uv_robust"), std::string::npos) << value;
+    EXPECT_NE(bad.Validate().find("atlas.seam_uv_robust"), std::string::npos) << value;
+    bad = options;
+    bad.seen_seam_uv_robust = value;
+    EXPECT_NE(bad.Validate().find("atlas.seen_seam_uv_robust"), std::string::npos) << value;
   }
 }
 

@@ -36,6 +36,9 @@ std::string PatchAtlasOptions::Validate() const {
   if (!(seam_uv_robust >= 0.0) || !std::isfinite(seam_uv_robust)) {
     return "atlas.seam_uv_robust must be finite and >= 0 (0: squared)";
   }
+  if (!(seen_seam_uv_robust >= 0.0) || !std::isfinite(seen_seam_uv_robust)) {
+    return "atlas.seen_seam_uv_robust must be finite and >= 0 (0: squared)";
+  }
   return {};
 }
 

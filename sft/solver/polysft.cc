@@ -1214,7 +1214,8 @@ class PolySftController {
     for (const AtlasTerms::Seam& seam : atlas_terms_.seams) count += seam.edges.size();
     const std::vector<std::uint8_t> seen = SeenPatches(frame, vertices);
     const std::vector<std::uint8_t> textured =
-        atlas.seen_seam_uv_weight < std::max(atlas.seam_uv_weight, atlas.coarse_seam_uv_weight)
+        atlas.seen_seam_uv_weight < std::max(atlas.seam_uv_weight, atlas.coarse_seam_uv_weight) ||
+                atlas.seen_seam_uv_robust != atlas.seam_uv_robust
             ? TexturedPatches(seen, vertices, HiddenOnce(vertices, hidden))
             : std::vector<std::uint8_t>(seen.size(), 0);
     const double wn = std::sqrt(atlas.seam_normal_weight / count);
@@ -1226,13 +1227,13 @@ class PolySftController {
                      {seam.a, seam.b}, problem, render);
       }
       const double level_uv_weight = coarse ? atlas.coarse_seam_uv_weight : atlas.seam_uv_weight;
-      const double uv_weight = textured[seam.a] && textured[seam.b]
-                                   ? std::min(level_uv_weight, atlas.seen_seam_uv_weight)
-                                   : level_uv_weight;
+      const bool both_textured = textured[seam.a] && textured[seam.b];
+      const double uv_weight =
+          both_textured ? std::min(level_uv_weight, atlas.seen_seam_uv_weight) : level_uv_weight;
       if (uv_weight > 0.0) {
         AddFrameTerm(frame,
                      CreateSharedUvCost(&model_, std::sqrt(uv_weight / atlas_terms_.seams.size()),
-                                        atlas.seam_uv_robust),
+                                        both_textured ? atlas.seen_seam_uv_robust : atlas.seam_uv_robust),
                      {seam.a, seam.b}, problem, render, false);
       }
     }
@@ -1819,6 +1820,7 @@ class PolySftController {
   static constexpr int kRecoveryBending = 3;
   static constexpr int kRecoveryMirror = 4;
   static constexpr int kRecoveryFrameBefore = 5;
+  static constexpr int kRecoveryFlip = 6;
 
   // The window solved again from `restart`'s change to the newest frame
   // (which may solve it itself, counting its iterations in `more`), where
@@ -1910,12 +1912,16 @@ class PolySftController {
     for (size_t h = 0; h < changes.size(); ++h) crease[h] = changes[h] > 0.5 * options_.new_crease_angle_deg;
     Eigen::Matrix3Xd now, mirrored;
     model_.Evaluate(window_.back()->theta.data(), &now);
-    if (MirrorFoldFlap(scene_.template_mesh, hinges_.hinges, crease, now, &mirrored) == 0) return;
-    auto flipped = [&](int*) {
+    auto fitted = [&](int*) {
       FitNewestFrameTo(mirrored);
       return true;
     };
-    SolveAgainFrom(kRecoveryMirror, why, "its flap mirrored about the crease", flipped, cost, iterations);
+    if (MirrorFoldFlap(scene_.template_mesh, hinges_.hinges, crease, now, &mirrored) > 0) {
+      SolveAgainFrom(kRecoveryMirror, why, "its flap mirrored about the crease", fitted, cost, iterations);
+    } else if (options_.flip_new_crease_bands &&
+               FlipCreaseAlongRays(scene_.template_mesh, hinges_.hinges, crease, now, &mirrored) > 0) {
+      SolveAgainFrom(kRecoveryFlip, why, "its crease turned inside out along the rays", fitted, cost, iterations);
+    }
   }
 
   // Per hinge of hinges_, how far its dihedral angle turned (degrees) from

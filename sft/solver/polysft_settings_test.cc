@@ -46,6 +46,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.new_crease_bending_weight = 3e-4;
   changed.new_crease_angle_deg = 45.0;
   changed.mirror_new_creases = false;
+  changed.flip_new_crease_bands = false;
   changed.new_crease_from_frame_before = false;
   changed.temporal_weight = 0.3;
   changed.temporal_order = 2;
@@ -89,6 +90,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.atlas.coarse_seam_uv_weight = 2.0;
   changed.atlas.seen_seam_uv_weight = 0.5;
   changed.atlas.seam_uv_robust = 0.05;
+  changed.atlas.seen_seam_uv_robust = 0.02;
   changed.atlas.hidden_split_share = 0.3;
   changed.atlas.max_hidden_patches = 8;
   changed.atlas.min_hidden_vertices = 5;
