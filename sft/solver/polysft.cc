@@ -1903,8 +1903,10 @@ class PolySftController {
   // PolySftOptions::mirror_new_creases: the newest frame's flap beyond its
   // new crease (the hinges that turned by more than half
   // new_crease_angle_deg since the frame before) mirrored about the sheet
-  // beside it (MirrorFoldFlap), the frame fitted to that and solved again,
-  // the lower final cost kept.
+  // beside it (MirrorFoldFlap), or, where the crease cuts no flap off, its
+  // band turned inside out along the rays (flip_new_crease_bands,
+  // FlipCreaseAlongRays); the frame fitted to that and solved again, the
+  // lower final cost kept.
   // changes: HingeChanges() at the newest frame as it stands.
   void MirrorNewCrease(const std::string& why, const std::vector<double>& changes, double* cost, int* iterations) {
     if (changes.empty()) return;
