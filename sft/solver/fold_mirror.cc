@@ -33,6 +33,59 @@ bool FitPlane(const Eigen::Matrix3Xd& vertices, const std::vector<int>& points, 
   return true;
 }
 
+// #V flags: the vertices of the largest set of faces on crease hinges
+// joined where the hinges meet; empty where it has fewer than min_faces.
+std::vector<std::uint8_t> CreaseBand(const TriangleMesh& mesh, const std::vector<MeshHinge>& hinges,
+                                     const std::vector<std::uint8_t>& crease, int num_vertices, int min_faces) {
+  const int num_faces = static_cast<int>(mesh.faces.cols());
+  std::vector<int> parent(num_faces);
+  std::iota(parent.begin(), parent.end(), 0);
+  std::vector<std::uint8_t> on_crease(num_faces, 0);
+  std::vector<int> face_at(num_vertices, -1);  // a crease face at each crease vertex
+  for (size_t h = 0; h < hinges.size(); ++h) {
+    if (!crease[h]) continue;
+    const int f = hinges[h].faces[0];
+    on_crease[f] = on_crease[hinges[h].faces[1]] = 1;
+    parent[Find(&parent, hinges[h].faces[1])] = Find(&parent, f);
+    for (int v : {hinges[h].vertices[0], hinges[h].vertices[1]}) {
+      if (face_at[v] >= 0) parent[Find(&parent, face_at[v])] = Find(&parent, f);
+      face_at[v] = f;
+    }
+  }
+  std::vector<int> size(num_faces, 0);
+  for (int f = 0; f < num_faces; ++f) {
+    if (on_crease[f]) ++size[Find(&parent, f)];
+  }
+  int band = -1;
+  for (int f = 0; f < num_faces; ++f) {
+    if (on_crease[f] && parent[f] == f && (band < 0 || size[f] > size[band])) band = f;
+  }
+  if (band < 0 || size[band] < min_faces) return {};
+  std::vector<std::uint8_t> inside(num_vertices, 0);
+  for (int f = 0; f < num_faces; ++f) {
+    if (!on_crease[f] || Find(&parent, f) != band) continue;
+    for (int c = 0; c < 3; ++c) inside[mesh.faces(c, f)] = 1;
+  }
+  return inside;
+}
+
+// The vertices one edge outside `inside` (#V flags): those of a face that
+// has vertices on both sides.
+std::vector<int> OneEdgeOutside(const TriangleMesh& mesh, const std::vector<std::uint8_t>& inside) {
+  std::vector<std::uint8_t> ring(inside.size(), 0);
+  for (int f = 0; f < mesh.faces.cols(); ++f) {
+    bool touches = false;
+    for (int c = 0; c < 3; ++c) touches = touches || inside[mesh.faces(c, f)];
+    if (!touches) continue;
+    for (int c = 0; c < 3; ++c) ring[mesh.faces(c, f)] |= !inside[mesh.faces(c, f)];
+  }
+  std::vector<int> points;
+  for (size_t v = 0; v < ring.size(); ++v) {
+    if (ring[v]) points.push_back(static_cast<int>(v));
+  }
+  return points;
+}
+
 }  // namespace
 
 int MirrorFoldFlap(const TriangleMesh& mesh, const std::vector<MeshHinge>& hinges,
@@ -103,67 +156,25 @@ int FlipCreaseAlongRays(const TriangleMesh& mesh, const std::vector<MeshHinge>& 
                         const std::vector<std::uint8_t>& crease, const Eigen::Matrix3Xd& vertices,
                         Eigen::Matrix3Xd* flipped, int min_faces) {
   *flipped = vertices;
-  const int num_faces = static_cast<int>(mesh.faces.cols());
-  const int num_vertices = static_cast<int>(vertices.cols());
-  if (crease.size() != hinges.size() || num_faces == 0) return 0;
-  // The faces on crease hinges, joined where their hinges meet.
-  std::vector<int> parent(num_faces);
-  std::iota(parent.begin(), parent.end(), 0);
-  std::vector<std::uint8_t> on_crease(num_faces, 0);
-  std::vector<int> face_at(num_vertices, -1);
-  for (size_t h = 0; h < hinges.size(); ++h) {
-    if (!crease[h]) continue;
-    const int f = hinges[h].faces[0];
-    on_crease[f] = on_crease[hinges[h].faces[1]] = 1;
-    parent[Find(&parent, hinges[h].faces[1])] = Find(&parent, f);
-    for (int v : {hinges[h].vertices[0], hinges[h].vertices[1]}) {
-      if (face_at[v] >= 0) parent[Find(&parent, face_at[v])] = Find(&parent, f);
-      face_at[v] = f;
-    }
-  }
-  std::vector<int> size(num_faces, 0);
-  int band = -1;
-  for (int f = 0; f < num_faces; ++f) {
-    if (on_crease[f]) ++size[Find(&parent, f)];
-  }
-  for (int f = 0; f < num_faces; ++f) {
-    if (on_crease[f] && parent[f] == f && (band < 0 || size[f] > size[band])) band = f;
-  }
-  if (band < 0 || size[band] < min_faces) return 0;
-  std::vector<std::uint8_t> inside(num_vertices, 0);
-  for (int f = 0; f < num_faces; ++f) {
-    if (!on_crease[f] || Find(&parent, f) != band) continue;
-    for (int c = 0; c < 3; ++c) inside[mesh.faces(c, f)] = 1;
-  }
-  // One edge outside: a face with vertices on both sides.
-  std::vector<std::uint8_t> ring(num_vertices, 0);
-  for (int f = 0; f < num_faces; ++f) {
-    bool touches = false;
-    for (int c = 0; c < 3; ++c) touches = touches || inside[mesh.faces(c, f)];
-    if (!touches) continue;
-    for (int c = 0; c < 3; ++c) ring[mesh.faces(c, f)] = !inside[mesh.faces(c, f)];
-  }
-  std::vector<int> points;
-  for (int v = 0; v < num_vertices; ++v) {
-    if (ring[v]) points.push_back(v);
-  }
+  if (crease.size() != hinges.size() || mesh.faces.cols() == 0) return 0;
+  const std::vector<std::uint8_t> inside = CreaseBand(mesh, hinges, crease, static_cast<int>(vertices.cols()), min_faces);
+  if (inside.empty()) return 0;
   Eigen::Vector3d centre, normal;
-  if (!FitPlane(vertices, points, &centre, &normal)) return 0;
+  if (!FitPlane(vertices, OneEdgeOutside(mesh, inside), &centre, &normal)) return 0;
   // X' = t X on the ray, n.(X' - c) = -n.(X - c): t = (2 n.c - n.X) / n.X.
   const double offset = normal.dot(centre);
-  for (int v = 0; v < num_vertices; ++v) {
+  std::vector<double> scale(vertices.cols(), 1.0);
+  for (int v = 0; v < vertices.cols(); ++v) {
     if (!inside[v]) continue;
     const double along = normal.dot(vertices.col(v));
+    scale[v] = (2.0 * offset - along) / along;
     // Edge-on, or sent behind the camera.
-    if (!(std::abs(along) > 0.1 * vertices.col(v).norm()) || !((2.0 * offset - along) / along > 0.1)) {
-      *flipped = vertices;
-      return 0;
-    }
+    if (!(std::abs(along) > 0.1 * vertices.col(v).norm()) || !(scale[v] > 0.1)) return 0;
   }
   int count = 0;
-  for (int v = 0; v < num_vertices; ++v) {
+  for (int v = 0; v < vertices.cols(); ++v) {
     if (!inside[v]) continue;
-    flipped->col(v) *= (2.0 * offset - normal.dot(vertices.col(v))) / normal.dot(vertices.col(v));
+    flipped->col(v) *= scale[v];
     ++count;
   }
   return count;
