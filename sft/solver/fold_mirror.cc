@@ -157,7 +157,8 @@ int FlipCreaseAlongRays(const TriangleMesh& mesh, const std::vector<MeshHinge>& 
                         Eigen::Matrix3Xd* flipped, int min_faces) {
   *flipped = vertices;
   if (crease.size() != hinges.size() || mesh.faces.cols() == 0) return 0;
-  const std::vector<std::uint8_t> inside = CreaseBand(mesh, hinges, crease, static_cast<int>(vertices.cols()), min_faces);
+  const std::vector<std::uint8_t> inside =
+      CreaseBand(mesh, hinges, crease, static_cast<int>(vertices.cols()), min_faces);
   if (inside.empty()) return 0;
   Eigen::Vector3d centre, normal;
   if (!FitPlane(vertices, OneEdgeOutside(mesh, inside), &centre, &normal)) return 0;
