@@ -15,6 +15,15 @@ int Find(std::vector<int>* parent, int x) {
   return x;
 }
 
+// The indices of the set entries of `flags`, in order.
+std::vector<int> Flagged(const std::vector<std::uint8_t>& flags) {
+  std::vector<int> indices;
+  for (size_t i = 0; i < flags.size(); ++i) {
+    if (flags[i]) indices.push_back(static_cast<int>(i));
+  }
+  return indices;
+}
+
 // The least-squares plane through `vertices`' columns `points`: false
 // where there are fewer than three or they lie on a line.
 bool FitPlane(const Eigen::Matrix3Xd& vertices, const std::vector<int>& points, Eigen::Vector3d* centre,
@@ -79,11 +88,7 @@ std::vector<int> OneEdgeOutside(const TriangleMesh& mesh, const std::vector<std:
     if (!touches) continue;
     for (int c = 0; c < 3; ++c) ring[mesh.faces(c, f)] |= !inside[mesh.faces(c, f)];
   }
-  std::vector<int> points;
-  for (size_t v = 0; v < ring.size(); ++v) {
-    if (ring[v]) points.push_back(static_cast<int>(v));
-  }
-  return points;
+  return Flagged(ring);
 }
 
 }  // namespace
@@ -137,12 +142,8 @@ int MirrorFoldFlap(const TriangleMesh& mesh, const std::vector<MeshHinge>& hinge
     if (!touches) continue;
     for (int c = 0; c < 3; ++c) near[mesh.faces(c, f)] = 1;
   }
-  std::vector<int> points;
-  for (int v = 0; v < num_vertices; ++v) {
-    if (near[v]) points.push_back(v);
-  }
   Eigen::Vector3d centre, normal;
-  if (!FitPlane(vertices, points, &centre, &normal)) return 0;
+  if (!FitPlane(vertices, Flagged(near), &centre, &normal)) return 0;
   int count = 0;
   for (int v = 0; v < num_vertices; ++v) {
     if (!in_flap[v] || elsewhere[v]) continue;

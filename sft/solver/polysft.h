@@ -218,8 +218,8 @@ struct PolySftOptions {
   // turned inside out instead: its band of faces slid along the camera's
   // rays to the other side of the sheet beside it (FlipCreaseAlongRays),
   // so that the frame looks the same, fitted to that and solved again,
-  // the lower final cost kept (trace.csv's recovery 6). Tried on most of a flag's
-  // new creases (the flap mirror on one in eight) and kept on half:
+  // the lower final cost kept (trace.csv's recovery 6). Tried on most of
+  // a flag's new creases (the flap mirror on one in eight) and kept on half:
   // twenty flags' e_n -0.31 deg (12 better), the other scenes the same;
   // flag 10 0.53 -> 0.81 s a frame on two threads (docs/benchmarks.md).
   bool flip_new_crease_bands = true;
