@@ -262,6 +262,7 @@ std::string PolySftOptions::Validate() const {
   if (!(silhouette_band <= 100.0)) return "silhouette_band must be <= 100 px (negative: measured)";
   if (max_frames < 0) return "max_frames must be >= 0";
   if (!(new_crease_angle_deg > 0.0 && new_crease_angle_deg <= 180.0)) return "new_crease_angle_deg must be in (0, 180]";
+  if (new_crease_span_frames < 1 || new_crease_span_frames > 30) return "new_crease_span_frames must be in [1, 30]";
   return {};
 }
 
@@ -1868,11 +1869,24 @@ class PolySftController {
   void SecondOpinionOnNewCrease(int t, double* cost, int* iterations) {
     FrameData& newest = *window_.back();
     if (t == 0 || newest.mask_empty || !NewCreaseOpinions() || hinges_.hinges.empty()) return;
-    const std::vector<double> changes = HingeChanges();
-    const double crease = changes.empty() ? 0.0 : *std::max_element(changes.begin(), changes.end());
-    if (!(crease > options_.new_crease_angle_deg)) return;
+    // Measured since the frame before; failing that, over the span.
+    int span = 1;
+    std::vector<double> changes = HingeChanges(span);
+    auto largest = [&] { return changes.empty() ? 0.0 : *std::max_element(changes.begin(), changes.end()); };
+    double crease = largest();
+    if (!(crease > options_.new_crease_angle_deg)) {
+      span = std::min(options_.new_crease_span_frames, FramesBack());
+      if (span <= 1) return;
+      changes = HingeChanges(span);
+      crease = largest();
+      if (!(crease > options_.new_crease_angle_deg)) return;
+    }
     char why[80];
-    std::snprintf(why, sizeof(why), "a new crease (%.0f deg)", crease);
+    if (span == 1) {
+      std::snprintf(why, sizeof(why), "a new crease (%.0f deg)", crease);
+    } else {
+      std::snprintf(why, sizeof(why), "a new crease (%.0f deg over %d frames)", crease, span);
+    }
     const bool bend = options_.new_crease_bending_weight > 0.0;
     bool bent_kept = false;
     if (bend) {
@@ -1888,8 +1902,9 @@ class PolySftController {
           SolveAgainFrom(kRecoveryBending, why, "from its start under a bending prior", bent, cost, iterations);
     }
     // Measured again where the bending prior's opinion was kept.
-    if (options_.mirror_new_creases) MirrorNewCrease(why, bent_kept ? HingeChanges() : changes, cost, iterations);
-    if (options_.new_crease_from_frame_before && newest.moved_start) {
+    if (options_.mirror_new_creases) MirrorNewCrease(why, bent_kept ? HingeChanges(span) : changes, cost, iterations);
+    // A crease grown over several frames has the frame before in it.
+    if (options_.new_crease_from_frame_before && newest.moved_start && span == 1) {
       // Copied: the window's solve moves the frame before too.
       const std::vector<double> before = *Solved(1);
       auto from_before = [&](int*) {
@@ -1902,12 +1917,12 @@ class PolySftController {
 
   // PolySftOptions::mirror_new_creases: the newest frame's flap beyond its
   // new crease (the hinges that turned by more than half
-  // new_crease_angle_deg since the frame before) mirrored about the sheet
+  // new_crease_angle_deg over the trigger's span) mirrored about the sheet
   // beside it (MirrorFoldFlap), or, where the crease cuts no flap off, its
   // band turned inside out along the rays (flip_new_crease_bands,
   // FlipCreaseAlongRays); the frame fitted to that and solved again, the
   // lower final cost kept.
-  // changes: HingeChanges() at the newest frame as it stands.
+  // changes: HingeChanges(span) at the newest frame as it stands.
   void MirrorNewCrease(const std::string& why, const std::vector<double>& changes, double* cost, int* iterations) {
     if (changes.empty()) return;
     std::vector<std::uint8_t> crease(changes.size());
@@ -1926,14 +1941,20 @@ class PolySftController {
     }
   }
 
+  // How many frames before the newest are kept (in the window or
+  // finalised), for HingeChanges.
+  int FramesBack() const { return static_cast<int>(window_.size() + finals_.size()) - 1; }
+
   // Per hinge of hinges_, how far its dihedral angle turned (degrees) from
-  // the frame before to the newest; empty without a frame before.
-  std::vector<double> HingeChanges() const {
+  // `back` frames before the newest (1 <= back <= FramesBack()) to the
+  // newest; empty without a frame before.
+  std::vector<double> HingeChanges(int back) const {
     Eigen::Matrix3Xd now, before;
-    if (window_.size() >= 2) {
-      model_.Evaluate(window_[window_.size() - 2]->theta.data(), &before);
-    } else if (!finals_.empty()) {
-      before = finals_.front();
+    const int in_window = static_cast<int>(window_.size()) - 1;
+    if (back <= in_window) {
+      model_.Evaluate(window_[in_window - back]->theta.data(), &before);
+    } else if (back - in_window - 1 < static_cast<int>(finals_.size())) {
+      before = finals_[back - in_window - 1];
     } else {
       return {};
     }
@@ -2039,9 +2060,11 @@ class PolySftController {
       surface.faces = scene_.template_mesh.faces;
       result.chamfer_1e4 = ComputePointChamfer1e4(surface, data.frame.ground_truth);
     }
-    // The frames before the window that temporal_order reads, newest first.
+    // The frames before the window that temporal_order and
+    // new_crease_span_frames read, newest first.
     finals_.insert(finals_.begin(), result.vertices);
-    finals_.resize(std::min<size_t>(finals_.size(), 2));
+    const int kept = std::max(2, options_.new_crease_span_frames - options_.window_size + 1);
+    finals_.resize(std::min<size_t>(finals_.size(), kept));
     final_thetas_.insert(final_thetas_.begin(), data.theta);
     final_thetas_.resize(finals_.size());
     previous_final_tracked_ = Tracked(data);
@@ -2110,7 +2133,9 @@ class PolySftController {
   double template_pixels_ = 0.0;
   std::vector<LevelData> levels_;
   std::deque<std::unique_ptr<FrameData>> window_;
-  std::vector<Eigen::Matrix3Xd> finals_;  // the two frames before the window, newest first, once there are
+  // The frames before the window (two, or as many as new_crease_span_frames
+  // needs), newest first, once there are.
+  std::vector<Eigen::Matrix3Xd> finals_;
   std::vector<std::vector<double>> final_thetas_;  // their parameters
   bool previous_final_tracked_ = true;
   int recovery_ = 0;  // solving a lost frame again (RecoverLostFrame): its kRecovery start

@@ -78,6 +78,7 @@ const std::vector<Setting>& Settings() {
         POLYFIT_SETTING("mirror_new_creases", mirror_new_creases),
         POLYFIT_SETTING("flip_new_crease_bands", flip_new_crease_bands),
         POLYFIT_SETTING("new_crease_from_frame_before", new_crease_from_frame_before),
+        POLYFIT_SETTING("new_crease_span_frames", new_crease_span_frames),
         POLYFIT_SETTING("temporal_weight", temporal_weight),
         POLYFIT_SETTING("temporal_order", temporal_order),
         POLYFIT_SETTING("gravity_prior", gravity_prior),

@@ -48,6 +48,7 @@ TEST(PolySftSettingsTest, EverySettingRoundTrips) {
   changed.mirror_new_creases = false;
   changed.flip_new_crease_bands = false;
   changed.new_crease_from_frame_before = false;
+  changed.new_crease_span_frames = 5;
   changed.temporal_weight = 0.3;
   changed.temporal_order = 2;
   changed.gravity_prior = true;

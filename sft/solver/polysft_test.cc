@@ -14,6 +14,7 @@
 
 #include "cost_functions/hinge_bending.h"
 #include "polyfit/mesh/hinge_rest.h"
+#include "polyfit/mesh/mesh_topology.h"
 #include "polyfit/util/scoped_temp_dir.h"
 #include "sft/scene/sft_metrics.h"
 #include "sft/synthetic/sheet_scene.h"
@@ -394,6 +395,70 @@ TEST(PolySftTest, ANewCreaseIsSolvedAgainFromWhereTheFrameBeforeEnded) {
   unmoved.new_crease_bending_weight = 0.0;
   unmoved.mirror_new_creases = false;
   EXPECT_EQ(again(SolvePolySft(unmoved, scene), -1), 0);
+}
+
+// new_crease_span_frames: a crease that grows by less than
+// new_crease_angle_deg a frame, but by more over three frames, gets the
+// bending-prior opinion (not the frame-before one); over one frame, no
+// second opinion at all.
+TEST(PolySftTest, ACreaseGrownOverThreeFramesGetsASecondOpinion) {
+  ScopedTempDir dir("polyfit_sft_crease_span");
+  GenerateSheetScene(SmallScene(SheetMotion::kBend, 8), dir.path().string());
+  const SftScene scene = LoadScene(dir.path().string());
+  // Measured on this bend: its hinges turn by at most 5.5 degrees a frame
+  // and 14 over three frames.
+  PolySftOptions one;
+  one.num_threads = 1;
+  one.mirror_new_creases = false;
+  one.new_crease_angle_deg = 9.5;
+  one.new_crease_span_frames = 1;
+  PolySftOptions never = one;
+  never.new_crease_angle_deg = 180.0;
+  PolySftOptions three = one;
+  three.new_crease_span_frames = 3;
+  const PolySftSummary a = SolvePolySft(never, scene), b = SolvePolySft(one, scene), c = SolvePolySft(three, scene);
+  auto again = [](const PolySftSummary& s, int recovery) {
+    return std::count_if(s.trace.begin(), s.trace.end(),
+                         [recovery](const SftIterationSummary& r) { return r.recovery == recovery; });
+  };
+  const std::vector<MeshHinge> hinges = InteriorHinges(scene.template_mesh);
+  auto turn = [&](int t, int back) {
+    double most = 0.0;
+    const Eigen::Matrix3Xd& x = a.frames[t].vertices;
+    const Eigen::Matrix3Xd& y = a.frames[t - back].vertices;
+    for (const MeshHinge& h : hinges) {
+      const auto& [i, j, k, l] = h.vertices;
+      const double d = SignedDihedralAngle(x.col(i).data(), x.col(j).data(), x.col(k).data(), x.col(l).data()) -
+                       SignedDihedralAngle(y.col(i).data(), y.col(j).data(), y.col(k).data(), y.col(l).data());
+      most = std::max(most, std::abs(std::remainder(d, 2.0 * M_PI)) * 180.0 / M_PI);
+    }
+    return most;
+  };
+  double one_frame = 0.0, three_frames = 0.0;
+  for (int t = 1; t < 8; ++t) one_frame = std::max(one_frame, turn(t, 1));
+  for (int t = 3; t < 8; ++t) three_frames = std::max(three_frames, turn(t, 3));
+  ASSERT_LT(one_frame, 0.8 * one.new_crease_angle_deg);
+  ASSERT_GT(three_frames, 1.2 * one.new_crease_angle_deg);
+  // Over one frame the crease never fires.
+  ExpectSameToTheBit(a, b);
+  EXPECT_EQ(again(b, 3), 0);
+  // Over three it does, from frame 2 on (the oldest kept then is frame 0),
+  // with the bending prior but not from the frame before.
+  ExpectFinite(c);
+  EXPECT_GT(again(c, 3), 0);
+  EXPECT_EQ(again(c, 5), 0);
+  const auto first =
+      std::find_if(c.trace.begin(), c.trace.end(), [](const SftIterationSummary& r) { return r.recovery == 3; });
+  ASSERT_NE(first, c.trace.end());
+  ASSERT_GE(first->frame, 2);
+  for (int t = 0; t < first->frame; ++t) EXPECT_EQ(a.frames[t].cost, c.frames[t].cost) << "frame " << t;
+  EXPECT_LE(c.frames[first->frame].cost, a.frames[first->frame].cost);
+  for (const std::string& w : c.warnings) {
+    if (w.find("a new crease") != std::string::npos) {
+      EXPECT_NE(w.find("over 3 frames"), std::string::npos) << w;
+    }
+  }
+  EXPECT_LT(c.mean_rmse_mm, 1.2 * a.mean_rmse_mm);
 }
 
 // With a window of one frame, the frame before has left the window when a
@@ -983,6 +1048,9 @@ TEST(PolySftTest, InvalidOptionsThrow) {
   options = PolySftOptions();
   options.new_crease_angle_deg = 0.0;
   EXPECT_NE(options.Validate().find("new_crease_angle_deg"), std::string::npos);
+  options.new_crease_angle_deg = 55.0;
+  options.new_crease_span_frames = 0;
+  EXPECT_NE(options.Validate().find("new_crease_span_frames"), std::string::npos);
 }
 
 }  // namespace
