@@ -241,8 +241,8 @@ struct PolySftOptions {
   // many frames before (or the oldest kept) and, over the angle, gets the
   // bending-prior, mirror and flip opinions, not the frame-before one
   // (that frame is part of the drift: with it, the same errors at more
-  // time). 3 against 1: twenty flags' e_n 10.41 -> 9.54 degrees (15
-  // better), tables the same, eight falls +0.12 (fall 6 +0.83), hanging
+  // time). 3 against 1: twenty flags' e_n 10.41 -> 9.54 degrees on one
+  // thread (15 better), +0.13 on two (other paths), tables the same, eight falls +0.12 (fall 6 +0.83), hanging
   // cloths and sheets the same to the bit; a flag's or a table's frame
   // takes a fifth to a half more time (docs/benchmarks.md). 1: the frame
   // before only.
