@@ -1,5 +1,7 @@
 #include "polyfit/mesh/hinge_rest.h"
 
+#include <cmath>
+
 #include "cost_functions/hinge_bending.h"
 
 namespace polyfit {
@@ -17,6 +19,20 @@ HingeRest MeasureHingeRest(const TriangleMesh& rest) {
     out.weights.push_back(areas > 0.0 ? 3.0 * length * length / areas : 0.0);
   }
   return out;
+}
+
+std::vector<double> HingeTurnsDeg(const std::vector<MeshHinge>& hinges, const Eigen::Matrix3Xd& now,
+                                  const Eigen::Matrix3Xd& before) {
+  std::vector<double> turns;
+  turns.reserve(hinges.size());
+  for (const MeshHinge& hinge : hinges) {
+    const auto& [i, j, k, l] = hinge.vertices;
+    const double turn =
+        SignedDihedralAngle(now.col(i).data(), now.col(j).data(), now.col(k).data(), now.col(l).data()) -
+        SignedDihedralAngle(before.col(i).data(), before.col(j).data(), before.col(k).data(), before.col(l).data());
+    turns.push_back(std::abs(std::remainder(turn, 2.0 * M_PI)) * 180.0 / M_PI);
+  }
+  return turns;
 }
 
 }  // namespace polyfit

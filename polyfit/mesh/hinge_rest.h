@@ -4,6 +4,8 @@
 
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "polyfit/mesh/mesh_topology.h"
 #include "polyfit/mesh/triangle_mesh.h"
 
@@ -22,6 +24,11 @@ struct HingeRest {
 };
 
 HingeRest MeasureHingeRest(const TriangleMesh& rest);
+
+// Per hinge (#H), how far its signed dihedral angle turned from `before`
+// to `now` (3 by #V each), in degrees, wrapped into [0, 180].
+std::vector<double> HingeTurnsDeg(const std::vector<MeshHinge>& hinges, const Eigen::Matrix3Xd& now,
+                                  const Eigen::Matrix3Xd& before);
 
 }  // namespace polyfit
 

@@ -19,7 +19,6 @@
 
 #include "cost_functions/compressed_cost.h"
 #include "cost_functions/gravity_inertia_residuals.h"
-#include "cost_functions/hinge_bending.h"
 #include "polyfit/eval/mesh_metrics.h"
 #include "polyfit/mesh/hinge_rest.h"
 #include "polyfit/mesh/mesh_io.h"
@@ -1959,16 +1958,7 @@ class PolySftController {
       return {};
     }
     model_.Evaluate(window_.back()->theta.data(), &now);
-    std::vector<double> changes;
-    changes.reserve(hinges_.hinges.size());
-    for (const MeshHinge& hinge : hinges_.hinges) {
-      const auto& [i, j, k, l] = hinge.vertices;
-      const double change =
-          SignedDihedralAngle(now.col(i).data(), now.col(j).data(), now.col(k).data(), now.col(l).data()) -
-          SignedDihedralAngle(before.col(i).data(), before.col(j).data(), before.col(k).data(), before.col(l).data());
-      changes.push_back(std::abs(std::remainder(change, 2.0 * M_PI)) * 180.0 / M_PI);
-    }
-    return changes;
+    return HingeTurnsDeg(hinges_.hinges, now, before);
   }
 
   // Translates the frame's surface parallel to the image, at its mean

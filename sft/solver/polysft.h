@@ -242,10 +242,10 @@ struct PolySftOptions {
   // bending-prior, mirror and flip opinions, not the frame-before one
   // (that frame is part of the drift: with it, the same errors at more
   // time). 3 against 1: twenty flags' e_n 10.41 -> 9.54 degrees on one
-  // thread (15 better), +0.13 on two (other paths), tables the same, eight falls +0.12 (fall 6 +0.83), hanging
-  // cloths and sheets the same to the bit; a flag's or a table's frame
-  // takes a fifth to a half more time (docs/benchmarks.md). 1: the frame
-  // before only.
+  // thread (15 better), +0.13 on two (other paths), tables the same,
+  // eight falls +0.12 (fall 6 +0.83), hanging cloths and sheets the same
+  // to the bit; a flag's or a table's frame takes a fifth to a half more
+  // time (docs/benchmarks.md). 1: the frame before only.
   int new_crease_span_frames = 3;
   // What the temporal term holds each frame to (TemporalCost): 1, the
   // frame before (the paper's: a surface that moves fast is held back);

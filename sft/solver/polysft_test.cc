@@ -423,16 +423,8 @@ TEST(PolySftTest, ACreaseGrownOverThreeFramesGetsASecondOpinion) {
   };
   const std::vector<MeshHinge> hinges = InteriorHinges(scene.template_mesh);
   auto turn = [&](int t, int back) {
-    double most = 0.0;
-    const Eigen::Matrix3Xd& x = a.frames[t].vertices;
-    const Eigen::Matrix3Xd& y = a.frames[t - back].vertices;
-    for (const MeshHinge& h : hinges) {
-      const auto& [i, j, k, l] = h.vertices;
-      const double d = SignedDihedralAngle(x.col(i).data(), x.col(j).data(), x.col(k).data(), x.col(l).data()) -
-                       SignedDihedralAngle(y.col(i).data(), y.col(j).data(), y.col(k).data(), y.col(l).data());
-      most = std::max(most, std::abs(std::remainder(d, 2.0 * M_PI)) * 180.0 / M_PI);
-    }
-    return most;
+    const std::vector<double> turns = HingeTurnsDeg(hinges, a.frames[t].vertices, a.frames[t - back].vertices);
+    return *std::max_element(turns.begin(), turns.end());
   };
   double one_frame = 0.0, three_frames = 0.0;
   for (int t = 1; t < 8; ++t) one_frame = std::max(one_frame, turn(t, 1));
