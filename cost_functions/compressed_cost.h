@@ -3,17 +3,20 @@
 // n + 1 residuals that gives a Levenberg-Marquardt solver exactly the same
 // cost, gradient and Gauss-Newton model:
 //
-//   J^T J = V diag(lambda) V^T               (symmetric eigendecomposition)
-//   R     = diag(sqrt(lambda)) V^T           so that R^T R = J^T J
-//   r~    = diag(1 / sqrt(lambda)) V^T J^T r  so that R^T r~ = J^T r
+//   J^T J = P^T L D L^T P                    (pivoted LDL^T, P a permutation)
+//   R     = D^(1/2) L^T P                    so that R^T R = J^T J
+//   r~    = D^(-1/2) L^-1 P J^T r            so that R^T r~ = J^T r
 //   residuals  [r~; sqrt(|r|^2 - |r~|^2)],  Jacobian  [R; 0]
 //
 // The last residual keeps the cost |r|^2 exact; its gradient, J^T (I - P) r
-// with P the projection onto J's range, is zero. Directions with lambda
-// below 1e-12 max(lambda) are dropped (their r~ and R rows are 0); above
-// kCompressedEigenLimit parameters, R is J^T J's Cholesky factor instead. A solver
-// then forms an n by n system from n + 1 rows instead of m: for an image
-// term with 10^5 pixel residuals and 40 parameters that is most of the work.
+// with P the projection onto J's range, is zero. Pivots below 1e-12 of
+// J^T J's largest diagonal entry are dropped (their r~ and R rows are 0).
+// Any R with R^T R = J^T J gives the solver the same model; the pivoted
+// factorisation costs n^3 / 3 against the ~9 n^3 of the symmetric
+// eigendecomposition used before (a flag's frame 7% less time on one
+// thread, docs/benchmarks.md). A solver then forms an n by n system from
+// n + 1 rows instead of m: for an image term with 10^5 pixel residuals
+// and 40 parameters that is most of the work.
 //
 // Evaluate without Jacobians (trial steps) returns [0, ..., 0, |r|]: the
 // cost is all a solver reads there.
@@ -29,7 +32,6 @@
 #include <ceres/cost_function.h>
 #include <Eigen/Core>
 #include <Eigen/Cholesky>
-#include <Eigen/Eigenvalues>
 
 namespace polyfit {
 
@@ -176,11 +178,8 @@ inline void CompressBlockTriangular(const std::vector<int32_t>& sizes, double sq
 
 // Writes the compressed residuals (n + 1) and Jacobians (row-major, one per
 // parameter block of `sizes`) of a term with |r|^2 = squared_norm and
-// normal equations J^T J, J^T r. Without jacobians, only the cost.
-// Above this many parameters, compress by Cholesky instead of by
-// eigendecomposition.
-constexpr int kCompressedEigenLimit = 64;
-
+// normal equations J^T J, J^T r: CompressBlockTriangular with one block.
+// Without jacobians, only the cost.
 inline void WriteCompressedResiduals(const std::vector<int32_t>& sizes, double squared_norm, const Eigen::MatrixXd& jtj,
                                      const Eigen::VectorXd& jtr, double* residuals, double** jacobians) {
   const int n = static_cast<int>(jtr.size());
@@ -190,42 +189,21 @@ inline void WriteCompressedResiduals(const std::vector<int32_t>& sizes, double s
     out[n] = std::sqrt(std::max(0.0, squared_norm));
     return;
   }
-  Eigen::MatrixXd r_matrix;
-  const Eigen::MatrixXd* r = &r_matrix;  // R
-  double compressed = 0.0;
-  if (n <= kCompressedEigenLimit) {
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(jtj);
-    const Eigen::VectorXd& lambda = eigen.eigenvalues();
-    const double floor = 1e-12 * std::max(lambda.maxCoeff(), 1e-300);
-    r_matrix.setZero(n, n);  // R, row i for eigenvector i
-    for (int i = 0; i < n; ++i) {
-      if (!(lambda[i] > floor)) continue;
-      const double s = std::sqrt(lambda[i]);
-      r_matrix.row(i) = s * eigen.eigenvectors().col(i).transpose();
-      out[i] = eigen.eigenvectors().col(i).dot(jtr) / s;
-      compressed += out[i] * out[i];
-    }
-  } else {
-    // Large systems (a patch atlas): pivoted Cholesky, ten times cheaper,
-    // CompressBlockTriangular's with one block:
-    //   J^T J = P^T L D L^T P,  R = D^(1/2) L^T P,  r~ = D^(-1/2) L^-1 P J^T r.
-    // Kept per thread: at a few hundred parameters, fresh matrices cost
-    // more in page faults than the factorisation.
-    thread_local Eigen::MatrixXd factor;
-    thread_local Eigen::VectorXd triangular;
-    thread_local std::vector<int32_t> one_block(1);
-    one_block[0] = n;
-    CompressBlockTriangular(one_block, squared_norm, &jtj, &jtr, &triangular, &factor);
-    out.head(n) = triangular.head(n);
-    compressed = triangular.head(n).squaredNorm();
-    r = &factor;
-  }
+  // Kept per thread: at a few hundred parameters, fresh matrices cost more
+  // in page faults than the factorisation.
+  thread_local Eigen::MatrixXd factor;
+  thread_local Eigen::VectorXd triangular;
+  thread_local std::vector<int32_t> one_block(1);
+  one_block[0] = n;
+  CompressBlockTriangular(one_block, squared_norm, &jtj, &jtr, &triangular, &factor);
+  out.head(n) = triangular.head(n);
+  const double compressed = triangular.head(n).squaredNorm();
   out[n] = std::sqrt(std::max(0.0, squared_norm - compressed));
   for (size_t b = 0, cb = 0; b < sizes.size(); cb += sizes[b], ++b) {
     if (jacobians[b] == nullptr) continue;
     Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> jac(jacobians[b], n + 1,
                                                                                            sizes[b]);
-    jac.topRows(n) = r->middleCols(cb, sizes[b]);
+    jac.topRows(n) = factor.middleCols(cb, sizes[b]);  // R's columns
     jac.row(n).setZero();
   }
 }

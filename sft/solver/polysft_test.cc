@@ -540,11 +540,12 @@ TEST(PolySftTest, TheCoarseLevelsDoNotTakeAStartAwayFromItsTruth) {
   EXPECT_GT(checked.coarse_moves_undone, 0);
   EXPECT_LE(checked.coarse_moves_undone, checked.coarse_moves_checked);
   EXPECT_EQ(unchecked.coarse_moves_checked, 0);
-  // Measured: frames 12-14 at e3D 0.0015, 0.0023, 0.0032 checked and
-  // 0.0022, 0.0049, 0.0092 unchecked; the mean 0.0010 against 0.0017 (36
-  // of 38 coarse moves undone).
+  // Measured: frames 12-14 at e3D 0.0016, 0.0017, 0.0019 checked and
+  // 0.0026, 0.0038, 0.0055 unchecked; the mean 0.0007 against 0.0014
+  // (until the compression by pivoted Cholesky, 2026-12-03: 0.0015-0.0032
+  // against 0.0022-0.0092, the mean 0.0010 against 0.0017).
   for (int t = 12; t < 15; ++t) EXPECT_LT(checked.frames[t].e3d, 0.004) << "frame " << t;
-  EXPECT_GT(unchecked.frames[14].e3d, 0.006);
+  EXPECT_GT(unchecked.frames[14].e3d, 2.0 * checked.frames[14].e3d);
   EXPECT_LT(checked.mean_e3d, 0.8 * unchecked.mean_e3d);
 }
 
