@@ -8,8 +8,8 @@
 //   r~    = D^(-1/2) L^-1 P J^T r            so that R^T r~ = J^T r
 //   residuals  [r~; sqrt(|r|^2 - |r~|^2)],  Jacobian  [R; 0]
 //
-// The last residual keeps the cost |r|^2 exact; its gradient, J^T (I - P) r
-// with P the projection onto J's range, is zero. Pivots below 1e-12 of
+// The last residual keeps the cost |r|^2 exact; its gradient, J^T (I - Q) r
+// with Q the projection onto J's range, is zero. Pivots below 1e-12 of
 // J^T J's largest diagonal entry are dropped (their r~ and R rows are 0).
 // Any R with R^T R = J^T J gives the solver the same model; the pivoted
 // factorisation costs n^3 / 3 against the ~9 n^3 of the symmetric
