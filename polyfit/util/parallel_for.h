@@ -13,7 +13,6 @@
 #include <condition_variable>
 #include <cstdint>
 #include <exception>
-#include <functional>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -36,10 +35,12 @@ class WorkerPool {
     return *pool;
   }
 
-  // Runs task(1), ..., task(workers) on pool threads and task(0) on the
-  // caller's, and returns once all have. False, running nothing, when the
-  // pool is serving another call. `task` must not throw.
-  bool TryRun(int workers, const std::function<void(int)>& task) {
+  // Runs call(context, 1), ..., call(context, workers) on pool threads and
+  // call(context, 0) on the caller's, and returns once all have. False,
+  // running nothing, when the pool is serving another call. `call` must
+  // not throw. (A function pointer and its context, not a std::function:
+  // no allocation per call.)
+  bool TryRun(int workers, void (*call)(void* context, int thread_index), void* context) {
     bool idle = false;
     if (!busy_.compare_exchange_strong(idle, true)) return false;
     {
@@ -48,17 +49,17 @@ class WorkerPool {
         const int index = started_ + 1;
         std::thread([this, index] { Loop(index); }).detach();
       }
-      task_ = &task;
+      call_ = call;
+      context_ = context;
       wanted_ = workers;
       pending_ = workers;
       ++generation_;
     }
     wake_.notify_all();
-    task(0);
+    call(context, 0);
     {
       std::unique_lock<std::mutex> lock(mutex_);
       done_.wait(lock, [this] { return pending_ == 0; });
-      task_ = nullptr;
     }
     busy_.store(false);
     return true;
@@ -70,15 +71,17 @@ class WorkerPool {
   void Loop(int index) {
     std::uint64_t seen = 0;
     for (;;) {
-      const std::function<void(int)>* task = nullptr;
+      void (*call)(void*, int) = nullptr;
+      void* context = nullptr;
       {
         std::unique_lock<std::mutex> lock(mutex_);
         wake_.wait(lock, [&] { return generation_ != seen; });
         seen = generation_;
         if (index > wanted_) continue;
-        task = task_;
+        call = call_;
+        context = context_;
       }
-      (*task)(index);
+      call(context, index);
       std::lock_guard<std::mutex> lock(mutex_);
       if (--pending_ == 0) done_.notify_one();
     }
@@ -87,8 +90,9 @@ class WorkerPool {
   std::atomic<bool> busy_{false};
   std::mutex mutex_;
   std::condition_variable wake_, done_;
-  int started_ = 0;  // pool threads, detached
-  const std::function<void(int)>* task_ = nullptr;
+  int started_ = 0;                     // pool threads, detached
+  void (*call_)(void*, int) = nullptr;  // the current call's
+  void* context_ = nullptr;
   int wanted_ = 0;   // threads 1..wanted_ run the current call
   int pending_ = 0;  // of those, how many have not finished
   std::uint64_t generation_ = 0;
@@ -120,7 +124,8 @@ void ParallelFor(int n, int num_threads, Fn&& fn, int chunk = 64) {
       next.store(n);
     }
   };
-  if (!internal::WorkerPool::Get().TryRun(num_threads - 1, std::function<void(int)>(worker))) {
+  const auto call = [](void* context, int thread_index) { (*static_cast<decltype(worker)*>(context))(thread_index); };
+  if (!internal::WorkerPool::Get().TryRun(num_threads - 1, call, &worker)) {
     std::vector<std::thread> threads;
     threads.reserve(num_threads - 1);
     for (int t = 1; t < num_threads; ++t) threads.emplace_back(worker, t);

@@ -46,7 +46,9 @@ TEST(ParallelForTest, NestedAndConcurrentCalls) {
   std::vector<std::thread> callers;
   for (int c = 0; c < 4; ++c) {
     callers.emplace_back([&] {
-      for (int k = 0; k < 50; ++k) ParallelFor(1000, 3, [&](int, int i) { total += i; }, 16);
+      for (int k = 0; k < 50; ++k)
+        ParallelFor(
+            1000, 3, [&](int, int i) { total += i; }, 16);
     });
   }
   for (std::thread& t : callers) t.join();
@@ -64,7 +66,8 @@ TEST(ParallelForTest, AnExceptionReachesTheCaller) {
                    8),
                std::runtime_error);
   std::atomic<int> count{0};
-  ParallelFor(1000, 2, [&](int, int) { ++count; }, 8);
+  ParallelFor(
+      1000, 2, [&](int, int) { ++count; }, 8);
   EXPECT_EQ(count.load(), 1000);
 }
 
